@@ -1,0 +1,327 @@
+"""Shell meshes: generated (plate, hemisphere, tube) or imported with meshio, then checked.
+
+A :class:`Mesh` is a set of nodes (``points``, shape ``(n, 3)``) and bilinear quadrilateral
+elements (``quads``, shape ``(m, 4)``, 0-based node ids) whose corners run counter-clockwise
+about the element normal; for the generated closed-form shapes that normal points outward
+(+z for the plate).
+
+Every mesh goes through :func:`check_mesh` before use.  Fatal problems (bad node ids,
+degenerate, inverted or non-convex elements, coincident nodes, non-finite coordinates) are
+collected and raised together as one :class:`~taichi_shell_mpm.scene.SceneError`, one line
+per problem; mild ones (warped elements, unused nodes) come back as warning lines.  Node
+and element numbers in messages are the 0-based indices of ``points`` and ``quads``.
+"""
+from __future__ import annotations
+
+import contextlib
+import io
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .scene import FileMesh, HemisphereMesh, MeshSpec, PlateMesh, SceneError, TubeMesh
+
+MAX_LINES = 10
+"""Most problem lines reported per category before a final 'and N more' line."""
+AREA_RTOL = 1e-12
+"""An element whose area is below this fraction of the mean element area is degenerate."""
+DUPLICATE_RTOL = 1e-9
+"""Nodes closer than this fraction of the bounding-box diagonal coincide."""
+WARP_WARN_DEG = 5.0
+"""Warn about elements whose two triangles (1,2,3) and (1,3,4) differ by more than this."""
+
+_QUAD_CELLS = ("quad", "quad8", "quad9")
+_IGNORED_CELLS = ("vertex", "line")
+_NON_QUAD_2D_CELLS = ("triangle", "polygon")
+
+
+@dataclass(frozen=True)
+class Mesh:
+    """A checked quadrilateral shell mesh."""
+    points: np.ndarray
+    """(n, 3) float64 node coordinates."""
+    quads: np.ndarray
+    """(m, 4) int32 node ids, counter-clockwise about the element normal."""
+    warnings: tuple[str, ...] = ()
+    """Non-fatal findings of the import and of :func:`check_mesh`, one line each."""
+
+
+def build_mesh(spec: MeshSpec) -> Mesh:
+    """Generate or import the mesh described by ``spec`` and check it.
+
+    Raises :class:`SceneError` for invalid parameters, unreadable files and every fatal
+    problem found by :func:`check_mesh`.
+    """
+    generators = {"plate": _plate, "hemisphere": _hemisphere, "tube": _tube}
+    if isinstance(spec, FileMesh):
+        points, quads, warnings = _read_file(spec)
+        source = str(spec.path)
+    elif getattr(spec, "kind", None) in generators:
+        points, quads = generators[spec.kind](spec)
+        warnings, source = (), f"[mesh] {spec.kind}"
+    else:
+        raise SceneError(f"[mesh]: unknown mesh kind {getattr(spec, 'kind', spec)!r}")
+    warnings += check_mesh(points, quads, source)
+    return Mesh(points=np.ascontiguousarray(points, dtype=np.float64),
+                quads=np.ascontiguousarray(quads, dtype=np.int32),
+                warnings=warnings)
+
+
+# ---------------------------------------------------------------- generators
+def _cos_sin_deg(deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """cos and sin of angles in degrees, exact (0.0, +-1.0) at multiples of 90 degrees."""
+    deg = np.asarray(deg, dtype=np.float64)
+    rad = np.radians(deg)
+    cos, sin = np.cos(rad), np.sin(rad)
+    quarters = np.round(deg / 90.0)
+    exact = np.abs(deg / 90.0 - quarters) < 1e-12
+    k = quarters.astype(np.int64) % 4
+    cos = np.where(exact, np.array([1.0, 0.0, -1.0, 0.0])[k], cos)
+    sin = np.where(exact, np.array([0.0, 1.0, 0.0, -1.0])[k], sin)
+    return cos, sin
+
+
+def _grid_quads(n_rows: int, n_cols: int, wrap: bool) -> np.ndarray:
+    """Quads of a structured grid of ``n_rows`` x ``n_cols`` elements.
+
+    Node (row j, column i) is ``j * nodes_per_row + i``, with ``nodes_per_row = n_cols``
+    if the columns wrap around (no seam nodes) and ``n_cols + 1`` otherwise.  Corners go
+    (i, j), (i+1, j), (i+1, j+1), (i, j+1): counter-clockwise about (column direction) x
+    (row direction).
+    """
+    per_row = n_cols if wrap else n_cols + 1
+    j, i = np.meshgrid(np.arange(n_rows), np.arange(n_cols), indexing="ij")
+    i1 = (i + 1) % per_row
+    q = np.stack([j * per_row + i, j * per_row + i1,
+                  (j + 1) * per_row + i1, (j + 1) * per_row + i], axis=-1)
+    return q.reshape(-1, 4)
+
+
+def _plate(spec: PlateMesh) -> tuple[np.ndarray, np.ndarray]:
+    """Flat rectangle in z = origin z; node j*(nx+1)+i at (x_i, y_j); normals +z."""
+    ox, oy, oz = spec.origin
+    x = np.linspace(ox, ox + spec.lx, spec.nx + 1)
+    y = np.linspace(oy, oy + spec.ly, spec.ny + 1)
+    yy, xx = np.meshgrid(y, x, indexing="ij")
+    points = np.column_stack([xx.ravel(), yy.ravel(), np.full(xx.size, float(oz))])
+    return points, _grid_quads(spec.ny, spec.nx, wrap=False)
+
+
+def _hemisphere(spec: HemisphereMesh) -> tuple[np.ndarray, np.ndarray]:
+    """Latitude rows from the equator up to 90-hole_deg; full or quarter in longitude."""
+    if not 0.0 < spec.hole_deg < 90.0:
+        raise SceneError(f"[mesh] hemisphere: hole_deg must be in (0, 90), got {spec.hole_deg}")
+    if not spec.quarter and spec.n_around < 3:
+        raise SceneError("[mesh] hemisphere: a full hemisphere needs n_around >= 3, "
+                         f"got {spec.n_around}")
+    phi = np.linspace(0.0, 90.0 - spec.hole_deg, spec.n_meridian + 1)
+    if spec.quarter:
+        theta = np.linspace(0.0, 90.0, spec.n_around + 1)
+    else:
+        theta = 360.0 * np.arange(spec.n_around) / spec.n_around
+    cp, sp = _cos_sin_deg(phi)
+    ct, st = _cos_sin_deg(theta)
+    r = spec.radius
+    points = np.column_stack([
+        np.outer(r * cp, ct).ravel(),
+        np.outer(r * cp, st).ravel(),
+        np.repeat(r * sp, theta.size),
+    ])
+    # columns run eastward (theta), rows northward (phi): e_theta x e_phi is outward
+    return points, _grid_quads(spec.n_meridian, spec.n_around, wrap=not spec.quarter)
+
+
+def _tube(spec: TubeMesh) -> tuple[np.ndarray, np.ndarray]:
+    """Rounded-rectangle tube along +z; rings counter-clockwise about +z from (w/2, -(d/2-r))."""
+    r = spec.corner_radius
+    if r < 0.0 or 2.0 * r > min(spec.width, spec.depth):
+        raise SceneError("[mesh] tube: corner_radius must be in [0, min(width, depth)/2], "
+                         f"got {r}")
+    if r == 0.0 and spec.n_corner > 0:
+        raise SceneError("[mesh] tube: corner_radius 0 (sharp corners) needs n_corner = 0, "
+                         f"got {spec.n_corner}")
+    ca, cb = spec.width / 2.0 - r, spec.depth / 2.0 - r
+    centres = np.array([[ca, cb], [-ca, cb], [-ca, -cb], [ca, -cb]])
+    t_flat = np.arange(spec.n_flat) / max(spec.n_flat, 1)
+    t_arc = np.arange(spec.n_corner) / max(spec.n_corner, 1)
+    ring = []
+    for q in range(4):
+        # flat side ending where fillet q starts (angle 90q), then fillet q itself;
+        # each segment contributes its start node and its interior nodes
+        dx, dy = _cos_sin_deg(90.0 * q)
+        start = centres[q - 1] + r * np.array([dx, dy])
+        end = centres[q] + r * np.array([dx, dy])
+        ring.append(start + t_flat[:, None] * (end - start))
+        c, s = _cos_sin_deg(90.0 * (q + t_arc))
+        ring.append(centres[q] + r * np.column_stack([c, s]))
+    ring = np.concatenate(ring)
+    z = np.linspace(0.0, spec.length, spec.n_length + 1)
+    points = np.column_stack([np.tile(ring, (z.size, 1)), np.repeat(z, len(ring))])
+    # columns run counter-clockwise about +z, rows along +z: tangent x e_z is outward
+    return points, _grid_quads(spec.n_length, len(ring), wrap=True)
+
+
+# ---------------------------------------------------------------- import
+def _read_file(spec: FileMesh) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
+    """Read the quad cells of a meshio-readable file, scaled; drop unused nodes."""
+    import meshio
+
+    path = Path(spec.path)
+    if not path.is_file():
+        raise SceneError(f"{path}: mesh file not found")
+    printed = io.StringIO()
+    reason = None
+    try:
+        with contextlib.redirect_stdout(printed), contextlib.redirect_stderr(printed):
+            m = meshio.read(path)
+    except SystemExit:  # meshio prints why no reader could read the file, then exits
+        reason = printed.getvalue()
+    except Exception as exc:  # meshio raises many types (ReadError, ValueError, KeyError...)
+        reason = str(exc) or type(exc).__name__
+    if reason is not None:
+        raise SceneError(f"{path}: cannot read mesh: {' '.join(reason.split())}")
+    warnings = tuple(f"{path}: meshio: {line.strip()}"
+                     for line in printed.getvalue().splitlines() if line.strip())
+
+    points = np.asarray(m.points, dtype=np.float64)
+    if points.ndim != 2 or points.shape[1] not in (2, 3):
+        raise SceneError(f"{path}: points have shape {points.shape}, expected (n, 2) or (n, 3)")
+    if points.shape[1] == 2:
+        points = np.column_stack([points, np.zeros(len(points))])
+    points = points * spec.scale
+
+    quads, n_non_quad, others = [], 0, {}
+    for block in m.cells:
+        if block.type in _QUAD_CELLS:
+            quads.append(np.asarray(block.data)[:, :4])
+        elif block.type.startswith(_NON_QUAD_2D_CELLS):
+            n_non_quad += len(block.data)
+        elif not block.type.startswith(_IGNORED_CELLS):
+            others[block.type] = others.get(block.type, 0) + len(block.data)
+    if n_non_quad:
+        raise SceneError(
+            f"{path}: mesh has {n_non_quad} triangles (non-quad cells); this solver needs "
+            "quadrilateral shells: remesh with quads (e.g. gmsh 'Mesh.RecombineAll = 1')")
+    if others:
+        listed = ", ".join(f"{n} {t}" for t, n in others.items())
+        raise SceneError(f"{path}: mesh has volume cells ({listed}); this solver needs a "
+                         "quadrilateral surface mesh")
+    if not quads:
+        raise SceneError(f"{path}: mesh has no quadrilateral cells")
+    quads = np.concatenate(quads).astype(np.int64)
+
+    used = np.unique(quads)
+    # renumber only when all ids are valid; check_mesh reports out-of-range ids
+    if used[0] >= 0 and used[-1] < len(points) and len(used) < len(points):
+        new_id = np.full(len(points), -1, dtype=np.int64)
+        new_id[used] = np.arange(len(used))
+        warnings += (f"{path}: removed {len(points) - len(used)} unused nodes "
+                    "(not referenced by any quad) and renumbered the rest",)
+        points, quads = points[used], new_id[quads]
+    return points, quads, warnings
+
+
+# ---------------------------------------------------------------- checks
+def _limited(lines: list[str], source: str) -> list[str]:
+    """At most MAX_LINES lines, then one line counting the rest."""
+    if len(lines) <= MAX_LINES:
+        return lines
+    return lines[:MAX_LINES] + [f"{source}: ... and {len(lines) - MAX_LINES} more"]
+
+
+def _coincident_pairs(points: np.ndarray, ids: np.ndarray, tol: float) -> np.ndarray:
+    """Pairs (k, 2) of ids whose points lie within ``tol`` of each other.
+
+    Sorts the points by their projection on a fixed generic direction (so that grid-aligned
+    meshes have no ties) and compares each point with its successors while the projections
+    stay within ``tol``: O(n log n) for any mesh that is not extremely dense at scale tol.
+    """
+    p = points[ids]
+    direction = np.array([1.0, np.sqrt(2.0), np.pi])
+    proj = p @ (direction / np.linalg.norm(direction))
+    order = np.argsort(proj, kind="stable")
+    proj, p, ids = proj[order], p[order], ids[order]
+    pairs = []
+    for shift in range(1, len(ids)):
+        near = np.nonzero(proj[shift:] - proj[:-shift] <= tol)[0]
+        if near.size == 0:
+            break
+        close = near[np.linalg.norm(p[near + shift] - p[near], axis=1) <= tol]
+        pairs.append(np.column_stack([ids[close], ids[close + shift]]))
+    if not pairs:
+        return np.empty((0, 2), dtype=np.int64)
+    pairs = np.sort(np.concatenate(pairs), axis=1)
+    return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
+
+
+def check_mesh(points, quads, source: str) -> tuple[str, ...]:
+    """Check a quad shell mesh; raise :class:`SceneError` for fatal problems, return warnings.
+
+    ``source`` (a file name or ``'[mesh] plate'``) prefixes every line.  Fatal: wrong array
+    shapes, no elements, non-finite coordinates, out-of-range or repeated node ids in an
+    element, zero-area elements (area < AREA_RTOL x mean), inverted or non-convex elements
+    (a corner normal (x_{a+1}-x_a) x (x_{a-1}-x_a) not along the element normal
+    (x_3-x_1) x (x_4-x_2)), and coincident nodes (within DUPLICATE_RTOL x bounding-box
+    diagonal).  Warnings: elements warped by more than WARP_WARN_DEG, unused nodes.
+    """
+    points = np.asarray(points, dtype=np.float64)
+    quads = np.asarray(quads)
+    if points.ndim != 2 or points.shape[1] != 3:
+        raise SceneError(f"{source}: node coordinates have shape {points.shape}, expected (n, 3)")
+    if quads.ndim != 2 or quads.shape[1] != 4 or not np.issubdtype(quads.dtype, np.integer):
+        raise SceneError(f"{source}: elements have shape {quads.shape} ({quads.dtype}), "
+                         "expected (m, 4) integer node ids")
+    if len(quads) == 0:
+        raise SceneError(f"{source}: mesh has no elements")
+    n = len(points)
+
+    # -- structure: ids and coordinates must be usable before any geometry is computed
+    errors = []
+    for node in np.nonzero(~np.isfinite(points).all(axis=1))[0]:
+        errors.append(f"{source}: node {node}: non-finite coordinates {points[node].tolist()}")
+    bad_id = (quads < 0) | (quads >= n)
+    for e in np.nonzero(bad_id.any(axis=1))[0]:
+        errors.append(f"{source}: element {e}: node id {quads[e][bad_id[e]][0]} out of range "
+                      f"(mesh has {n} nodes)")
+    s = np.sort(quads, axis=1)
+    repeated = s[:, 1:] == s[:, :-1]
+    for e in np.nonzero(repeated.any(axis=1))[0]:
+        errors.append(f"{source}: element {e}: degenerate quad "
+                      f"(node {s[e, 1:][repeated[e]][0]} repeated)")
+    if errors:
+        raise SceneError(_limited(errors, source))
+
+    # -- geometry
+    x = points[quads]                                                # (m, 4, 3)
+    normal = np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])          # = 2 * vector area
+    area = 0.5 * np.linalg.norm(normal, axis=1)
+    degenerate = area <= AREA_RTOL * area.mean()
+    for e in np.nonzero(degenerate)[0]:
+        errors.append(f"{source}: element {e}: degenerate quad (area {area[e]:.3g})")
+    corner = np.cross(np.roll(x, -1, axis=1) - x, np.roll(x, 1, axis=1) - x)  # (m, 4, 3)
+    along = np.einsum("mai,mi->ma", corner, normal)
+    inverted = (along <= 1e-10 * np.einsum("mi,mi->m", normal, normal)[:, None]).any(axis=1)
+    for e in np.nonzero(inverted & ~degenerate)[0]:
+        errors.append(f"{source}: element {e}: inverted or non-convex quad")
+    used = np.unique(quads)
+    diagonal = np.linalg.norm(np.ptp(points[used], axis=0))
+    for a, b in _coincident_pairs(points, used, DUPLICATE_RTOL * diagonal):
+        errors.append(f"{source}: nodes {a} and {b} coincide at {points[a].tolist()}: "
+                      "merge duplicate nodes")
+    if errors:
+        raise SceneError(_limited(errors, source))
+
+    # -- warnings
+    warnings = []
+    n1 = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])
+    n2 = np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 0])
+    cos_warp = np.einsum("mi,mi->m", n1, n2) / (
+        np.linalg.norm(n1, axis=1) * np.linalg.norm(n2, axis=1))
+    warp = np.degrees(np.arccos(np.clip(cos_warp, -1.0, 1.0)))
+    for e in np.nonzero(warp > WARP_WARN_DEG)[0]:
+        warnings.append(f"{source}: element {e}: warped by {warp[e]:.1f} deg")
+    warnings = _limited(warnings, source)
+    if len(used) < n:
+        warnings.append(f"{source}: {n - len(used)} unused nodes (not referenced by any element)")
+    return tuple(warnings)

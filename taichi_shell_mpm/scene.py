@@ -1,0 +1,916 @@
+"""Scene files: TOML (+ ``--set`` overrides) parsed once into frozen, validated dataclasses.
+
+The dataclasses below are the single source of truth for every key and its default;
+``docs/scenes.md`` documents them key by key.  Everything downstream (mesh, nodesets,
+state, solvers, output) reads only these objects, never the raw TOML.
+
+Errors in a scene are collected (all of them, not just the first) and raised as one
+:class:`SceneError`, whose ``messages`` are single lines of the form
+``scene.toml: [[boundary]][2].fix: expected ... , got ...``.
+"""
+from __future__ import annotations
+
+import copy
+import csv
+import difflib
+import json
+import math
+import re
+import tomllib
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import MISSING, dataclass, fields
+from pathlib import Path
+from typing import Any, Literal, Union
+
+Vec3 = tuple[float, float, float]
+DOFS = ("ux", "uy", "uz", "rx", "ry", "rz")
+
+
+class SceneError(Exception):
+    """A user mistake in a scene file or a mesh (one line per problem)."""
+
+    def __init__(self, messages: list[str] | str):
+        self.messages = [messages] if isinstance(messages, str) else list(messages)
+        super().__init__("\n".join(self.messages))
+
+
+# ---------------------------------------------------------------- [scene]
+@dataclass(frozen=True)
+class SceneInfo:
+    name: str
+    """Name used for the output directory and summary."""
+    units: str
+    """Free text stating the consistent unit system (required, e.g. 'kN-mm-ms-kg')."""
+    description: str = ""
+
+
+# ---------------------------------------------------------------- [mesh]
+@dataclass(frozen=True)
+class PlateMesh:
+    """Flat rectangle in the x-y plane, nx x ny quads, normals +z."""
+    lx: float
+    ly: float
+    nx: int
+    ny: int
+    origin: Vec3 = (0.0, 0.0, 0.0)
+    kind: Literal["plate"] = "plate"
+
+
+@dataclass(frozen=True)
+class HemisphereMesh:
+    """Hemisphere of mid-surface radius `radius` about +z, open within `hole_deg` of the pole.
+
+    Latitude phi in [0, 90-hole_deg] deg (n_meridian uniform rows), longitude theta in
+    [0, 360) (full, n_around elements) or [0, 90] (quarter, n_around elements on the
+    quarter).  Normals point outward.
+    """
+    radius: float
+    hole_deg: float
+    n_around: int
+    n_meridian: int
+    quarter: bool = True
+    kind: Literal["hemisphere"] = "hemisphere"
+
+
+@dataclass(frozen=True)
+class TubeMesh:
+    """Rectangular tube along +z from z=0 to `length`, section width x depth (mid-surface),
+    corner fillets of radius `corner_radius`, n_flat elements per flat side, n_corner per
+    fillet, n_length along z. Normals point outward."""
+    width: float
+    depth: float
+    corner_radius: float
+    length: float
+    n_flat: int
+    n_corner: int
+    n_length: int
+    kind: Literal["tube"] = "tube"
+
+
+@dataclass(frozen=True)
+class FileMesh:
+    """Any quad surface mesh meshio reads (.msh, .vtk, .vtu, .inp, ...)."""
+    path: Path
+    scale: float = 1.0
+    kind: Literal["file"] = "file"
+
+
+MeshSpec = Union[PlateMesh, HemisphereMesh, TubeMesh, FileMesh]
+
+
+# ---------------------------------------------------------------- physics
+@dataclass(frozen=True)
+class Material:
+    E: float
+    nu: float
+    density: float
+    model: Literal["elastic"] = "elastic"
+
+
+@dataclass(frozen=True)
+class Section:
+    thickness: float
+    points: int = 3
+    """Number of through-thickness integration points."""
+    rule: Literal["lobatto", "gauss"] = "lobatto"
+    shear_factor: float = 5.0 / 6.0
+
+
+@dataclass(frozen=True)
+class ElementOptions:
+    hourglass: float = 0.05
+    """BT hourglass coefficient r (r_m = r_w = r_theta), method.md section 4."""
+
+
+@dataclass(frozen=True)
+class Method:
+    kind: Literal["mpm", "fem"] = "mpm"
+    cell_size: float | None = None
+    """Grid cell size h; None = half the shortest element edge (method.md 2.2)."""
+    grid_min: Vec3 | None = None
+    grid_max: Vec3 | None = None
+    """Explicit grid box; None = mesh bounding box grown by `padding` on every side."""
+    padding: float | None = None
+    """None = 0.25 x the largest bounding-box extent."""
+    transfer: Literal["apic", "pic", "flip"] = "apic"
+    flip_blend: float = 0.99
+
+
+# ---------------------------------------------------------------- node sets, BCs, loads
+@dataclass(frozen=True)
+class NodeSet:
+    """A geometric selection of shell nodes. Exactly one selector kind."""
+    name: str
+    kind: Literal["all", "box", "plane", "nearest", "ids"]
+    box_min: Vec3 | None = None
+    box_max: Vec3 | None = None
+    point: Vec3 | None = None
+    """plane: a point on it; nearest: the target point."""
+    normal: Vec3 | None = None
+    tol: float = 1e-6
+    ids: tuple[int, ...] = ()
+
+
+@dataclass(frozen=True)
+class Boundary:
+    nodes: str
+    fix: tuple[str, ...] = ()
+    """Subset of DOFS fixed to zero displacement/rotation."""
+    symmetry: Literal["x", "y", "z"] | None = None
+    """Symmetry plane normal to this axis through the nodes: fixes u_n and the two
+    in-plane rotations; the plane must be a grid plane in mpm mode."""
+
+
+@dataclass(frozen=True)
+class Load:
+    nodes: str
+    force: Vec3 = (0.0, 0.0, 0.0)
+    """Total force, spread over the set (dead load, scaled by the load factor)."""
+    moment: Vec3 = (0.0, 0.0, 0.0)
+    distribute: Literal["area", "equal"] = "area"
+
+
+@dataclass(frozen=True)
+class InitialVelocity:
+    nodes: str = "all"
+    velocity: Vec3 = (0.0, 0.0, 0.0)
+    angular_velocity: Vec3 = (0.0, 0.0, 0.0)
+    center: Vec3 = (0.0, 0.0, 0.0)
+    """v = velocity + angular_velocity x (x - center); nodal omega = angular_velocity."""
+
+
+@dataclass(frozen=True)
+class Probe:
+    name: str
+    nodes: str
+    components: tuple[str, ...] = DOFS
+    """Recorded components, averaged over the set's nodes."""
+
+
+@dataclass(frozen=True)
+class ReferenceColumn:
+    column: str
+    probe: str
+    """'<probe>.<component>' whose value, times `scale`, is compared with `column`."""
+    scale: float = 1.0
+
+
+@dataclass(frozen=True)
+class Reference:
+    file: Path
+    load_column: str
+    compare: tuple[ReferenceColumn, ...]
+    floor: float = 0.1
+    """Relative-error floor: e_i = |sim-ref| / max(|ref_i|, floor*max|ref|)."""
+
+
+# ---------------------------------------------------------------- solve / output
+@dataclass(frozen=True)
+class Solve:
+    kind: Literal["static", "dynamic"]
+    load_steps: int = 20
+    tolerance: float = 1e-4
+    max_steps_per_load_step: int = 500_000
+    end_time: float = 0.0
+    dt_safety: float = 0.9
+    dt_rule: Literal["both", "shell"] = "both"
+    rotary_inertia: Literal["scaled", "physical"] = "scaled"
+    progress_every: float = 2.0
+    """Seconds of wall time between progress lines."""
+
+
+@dataclass(frozen=True)
+class Output:
+    every_steps: int = 0
+    times: tuple[float, ...] = ()
+    load_steps: bool = True
+
+
+@dataclass(frozen=True)
+class Scene:
+    source: Path
+    info: SceneInfo
+    mesh: MeshSpec
+    material: Material
+    section: Section
+    element: ElementOptions
+    method: Method
+    solve: Solve
+    output: Output
+    nodesets: tuple[NodeSet, ...] = ()
+    boundaries: tuple[Boundary, ...] = ()
+    loads: tuple[Load, ...] = ()
+    initial: tuple[InitialVelocity, ...] = ()
+    probes: tuple[Probe, ...] = ()
+    reference: Reference | None = None
+
+    def nodeset(self, name: str) -> NodeSet:
+        for s in self.nodesets:
+            if s.name == name:
+                return s
+        if name == "all":
+            return NodeSet(name="all", kind="all")
+        raise KeyError(name)
+
+
+# ================================================================ public entry points
+def load_scene(path: str | Path, overrides: Sequence[str] = ()) -> Scene:
+    """Read the TOML scene at `path`, apply ``--set`` `overrides`, validate, return the Scene.
+
+    Raises :class:`SceneError` with one line per problem: a single line for an unreadable
+    file or a TOML syntax error, otherwise every problem found in the scene.
+    """
+    path = Path(path)
+    try:
+        with path.open("rb") as f:
+            raw = tomllib.load(f)
+    except FileNotFoundError:
+        raise SceneError(f"{path}: file not found") from None
+    except OSError as exc:
+        raise SceneError(f"{path.name}: cannot read the file ({exc.strerror})") from None
+    except UnicodeDecodeError:
+        raise SceneError(f"{path.name}: not a UTF-8 text file") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(f"{path.name}: TOML syntax error: {_one_line(exc)}") from None
+    try:
+        raw = apply_overrides(raw, overrides)
+    except SceneError as exc:
+        raise SceneError([f"{path.name}: {m}" for m in exc.messages]) from None
+    return parse_scene(raw, path)
+
+
+def apply_overrides(raw: dict, overrides: Sequence[str]) -> dict:
+    """Return a copy of `raw` with each ``"a.b.c=VALUE"`` of `overrides` applied.
+
+    VALUE is read as a TOML value (``20``, ``1e-3``, ``true``, ``[0, 0, 2]``,
+    ``'text'``), or taken as a plain string when it is not one (``fem``).  Integer path
+    components index arrays of tables (``load.1.force=[0,0,2]``).  The last key may be
+    new, and missing tables on the way are created; validation then rejects what the
+    scene does not know.  Raises :class:`SceneError` (``--set ITEM: problem`` lines) for
+    an item without ``=``, an empty key, a path through a non-table or an index out of
+    range.
+    """
+    result = copy.deepcopy(raw)
+    errors = []
+    for item in overrides:
+        try:
+            _apply_override(result, item)
+        except _Invalid as exc:
+            errors.append(f"--set {_one_line(item)}: {exc}")
+    if errors:
+        raise SceneError(errors)
+    return result
+
+
+def parse_scene(raw: dict, source: Path) -> Scene:
+    """Validate the TOML document `raw` of the scene file `source` into a :class:`Scene`.
+
+    `source` names the file in messages and anchors relative paths (mesh and reference
+    files).  Raises :class:`SceneError` listing every problem found.
+    """
+    return _SceneParser(raw, Path(source)).parse()
+
+
+# ================================================================ overrides
+def _apply_override(document: dict, item: str) -> None:
+    """Apply one ``KEY=VALUE`` override to `document` in place (raises _Invalid)."""
+    key, sep, text = item.partition("=")
+    if not sep:
+        raise _Invalid("expected KEY=VALUE, e.g. mesh.nx=20")
+    parts = [part.strip() for part in key.split(".")]
+    if not all(parts):
+        raise _Invalid(f"empty key in {key.strip()!r}")
+    node: Any = document
+    for depth, part in enumerate(parts):
+        where = ".".join(parts[:depth]) or "the scene"
+        if isinstance(node, dict):
+            slot: str | int = part
+        elif isinstance(node, list):
+            if not part.isdigit():
+                raise _Invalid(f"{where} is an array of tables; expected an index, got {part!r}")
+            slot = int(part)
+            if slot >= len(node):
+                count = f"{len(node)} {'entry' if len(node) == 1 else 'entries'}"
+                raise _Invalid(f"index {slot} out of range ({where} has {count})")
+        else:
+            raise _Invalid(f"{where} is not a table (it is {_show(node)})")
+        if depth == len(parts) - 1:
+            node[slot] = _override_value(text)
+        else:
+            if isinstance(node, dict) and slot not in node:
+                node[slot] = {}
+            node = node[slot]
+
+
+def _override_value(text: str) -> Any:
+    """The TOML value written in `text`, or `text` itself (stripped) if it is none."""
+    try:
+        return tomllib.loads("v = " + text)["v"]
+    except tomllib.TOMLDecodeError:
+        return text.strip()
+
+
+# ================================================================ validators
+# A validator checks one TOML value and returns it converted (ints -> float for real
+# quantities, arrays -> tuples), or raises _Invalid with the problem (never None).
+Validator = Callable[[Any], Any]
+
+_TOML_BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
+_SAFE_FILE_NAME = re.compile(r"(?!\.+$)[A-Za-z0-9_.-]+")
+_IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+
+
+class _Invalid(Exception):
+    """A validator's complaint: the ``<problem>`` part of one message."""
+
+
+def _one_line(text: object) -> str:
+    """`text` with its whitespace runs (newlines included) collapsed to single spaces."""
+    return " ".join(str(text).split())
+
+
+def _show(value: Any) -> str:
+    """A short single-line rendering of a user's value, TOML-flavoured."""
+    if isinstance(value, dict):
+        return "a table"
+    text = ("true" if value else "false") if isinstance(value, bool) else repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _key(name: str) -> str:
+    """`name` as it appears in a key path: bare if TOML allows, else quoted."""
+    return name if _TOML_BARE_KEY.fullmatch(name) else json.dumps(name)
+
+
+def _did_you_mean(word: str, options: Iterable[str]) -> str:
+    """`` (did you mean 'x'?)`` for the closest of `options`, or ""."""
+    close = difflib.get_close_matches(word, list(options), n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def _hint(word: str, options: Sequence[str], label: str) -> str:
+    """A did-you-mean for `word`, or else the list of `options` under `label`."""
+    if not options:
+        return f" (none {label})"
+    return _did_you_mean(word, options) or f" ({label}: {', '.join(options)})"
+
+
+def _is_number(value: Any) -> bool:
+    """A finite TOML integer or float (booleans are not numbers)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _is_int(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _ranged(what: str, accepts: Callable[[Any], bool], convert: Callable[[Any], Any],
+            lo: float | None, hi: float | None, lo_open: bool, hi_open: bool) -> Validator:
+    """Validator for `what` (e.g. 'a number') within [lo, hi], ends open as flagged."""
+    if lo is not None and hi is not None:
+        bounds = f" in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
+    elif lo is not None:
+        bounds = f" {'>' if lo_open else '>='} {lo:g}"
+    elif hi is not None:
+        bounds = f" {'<' if hi_open else '<='} {hi:g}"
+    else:
+        bounds = ""
+
+    def check(value: Any) -> Any:
+        if accepts(value) and (lo is None or value > lo or (value == lo and not lo_open)) \
+                and (hi is None or value < hi or (value == hi and not hi_open)):
+            return convert(value)
+        raise _Invalid(f"expected {what}{bounds}, got {_show(value)}")
+    return check
+
+
+def _number(lo: float | None = None, hi: float | None = None, *,
+            lo_open: bool = False, hi_open: bool = False) -> Validator:
+    """Finite real number (ints accepted, returned as float) within the given bounds."""
+    what = "a number" if lo is not None or hi is not None else "a finite number"
+    return _ranged(what, _is_number, float, lo, hi, lo_open, hi_open)
+
+
+def _int(lo: int, hi: int | None = None) -> Validator:
+    """Integer in [lo, hi] (floats such as 3.0 are rejected)."""
+    return _ranged("an integer", _is_int, int, lo, hi, False, False)
+
+
+_positive = _number(0, lo_open=True)
+_non_negative = _number(0)
+_fraction = _number(0, 1, lo_open=True)        # (0, 1]
+_unit_interval = _number(0, 1)                  # [0, 1]
+
+
+def _nonzero(value: Any) -> float:
+    if _is_number(value) and value != 0:
+        return float(value)
+    raise _Invalid(f"expected a non-zero finite number, got {_show(value)}")
+
+
+def _bool(value: Any) -> bool:
+    if isinstance(value, bool):
+        return value
+    raise _Invalid(f"expected true or false, got {_show(value)}")
+
+
+def _true(value: Any) -> bool:
+    if value is True:
+        return value
+    raise _Invalid(f"expected true, got {_show(value)}")
+
+
+def _text(value: Any) -> str:
+    if isinstance(value, str):
+        return value
+    raise _Invalid(f"expected a string, got {_show(value)}")
+
+
+def _nonempty(value: Any) -> str:
+    if isinstance(value, str) and value.strip():
+        return value
+    raise _Invalid(f"expected a non-empty string, got {_show(value)}")
+
+
+def _matching(pattern: re.Pattern, what: str) -> Validator:
+    """String that fully matches `pattern`, described as `what` in messages."""
+    def check(value: Any) -> str:
+        if isinstance(value, str) and pattern.fullmatch(value):
+            return value
+        raise _Invalid(f"expected {what}, got {_show(value)}")
+    return check
+
+
+_file_name = _matching(_SAFE_FILE_NAME, "a file name made of letters, digits, '_', '.', '-'")
+_identifier = _matching(_IDENTIFIER, "an identifier (letters, digits, '_'; not starting with a digit)")
+
+
+def _choice(*options: str) -> Validator:
+    """One of the strings `options`."""
+    def check(value: Any) -> str:
+        if isinstance(value, str) and value in options:
+            return value
+        hint = _did_you_mean(value, options) if isinstance(value, str) else ""
+        raise _Invalid(f"expected one of {', '.join(options)}, got {_show(value)}{hint}")
+    return check
+
+
+def _vec3(value: Any) -> Vec3:
+    """Exactly three finite numbers, as a float tuple."""
+    if isinstance(value, list) and len(value) == 3 and all(map(_is_number, value)):
+        return tuple(float(c) for c in value)
+    raise _Invalid(f"expected 3 finite numbers [x, y, z], got {_show(value)}")
+
+
+def _nonzero_vec3(value: Any) -> Vec3:
+    vec = _vec3(value)
+    if not any(vec):
+        raise _Invalid("expected a non-zero vector, got [0, 0, 0]")
+    return vec
+
+
+def _dofs(allow_all: bool) -> Validator:
+    """Non-empty list of distinct DOF names (or the string "all" when `allow_all`)."""
+    expected = f"a non-empty list of DOFs (some of {', '.join(DOFS)})" + (' or "all"' if allow_all else "")
+
+    def check(value: Any) -> tuple[str, ...]:
+        if allow_all and value == "all":
+            return DOFS
+        if not isinstance(value, list) or not value:
+            raise _Invalid(f"expected {expected}, got {_show(value)}")
+        for i, dof in enumerate(value):
+            if dof not in DOFS:
+                raise _Invalid(f"unknown DOF {_show(dof)} (expected some of {', '.join(DOFS)})")
+            if dof in value[:i]:
+                raise _Invalid(f"DOF {dof!r} is given twice")
+        return tuple(value)
+    return check
+
+
+def _node_ids(value: Any) -> tuple[int, ...]:
+    if isinstance(value, list) and value and all(_is_int(i) and i >= 0 for i in value):
+        return tuple(value)
+    raise _Invalid(f"expected a non-empty list of node indices >= 0, got {_show(value)}")
+
+
+def _times(value: Any) -> tuple[float, ...]:
+    """Increasing list of times >= 0."""
+    if not (isinstance(value, list) and all(_is_number(t) and t >= 0 for t in value)):
+        raise _Invalid(f"expected a list of numbers >= 0, got {_show(value)}")
+    if any(a >= b for a, b in zip(value, value[1:])):
+        raise _Invalid(f"expected strictly increasing times, got {_show(value)}")
+    return tuple(float(t) for t in value)
+
+
+# ================================================================ table layout
+_TABLES = ("scene", "mesh", "material", "section", "element", "method", "nodesets",
+           "boundary", "load", "initial", "probe", "reference", "solve", "output")
+_REQUIRED_TABLES = ("scene", "mesh", "material", "section", "solve")
+_SELECTORS = ("all", "box", "plane", "nearest", "ids")
+
+_INFO = {"name": _file_name, "units": _nonempty, "description": _text}
+_MATERIAL = {"E": _positive, "nu": _number(-1, 0.5, lo_open=True, hi_open=True),
+             "density": _positive, "model": _choice("elastic")}
+_SECTION = {"thickness": _positive, "points": _int(1, 10),
+            "rule": _choice("lobatto", "gauss"), "shear_factor": _fraction}
+_ELEMENT = {"hourglass": _unit_interval}
+_METHOD = {"kind": _choice("mpm", "fem"), "cell_size": _positive, "grid_min": _vec3,
+           "grid_max": _vec3, "padding": _non_negative,
+           "transfer": _choice("apic", "pic", "flip"), "flip_blend": _unit_interval}
+_SOLVE = {"kind": _choice("static", "dynamic"), "load_steps": _int(1),
+          "tolerance": _number(0, 0.1, lo_open=True), "max_steps_per_load_step": _int(1),
+          "end_time": _non_negative, "dt_safety": _fraction,
+          "dt_rule": _choice("both", "shell"), "rotary_inertia": _choice("scaled", "physical"),
+          "progress_every": _non_negative}
+_OUTPUT = {"every_steps": _int(0), "times": _times, "load_steps": _bool}
+_MESHES: dict[str, tuple[type, dict[str, Validator]]] = {
+    "plate": (PlateMesh, {"lx": _positive, "ly": _positive, "nx": _int(1), "ny": _int(1),
+                          "origin": _vec3}),
+    "hemisphere": (HemisphereMesh, {"radius": _positive,
+                                    "hole_deg": _number(0, 90, lo_open=True, hi_open=True),
+                                    "n_around": _int(1), "n_meridian": _int(1),
+                                    "quarter": _bool}),
+    "tube": (TubeMesh, {"width": _positive, "depth": _positive, "corner_radius": _non_negative,
+                        "length": _positive, "n_flat": _int(1), "n_corner": _int(0),
+                        "n_length": _int(1)}),
+    "file": (FileMesh, {"scale": _positive}),   # + "path", checked against the scene's folder
+}
+
+
+# ================================================================ the parser
+class _SceneParser:
+    """Validates one raw scene document, collecting every problem as a message line.
+
+    Table readers return the built dataclass, or None when the table had a problem
+    (already reported); cross-checks only look at values that passed their own check,
+    so one mistake is reported once.
+    """
+
+    def __init__(self, raw: dict, source: Path):
+        self.raw = raw
+        self.source = source.resolve()
+        self.file_name = source.name
+        self.messages: list[str] = []
+        sets = raw.get("nodesets")
+        self.nodeset_names = sorted({"all", *(sets if isinstance(sets, dict) else ())})
+        self.recorded: dict[str, tuple[str, ...] | None] = {}
+        """Probe name -> recorded components (None when those were invalid)."""
+
+    # ------------------------------------------------------------ bookkeeping
+    def error(self, path: str, problem: str) -> None:
+        self.messages.append(f"{self.file_name}: {path}: {problem}")
+
+    def check(self, path: str, validator: Validator, value: Any) -> Any:
+        """validator(value), or None after reporting its problem at `path`."""
+        try:
+            return validator(value)
+        except _Invalid as exc:
+            self.error(path, str(exc))
+            return None
+
+    def read(self, path: str, data: Any, spec: dict[str, Validator], cls: type | None = None,
+             required: Sequence[str] = (), extra: Sequence[str] = ()) -> dict | None:
+        """Check the table `data` at `path` against `spec` (key -> validator).
+
+        Reports unknown keys (in neither `spec` nor `extra`, which the caller reads) and
+        missing required keys: `required`, or with `cls` its fields without a default.
+        Returns the valid values over `cls`'s defaults (an invalid key is left out), or
+        None if `data` is not a table.
+        """
+        if not isinstance(data, dict):
+            self.error(path, f"expected a table, got {_show(data)}")
+            return None
+        values = {}
+        if cls is not None:
+            values = {f.name: f.default for f in fields(cls) if f.default is not MISSING}
+            required = [f.name for f in fields(cls) if f.default is MISSING and f.name in spec]
+        for key, value in data.items():
+            if key in spec:
+                result = self.check(f"{path}.{_key(key)}", spec[key], value)
+                if result is None:
+                    values.pop(key, None)
+                else:
+                    values[key] = result
+            elif key not in extra:
+                self.error(f"{path}.{_key(key)}", "unknown key" + _hint(key, [*spec, *extra], "allowed"))
+        for key in required:
+            if key not in data:
+                self.error(f"{path}.{key}", "missing required key")
+        return values
+
+    def build(self, mark: int, cls: type, values: dict) -> Any:
+        """cls(**values) if nothing was reported since message count `mark`, else None."""
+        return cls(**values) if len(self.messages) == mark else None
+
+    def table_object(self, path: str, data: Any, cls: type, spec: dict[str, Validator]) -> Any:
+        """A table without cross-checks, read straight into `cls`."""
+        mark = len(self.messages)
+        values = self.read(path, data, spec, cls)
+        return None if values is None else self.build(mark, cls, values)
+
+    def entries(self, path: str, value: Any) -> list[tuple[str, Any]]:
+        """(path, entry) pairs of the array of tables `value` (``[[x]][0]``, ...)."""
+        if isinstance(value, list):
+            return [(f"{path}[{i}]", item) for i, item in enumerate(value)]
+        self.error(path, f"expected an array of tables ({path} sections), got {_show(value)}")
+        return []
+
+    def part(self, key: str, reader: Callable[[Any], Any]) -> Any:
+        """reader(the top-level table `key`); an absent optional table reads as {}."""
+        if key in self.raw:
+            return reader(self.raw[key])
+        if key in _REQUIRED_TABLES:
+            self.error(f"[{key}]", "missing required table")
+            return None
+        return reader({})
+
+    def check_order(self, path: str, lo: Vec3 | None, hi: Vec3 | None, names: tuple[str, str],
+                    strict: bool) -> None:
+        """Report unless lo < hi (`strict`) or lo <= hi in every component (skipped if unset)."""
+        if lo is None or hi is None:
+            return
+        if any(a >= b if strict else a > b for a, b in zip(lo, hi)):
+            relation = "<" if strict else "<="
+            self.error(path, f"expected {names[0]} {relation} {names[1]} in every component, "
+                             f"got {names[0]} = {_show(list(lo))}, {names[1]} = {_show(list(hi))}")
+
+    # ------------------------------------------------------------ context-bound validators
+    def file(self, value: Any) -> Path:
+        """An existing file, relative to the scene file's folder; returned absolute."""
+        if not isinstance(value, str) or not value:
+            raise _Invalid(f"expected a file path (relative to the scene file), got {_show(value)}")
+        try:
+            path = (self.source.parent / value).resolve()
+            found = path.is_file()
+        except (OSError, ValueError):
+            found = False
+        if not found:
+            raise _Invalid(f"file not found: {str(self.source.parent / value)!r}")
+        return path
+
+    def nodes(self, value: Any) -> str:
+        """The name of a node set defined in [nodesets], or 'all'."""
+        if not isinstance(value, str):
+            raise _Invalid(f"expected a node set name, got {_show(value)}")
+        if value not in self.nodeset_names:
+            raise _Invalid(f"unknown node set {value!r}" + _hint(value, self.nodeset_names, "defined"))
+        return value
+
+    def probe_component(self, value: Any) -> str:
+        """'<probe>.<component>' naming a component that this probe records."""
+        if not isinstance(value, str) or "." not in value:
+            raise _Invalid(f"expected '<probe>.<component>' (e.g. 'tip.uz'), got {_show(value)}")
+        name, _, component = value.rpartition(".")
+        if name not in self.recorded:
+            raise _Invalid(f"unknown probe {name!r}" + _hint(name, sorted(self.recorded), "defined"))
+        if component not in DOFS:
+            raise _Invalid(f"unknown component {component!r} (expected one of {', '.join(DOFS)})")
+        recorded = self.recorded[name]
+        if recorded is not None and component not in recorded:
+            raise _Invalid(f"probe {name!r} does not record {component!r} (it records {', '.join(recorded)})")
+        return value
+
+    def csv_column(self, file: Path | None) -> Validator:
+        """Validator for a column name in the header row of the CSV `file`.
+
+        Only non-emptiness is checked when `file` is None (already reported) or its
+        header cannot be read (reported here, once).
+        """
+        if file is None:
+            return _nonempty
+        try:
+            with file.open(newline="", encoding="utf-8-sig") as f:
+                header = [_one_line(name) for name in next(csv.reader(f), [])]
+        except (OSError, UnicodeDecodeError, csv.Error) as exc:
+            self.error("[reference].file", f"cannot read its header row ({_one_line(exc)})")
+            return _nonempty
+
+        def check(value: Any) -> str:
+            name = _nonempty(value)
+            if name not in header:
+                raise _Invalid(f"no column {name!r} in the header of {file.name}"
+                               + _hint(name, header, "columns"))
+            return name
+        return check
+
+    # ------------------------------------------------------------ tables
+    def parse(self) -> Scene:
+        for key in self.raw:
+            if key not in _TABLES:
+                self.error(f"[{_key(key)}]", "unknown key" + _hint(key, _TABLES, "allowed"))
+        info = self.part("scene", lambda d: self.table_object("[scene]", d, SceneInfo, _INFO))
+        mesh = self.part("mesh", self.mesh)
+        material = self.part("material", lambda d: self.table_object("[material]", d, Material, _MATERIAL))
+        section = self.part("section", self.section)
+        element = self.part("element", lambda d: self.table_object("[element]", d, ElementOptions, _ELEMENT))
+        method = self.part("method", self.method)
+        nodesets = self.part("nodesets", self.nodesets)
+        boundaries = [self.boundary(p, d) for p, d in self.entries("[[boundary]]", self.raw.get("boundary", []))]
+        loads = [self.load(p, d) for p, d in self.entries("[[load]]", self.raw.get("load", []))]
+        initial = [self.initial(p, d) for p, d in self.entries("[[initial]]", self.raw.get("initial", []))]
+        probes = [self.probe(p, d) for p, d in self.entries("[[probe]]", self.raw.get("probe", []))]
+        reference = self.reference(self.raw["reference"]) if "reference" in self.raw else None
+        solve = self.part("solve", self.solve)
+        output = self.part("output", lambda d: self.table_object("[output]", d, Output, _OUTPUT))
+        if self.messages:
+            raise SceneError(self.messages)
+        return Scene(source=self.source, info=info, mesh=mesh, material=material, section=section,
+                     element=element, method=method, solve=solve, output=output,
+                     nodesets=tuple(nodesets), boundaries=tuple(boundaries), loads=tuple(loads),
+                     initial=tuple(initial), probes=tuple(probes), reference=reference)
+
+    def mesh(self, data: Any) -> MeshSpec | None:
+        if not isinstance(data, dict):
+            self.error("[mesh]", f"expected a table, got {_show(data)}")
+            return None
+        if "kind" not in data:
+            self.error("[mesh].kind", f"missing required key (one of {', '.join(_MESHES)})")
+            return None
+        kind = self.check("[mesh].kind", _choice(*_MESHES), data["kind"])
+        if kind is None:
+            return None
+        cls, spec = _MESHES[kind]
+        if cls is FileMesh:
+            spec = {"path": self.file, **spec}
+        mark = len(self.messages)
+        v = self.read("[mesh]", data, spec, cls, extra=("kind",))
+        if kind == "tube":
+            if {"width", "depth", "corner_radius"} <= v.keys():
+                limit = min(v["width"], v["depth"]) / 2
+                if v["corner_radius"] >= limit:
+                    self.error("[mesh].corner_radius", f"expected a number < min(width, depth)/2 = {limit:g}, "
+                                                       f"got {v['corner_radius']:g}")
+            if v.get("corner_radius", 0) > 0 and v.get("n_corner") == 0:
+                self.error("[mesh].n_corner", "expected an integer >= 1 when corner_radius > 0, got 0")
+        return self.build(mark, cls, v)
+
+    def section(self, data: Any) -> Section | None:
+        mark = len(self.messages)
+        v = self.read("[section]", data, _SECTION, Section)
+        if v is None:
+            return None
+        if v.get("rule") == "lobatto" and v.get("points") == 1:
+            self.error("[section].points", "expected an integer in [2, 10] for rule = lobatto, got 1")
+        return self.build(mark, Section, v)
+
+    def method(self, data: Any) -> Method | None:
+        mark = len(self.messages)
+        v = self.read("[method]", data, _METHOD, Method)
+        if v is None:
+            return None
+        if ("grid_min" in data) != ("grid_max" in data):
+            missing = "grid_max" if "grid_min" in data else "grid_min"
+            self.error(f"[method].{missing}", "missing required key (grid_min and grid_max come together)")
+        self.check_order("[method]", v.get("grid_min"), v.get("grid_max"), ("grid_min", "grid_max"), strict=True)
+        return self.build(mark, Method, v)
+
+    def nodesets(self, data: Any) -> list[NodeSet | None]:
+        if not isinstance(data, dict):
+            self.error("[nodesets]", f"expected a table of node sets, got {_show(data)}")
+            return []
+        return [self.nodeset(name, value) for name, value in data.items()]
+
+    def nodeset(self, name: str, data: Any) -> NodeSet | None:
+        path = f"[nodesets.{_key(name)}]"
+        mark = len(self.messages)
+        if name == "all":
+            self.error(path, "the name 'all' is predefined (every node); choose another name")
+        elif not _TOML_BARE_KEY.fullmatch(name):
+            self.error(path, "a node set name may contain only letters, digits, '_' and '-'")
+        v = self.read(path, data, {"all": _true, "nearest": _vec3, "ids": _node_ids, "tol": _positive},
+                      extra=("box", "plane"))
+        if v is None:
+            return None
+        given = [key for key in _SELECTORS if key in data]
+        if len(given) != 1:
+            self.error(path, f"expected exactly one selector ({', '.join(_SELECTORS)}), "
+                             f"got {', '.join(given) or 'none'}")
+            return None
+        kind = given[0]
+        if "tol" in data and kind != "box":
+            self.error(f"{path}.tol", "allowed only beside box (a plane takes its tol inside plane = {...})")
+        values = {"name": name, "kind": kind, **({"tol": v["tol"]} if "tol" in v else {})}
+        if kind == "box":
+            box = self.read(f"{path}.box", data["box"], {"min": _vec3, "max": _vec3}, required=("min", "max"))
+            if box:
+                self.check_order(f"{path}.box", box.get("min"), box.get("max"), ("min", "max"), strict=False)
+                values.update(box_min=box.get("min"), box_max=box.get("max"))
+        elif kind == "plane":
+            plane = self.read(f"{path}.plane", data["plane"],
+                              {"point": _vec3, "normal": _nonzero_vec3, "tol": _positive},
+                              required=("point", "normal"))
+            values.update(plane or {})
+        elif kind == "nearest":
+            values["point"] = v.get("nearest")
+        elif kind == "ids":
+            values["ids"] = v.get("ids")
+        return self.build(mark, NodeSet, values)
+
+    def boundary(self, path: str, data: Any) -> Boundary | None:
+        mark = len(self.messages)
+        v = self.read(path, data, {"nodes": self.nodes, "fix": _dofs(allow_all=True),
+                                   "symmetry": _choice("x", "y", "z")}, Boundary)
+        if v is None:
+            return None
+        if "fix" not in data and "symmetry" not in data:
+            self.error(path, "expected fix and/or symmetry")
+        return self.build(mark, Boundary, v)
+
+    def load(self, path: str, data: Any) -> Load | None:
+        mark = len(self.messages)
+        v = self.read(path, data, {"nodes": self.nodes, "force": _vec3, "moment": _vec3,
+                                   "distribute": _choice("area", "equal")}, Load)
+        if v is None:
+            return None
+        if v.get("force") == (0, 0, 0) and v.get("moment") == (0, 0, 0):
+            self.error(path, "force and moment are both zero (give a non-zero force and/or moment)")
+        return self.build(mark, Load, v)
+
+    def initial(self, path: str, data: Any) -> InitialVelocity | None:
+        return self.table_object(path, data, InitialVelocity, {
+            "nodes": self.nodes, "velocity": _vec3, "angular_velocity": _vec3, "center": _vec3})
+
+    def probe(self, path: str, data: Any) -> Probe | None:
+        mark = len(self.messages)
+        v = self.read(path, data, {"name": _identifier, "nodes": self.nodes,
+                                   "components": _dofs(allow_all=False)}, Probe)
+        if v is None:
+            return None
+        name = v.get("name")
+        if name in self.recorded:
+            self.error(f"{path}.name", f"duplicate probe name {name!r}")
+        elif name is not None:
+            self.recorded[name] = v.get("components")
+        return self.build(mark, Probe, v)
+
+    def reference(self, data: Any) -> Reference | None:
+        mark = len(self.messages)
+        v = self.read("[reference]", data, {"file": self.file, "load_column": _nonempty, "floor": _fraction},
+                      Reference, extra=("compare",))
+        if v is None:
+            return None
+        column = self.csv_column(v.get("file"))
+        if "load_column" in v:
+            self.check("[reference].load_column", column, v["load_column"])
+        if "compare" not in data:
+            self.error("[reference].compare", "missing required key (add [[reference.compare]] tables)")
+        elif data["compare"] == []:
+            self.error("[reference].compare", "expected at least one [[reference.compare]] table")
+        spec = {"column": column, "probe": self.probe_component, "scale": _nonzero}
+        compare = [self.table_object(p, d, ReferenceColumn, spec)
+                   for p, d in self.entries("[[reference.compare]]", data.get("compare", []))]
+        return self.build(mark, Reference, {**v, "compare": tuple(compare)})
+
+    def solve(self, data: Any) -> Solve | None:
+        mark = len(self.messages)
+        v = self.read("[solve]", data, _SOLVE, Solve)
+        if v is None:
+            return None
+        if v.get("kind") == "dynamic" and v.get("end_time") == 0:
+            if "end_time" in data:
+                self.error("[solve].end_time", "expected a number > 0 for a dynamic solve, got 0")
+            else:
+                self.error("[solve].end_time", "missing required key (a dynamic solve needs end_time > 0)")
+        if v.get("kind") == "static" and not self.raw.get("load"):
+            self.error("[[load]]", "a static solve needs at least one [[load]]")
+        return self.build(mark, Solve, v)

@@ -1,0 +1,188 @@
+"""A run of one scene: build (mesh -> model -> fields -> kernels), drive, record, write.
+
+:class:`Simulation` owns one Taichi runtime's worth of state.  Drivers:
+:func:`taichi_shell_mpm.solvers.static.run_static` and
+:func:`taichi_shell_mpm.solvers.dynamic.run_dynamic`.
+"""
+from __future__ import annotations
+
+import math
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import taichi as ti
+
+from .assembly import Model, assemble
+from .config import StepConfig
+from .mesh import Mesh, build_mesh
+from .output import FrameWriter, write_csv, write_json
+from .reference import compare_with_reference
+from .scene import Scene
+from .solvers.stepper import Stepper
+from .state import STATUS_TEXT, State
+
+ARCHS = {"cpu": "cpu", "cuda": "cuda", "vulkan": "vulkan"}
+BATCHED_MAX_ELEMENTS = 4000     # serial multi-step launches pay off below this on CPU
+
+
+class SimulationError(Exception):
+    """A run-time failure (instability, non-convergence); message is one line."""
+
+
+def init_taichi(arch: str = "cpu") -> None:
+    ti.init(arch=getattr(ti, ARCHS[arch]), default_fp=ti.f64, default_ip=ti.i32, offline_cache=True,
+            log_level=ti.WARN)
+
+
+@dataclass
+class History:
+    """Rows recorded at each output point (load step or output time)."""
+    probe_header: list[str]
+    probe_rows: list[list[float]] = field(default_factory=list)
+    energy_rows: list[list[float]] = field(default_factory=list)
+
+
+class Simulation:
+    def __init__(self, scene: Scene, out_dir: Path | None = None, arch: str = "cpu", quiet: bool = False):
+        self.scene = scene
+        self.arch = arch
+        self.quiet = quiet
+        self.out_dir = Path(out_dir) if out_dir is not None else Path("outputs") / scene.info.name
+        self.mesh: Mesh = build_mesh(scene.mesh)
+        self.model: Model = assemble(scene, self.mesh)
+        self.cfg = StepConfig.from_scene(scene, self.model)
+        self.state = State(self.model, self.cfg.transfer)
+        batched = arch == "cpu" and len(self.model.quads) <= BATCHED_MAX_ELEMENTS
+        self.stepper = Stepper(self.state, self.cfg, float(self.model.node_mass.mean()), batched)
+        self._project_initial_drilling()
+        t0 = time.perf_counter()
+        self.stepper.prime()
+        self.stepper.advance(0)
+        ti.sync()
+        self.compile_seconds = time.perf_counter() - t0
+        self.initial_kinetic = self.kinetic_energy()
+        key = "load_factor" if scene.solve.kind == "static" else "time"
+        header = [key] + [f"{p.name}.{c}" for p in self.model.probes for c in p.components]
+        self.history = History(probe_header=header)
+        self.frames: FrameWriter | None = None
+        self.total_steps = 0
+        self.run_seconds = 0.0
+
+    # ------------------------------------------------------------------ set-up helpers
+    def _project_initial_drilling(self) -> None:
+        """Initial omega without its drilling part (method.md 2.3 holds from step 0)."""
+        w = self.model.omega0
+        if not np.any(w):
+            return
+        pts, quads = self.model.points, self.model.quads
+        x = pts[quads]
+        element_normal = 0.5 * np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])
+        normal = np.zeros_like(pts)
+        np.add.at(normal, quads, np.repeat(element_normal[:, None, :], 4, axis=1))
+        unit = normal / np.maximum(np.linalg.norm(normal, axis=1), 1e-300)[:, None]
+        w = w - np.sum(w * unit, axis=1)[:, None] * unit
+        self.state.omega.from_numpy(w)
+
+    # ------------------------------------------------------------------ measurements
+    def kinetic_energy(self) -> float:
+        m, J = self.model.node_mass, self.model.node_inertia
+        v = self.state.grid_velocity.to_numpy()
+        w = self.state.omega.to_numpy()
+        return float(0.5 * np.sum(m * np.sum(v * v, axis=1)) + 0.5 * np.sum(J * np.sum(w * w, axis=1)))
+
+    def energies(self) -> dict[str, float]:
+        s = self.state
+        e = {"kinetic": self.kinetic_energy(), "internal": s.internal_energy[None],
+             "hourglass": s.hourglass_energy[None], "external_work": s.external_work[None],
+             "damped": s.damped_energy[None]}
+        e["balance_error"] = (e["kinetic"] + e["internal"] + e["hourglass"] + e["damped"]
+                              - self.initial_kinetic - e["external_work"])
+        return e
+
+    def displacements(self) -> tuple[np.ndarray, np.ndarray]:
+        """Nodal displacement (n,3) and rotation vector (n,3) from the orientation quaternion."""
+        u = self.state.position.to_numpy() - self.model.points
+        q = self.state.rotation.to_numpy()
+        s = np.linalg.norm(q[:, 1:], axis=1)
+        angle = 2.0 * np.arctan2(s, q[:, 0])
+        rot = q[:, 1:] * (angle / np.maximum(s, 1e-300))[:, None]
+        return u, rot
+
+    def probe_values(self) -> list[float]:
+        u, rot = self.displacements()
+        dof = np.concatenate([u, rot], axis=1)
+        out = []
+        for p in self.model.probes:
+            mean = dof[p.nodes].mean(axis=0)
+            out += [float(mean[["ux", "uy", "uz", "rx", "ry", "rz"].index(c)]) for c in p.components]
+        return out
+
+    def element_results(self) -> dict[str, np.ndarray]:
+        """Membrane forces N, bending moments M = int z sigma dz (per unit length) and the
+        mid-surface von Mises stress of each element (local frame)."""
+        t = self.cfg.thickness
+        zeta, w = np.array(self.cfg.zeta), np.array(self.cfg.zeta_weight)
+        sig = self.state.stress.to_numpy()                       # (m, nk, 5)
+        n_res = 0.5 * t * np.einsum("k,mkc->mc", w, sig[:, :, :3])
+        m_res = 0.25 * t * t * np.einsum("k,mkc->mc", w * zeta, sig[:, :, :3])
+        s = n_res / t
+        vm = np.sqrt(np.maximum(s[:, 0] ** 2 - s[:, 0] * s[:, 1] + s[:, 1] ** 2 + 3 * s[:, 2] ** 2, 0.0))
+        return {"membrane_force": n_res, "bending_moment": m_res, "von_mises_mid": vm,
+                "thickness": np.full(len(sig), t)}
+
+    # ------------------------------------------------------------------ recording
+    def record(self, key: float, frame: bool) -> None:
+        self.history.probe_rows.append([key] + self.probe_values())
+        e = self.energies()
+        self.history.energy_rows.append([key, e["kinetic"], e["internal"], e["hourglass"],
+                                         e["external_work"], e["damped"], e["balance_error"]])
+        if frame:
+            self.write_frame(key)
+
+    def write_frame(self, key: float) -> None:
+        if self.frames is None:
+            self.frames = FrameWriter(self.out_dir, self.model.quads)
+        u, rot = self.displacements()
+        self.frames.write(key, self.state.position.to_numpy(),
+                          {"displacement": u, "velocity": self.state.grid_velocity.to_numpy(), "rotation": rot},
+                          self.element_results())
+
+    def check_status(self) -> None:
+        code = self.state.status[None]
+        if code in STATUS_TEXT:
+            where = f"t={self.state.time[None]:.6g}, step {self.state.step[None]}"
+            raise SimulationError(f"{where}: " + STATUS_TEXT[code].format(index=self.state.status_index[None]))
+
+    def progress(self, text: str) -> None:
+        if not self.quiet:
+            print(text, flush=True)
+
+    # ------------------------------------------------------------------ finishing
+    def write_results(self, extra: dict | None = None) -> dict:
+        out = self.out_dir
+        out.mkdir(parents=True, exist_ok=True)
+        write_csv(out / "probes.csv", self.history.probe_header, self.history.probe_rows)
+        key = self.history.probe_header[0]
+        write_csv(out / "energy.csv", [key, "kinetic", "internal", "hourglass", "external_work", "damped",
+                                       "balance_error"], self.history.energy_rows)
+        e = self.energies()
+        summary = {
+            "scene": self.scene.info.name, "source": str(self.scene.source), "method": self.cfg.method,
+            "transfer": self.cfg.transfer if self.cfg.method == "mpm" else None,
+            "cell_size": self.model.grid.h if self.model.grid else None,
+            "elements": len(self.model.quads), "nodes": len(self.model.points), "arch": self.arch,
+            "launch": "batched" if self.stepper.batched else "parallel",
+            "steps": self.total_steps, "compile_seconds": self.compile_seconds, "run_seconds": self.run_seconds,
+            "us_per_element_step": 1e6 * self.run_seconds / max(1, self.total_steps * len(self.model.quads)),
+            "energies": e, "mesh_warnings": list(self.mesh.warnings),
+        }
+        if extra:
+            summary.update(extra)
+        if self.scene.reference is not None:
+            summary["reference"] = compare_with_reference(self.scene.reference, self.history.probe_header,
+                                                          self.history.probe_rows)
+        write_json(out / "summary.json", summary)
+        return summary

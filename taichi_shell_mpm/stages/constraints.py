@@ -1,0 +1,109 @@
+"""Node-level update after the velocity is known: essential BCs, position, rotations
+(stages S4 tail, S5, S6; method.md 2.3 and 2.5) and the per-node energy terms (section 8).
+
+Also the explicit-FE node update used in ``fem`` mode, where the grid is switched off and
+the same BT forces are integrated directly at the nodes.
+"""
+
+import taichi as ti
+
+from ..state import STATUS_NONFINITE, State
+
+FIXED_TRANSLATION = 0b000111
+
+
+@ti.func
+def drop_fixed(vec, mask, first_bit: ti.template()):
+    """Zero the components of `vec` whose DOF bit (first_bit + axis) is set in `mask`."""
+    out = vec
+    for d in ti.static(range(3)):
+        if (mask >> (first_bit + d)) & 1:
+            out[d] = 0.0
+    return out
+
+
+@ti.data_oriented
+class NodeUpdate:
+    def __init__(self, state: State, cfg):
+        self.s = state
+        self.cfg = cfg
+        self.runaway_speed = 10.0 * cfg.wave_speed
+
+    @ti.func
+    def is_prescribed(self, c):
+        """Fully prescribed translation: Lagrangian only, skipped by P2G/G2P (method.md 2.5a)."""
+        return (self.s.fix_mask[c] & FIXED_TRANSLATION) == FIXED_TRANSLATION
+
+    @ti.func
+    def drill_normal(self, c):
+        """Unit nodal normal and whether the drilling projection applies (not at kinks)."""
+        n = self.s.normal_sum[c]
+        ok = n.norm() >= 0.5 * self.s.area_sum[c]
+        return n.normalized(1e-300), ok
+
+    @ti.func
+    def residual_force(self, c):
+        """Out-of-balance nodal force f_ext - f_int with fixed components dropped."""
+        r = self.s.load_factor[None] * self.s.load_force[c] - self.s.force_int[c]
+        return drop_fixed(r, self.s.fix_mask[c], 0)
+
+    @ti.func
+    def finish(self, c, v_grid):
+        """Given the node's new grid velocity: apply BCs, move it, update omega
+        (S5 with the drilling projection of method.md 2.3), accumulate KE, external work,
+        residual and max speed, and zero the per-step accumulators."""
+        dt = self.s.dt[None]
+        mask = self.s.fix_mask[c]
+        lam = self.s.load_factor[None]
+        vg = drop_fixed(v_grid, mask, 0)
+        if not (vg.norm() <= self.runaway_speed):       # also catches NaN
+            self.s.status[None] = STATUS_NONFINITE
+            self.s.status_index[None] = c
+        self.s.grid_velocity[c] = vg
+        self.s.position[c] += dt * vg
+        # rotations: J w' = mu_ext - mu_int, then remove the drilling component
+        normal, project = self.drill_normal(c)
+        torque = lam * self.s.load_moment[c] - self.s.moment_int[c]
+        w = self.s.velocity_keep[None] * self.s.omega[c] + (self.s.restart_factor[None] * dt / self.s.corner_inertia[c]) * torque
+        if project:
+            w -= w.dot(normal) * normal
+            torque -= torque.dot(normal) * normal
+        w = drop_fixed(w, mask, 3)
+        self.s.omega[c] = w
+        self.rotate_orientation(c, dt * w)
+        torque = drop_fixed(torque, mask, 3)
+        self.s.residual_sq[None] += torque.norm_sqr() / (self.cfg.length_ref ** 2)
+        self.s.kinetic[None] += 0.5 * (self.s.corner_mass[c] * vg.norm_sqr() + self.s.corner_inertia[c] * w.norm_sqr())
+        self.s.external_work[None] += dt * lam * (self.s.load_force[c].dot(vg) + self.s.load_moment[c].dot(w))
+        ti.atomic_max(self.s.max_speed[None], ti.max(ti.abs(vg[0]), ti.abs(vg[1]), ti.abs(vg[2])))
+        self.s.force_int[c] = ti.Vector([0.0, 0.0, 0.0])
+        self.s.moment_int[c] = ti.Vector([0.0, 0.0, 0.0])
+        self.s.normal_sum[c] = ti.Vector([0.0, 0.0, 0.0])
+        self.s.area_sum[c] = 0.0
+
+    @ti.func
+    def rotate_orientation(self, c, dtheta):
+        """q <- exp(dtheta/2) q: orientation for output only (BT needs no nodal frame)."""
+        angle = dtheta.norm()
+        if angle > 0.0:
+            axis = dtheta / angle
+            hs, hc = ti.sin(0.5 * angle), ti.cos(0.5 * angle)
+            p = ti.Vector([hc, hs * axis[0], hs * axis[1], hs * axis[2]])
+            q = self.s.rotation[c]
+            self.s.rotation[c] = ti.Vector([
+                p[0] * q[0] - p[1] * q[1] - p[2] * q[2] - p[3] * q[3],
+                p[0] * q[1] + p[1] * q[0] + p[2] * q[3] - p[3] * q[2],
+                p[0] * q[2] - p[1] * q[3] + p[2] * q[0] + p[3] * q[1],
+                p[0] * q[3] + p[1] * q[2] - p[2] * q[1] + p[3] * q[0]])
+
+    @ti.func
+    def explicit_fe(self):
+        """``fem`` mode: v~ += dt (f_ext - f_int)/m at the nodes (central difference)."""
+        for c in range(self.s.n_nodes):
+            v = ti.Vector([0.0, 0.0, 0.0])
+            if not self.is_prescribed(c):
+                r = self.residual_force(c)
+                self.s.residual_sq[None] += r.norm_sqr()
+                v = self.s.velocity_keep[None] * self.s.grid_velocity[c] + \
+                    (self.s.restart_factor[None] * self.s.dt[None] / self.s.corner_mass[c]) * r
+            self.finish(c, v)

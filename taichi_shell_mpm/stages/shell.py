@@ -1,0 +1,149 @@
+"""Belytschko-Tsay shell element (stage S7; paper eq 17-29, 37; method.md section 3).
+
+One-point in-plane integration in the corotational frame, through-thickness points for
+the stress, transverse shear with shear factor kappa on the resultants, hourglass
+control (:mod:`.hourglass`).  The same pass accumulates the element energies
+(method.md 8), the nodal normals used by the drilling projection (2.3) and the
+element time-step limit (section 5).
+"""
+
+import taichi as ti
+
+from ..state import STATUS_INVERTED, State
+from .hourglass import Hourglass
+
+
+@ti.func
+def corotational_frame(x):
+    """Rows e1, e2, e3 of the BT frame for corner positions x (4x3): e3 from the diagonals,
+    e1 along edge 1-2 projected into the plane (method.md 3.1)."""
+    e3 = (ti.Vector([x[2, 0] - x[0, 0], x[2, 1] - x[0, 1], x[2, 2] - x[0, 2]]).cross(
+        ti.Vector([x[3, 0] - x[1, 0], x[3, 1] - x[1, 1], x[3, 2] - x[1, 2]]))).normalized()
+    r21 = ti.Vector([x[1, 0] - x[0, 0], x[1, 1] - x[0, 1], x[1, 2] - x[0, 2]])
+    e1 = (r21 - r21.dot(e3) * e3).normalized()
+    e2 = e3.cross(e1)
+    return ti.Matrix.rows([e1, e2, e3])
+
+
+@ti.func
+def column(mat, j: ti.template()):
+    return ti.Vector([mat[0, j], mat[1, j], mat[2, j], mat[3, j]])
+
+
+@ti.data_oriented
+class ShellElement:
+    """Element stage: strain rates -> stress at each point -> resultants -> nodal forces."""
+
+    def __init__(self, state: State, cfg, material):
+        self.s = state
+        self.cfg = cfg
+        self.material = material
+        self.hourglass = Hourglass(self.cfg.E, self.cfg.shear_modulus, self.cfg.thickness, self.cfg.shear_factor, self.cfg.hourglass)
+        self.points = tuple(zip(self.cfg.zeta, self.cfg.zeta_weight))
+
+    @ti.func
+    def gather(self, c):
+        """Corner positions, grid velocities and angular velocities as 4x3 matrices."""
+        x = ti.Matrix.zero(ti.f64, 4, 3)
+        v = ti.Matrix.zero(ti.f64, 4, 3)
+        w = ti.Matrix.zero(ti.f64, 4, 3)
+        for a in ti.static(range(4)):
+            for d in ti.static(range(3)):
+                x[a, d] = self.s.position[c[a]][d]
+                v[a, d] = self.s.grid_velocity[c[a]][d]
+                w[a, d] = self.s.omega[c[a]][d]
+        return x, v, w
+
+    @ti.func
+    def element_pass(self):
+        for e in range(self.s.n_elements):
+            self.update(e)
+
+    @ti.func
+    def update(self, e):
+        t = self.cfg.thickness
+        kappa = self.cfg.shear_factor
+        dt = self.s.dt[None]
+        c = self.s.corners[e]
+        x, v, w = self.gather(c)
+        rot = corotational_frame(x)
+        centre = ti.Vector([0.0, 0.0, 0.0])
+        for a in ti.static(range(4)):
+            centre += 0.25 * ti.Vector([x[a, 0], x[a, 1], x[a, 2]])
+        xl = ti.Matrix.zero(ti.f64, 4, 3)
+        for a in ti.static(range(4)):
+            xl[a, 0] = x[a, 0] - centre[0]
+            xl[a, 1] = x[a, 1] - centre[1]
+            xl[a, 2] = x[a, 2] - centre[2]
+        xl = xl @ rot.transpose()                 # local corner coordinates (x^, y^, z^)
+        vl = v @ rot.transpose()                  # v^_a = R v~_a
+        wl = w @ rot.transpose()                  # theta^_a = R omega_a
+        xh, yh, zh = column(xl, 0), column(xl, 1), column(xl, 2)
+        vx, vy, vz = column(vl, 0), column(vl, 1), column(vl, 2)
+        tx, ty = column(wl, 0), column(wl, 1)
+        area = 0.5 * ((xh[2] - xh[0]) * (yh[3] - yh[1]) + (xh[1] - xh[3]) * (yh[2] - yh[0]))
+        if area <= 0.0:
+            self.s.status[None] = STATUS_INVERTED
+            self.s.status_index[None] = e
+        inv2a = 0.5 / area
+        b1 = inv2a * ti.Vector([yh[1] - yh[3], yh[2] - yh[0], yh[3] - yh[1], yh[0] - yh[2]])   # paper eq 27
+        b2 = inv2a * ti.Vector([xh[3] - xh[1], xh[0] - xh[2], xh[1] - xh[3], xh[2] - xh[0]])
+        # --- rates (method.md 3.2)
+        membrane_rate = ti.Vector([b1.dot(vx), b2.dot(vy), b2.dot(vx) + b1.dot(vy)])
+        curvature_rate = ti.Vector([b1.dot(ty), -b2.dot(tx), b2.dot(ty) - b1.dot(tx)])
+        shear_rate = ti.Vector([b1.dot(vz) + 0.25 * ty.sum(), b2.dot(vz) - 0.25 * tx.sum()])
+        # --- through-thickness points: stress update, resultants (paper eq 28-29)
+        n_res = ti.Vector([0.0, 0.0, 0.0])
+        m_res = ti.Vector([0.0, 0.0, 0.0])       # M' = -int z sigma (paper sign)
+        q_res = ti.Vector([0.0, 0.0])
+        power = 0.0
+        for k, zw_k in ti.static(enumerate(self.points)):
+            zeta, weight = zw_k
+            d_inplane = membrane_rate + (0.5 * t * zeta) * curvature_rate
+            old = self.s.stress[e, k]
+            new = self.material.update(old, dt * d_inplane, dt * shear_rate)
+            self.s.stress[e, k] = new
+            mid = 0.5 * (old + new)
+            power += weight * (mid[0] * d_inplane[0] + mid[1] * d_inplane[1] + mid[2] * d_inplane[2]
+                               + kappa * (mid[3] * shear_rate[0] + mid[4] * shear_rate[1]))
+            n_res += weight * ti.Vector([new[0], new[1], new[2]])
+            m_res -= (weight * zeta) * ti.Vector([new[0], new[1], new[2]])
+            q_res += weight * ti.Vector([new[3], new[4]])
+        n_res *= 0.5 * t
+        q_res *= 0.5 * t
+        m_res *= 0.25 * t * t
+        # --- local nodal forces and moments (paper eq 21-26)
+        f = ti.Matrix.zero(ti.f64, 4, 3)
+        m = ti.Matrix.zero(ti.f64, 4, 3)
+        for a in ti.static(range(4)):
+            f[a, 0] = area * (b1[a] * n_res[0] + b2[a] * n_res[2])
+            f[a, 1] = area * (b2[a] * n_res[1] + b1[a] * n_res[2])
+            f[a, 2] = kappa * area * (b1[a] * q_res[0] + b2[a] * q_res[1])
+            m[a, 0] = area * (b2[a] * m_res[1] + b1[a] * m_res[2] - 0.25 * kappa * q_res[1])
+            m[a, 1] = -area * (b1[a] * m_res[0] + b2[a] * m_res[2] - 0.25 * kappa * q_res[0])
+        # --- hourglass (method.md 4)
+        gam = self.hourglass.shape_vector(xh, yh, b1, b2)
+        zw = self.hourglass.warp_height(zh)
+        q_rate = self.hourglass.rates(gam, zw, vx, vy, vz, tx, ty)
+        beta = b1.dot(b1) + b2.dot(b2)
+        q_old = self.s.hourglass_resultant[e]
+        q_new = q_old + dt * self.hourglass.stiffness(area, beta) * q_rate
+        self.s.hourglass_resultant[e] = q_new
+        fh, mh = self.hourglass.nodal_loads(gam, zw, q_new)
+        f += fh
+        m += mh
+        # --- to global (paper eq 37) and scatter
+        fg = f @ rot
+        mg = m @ rot
+        e3 = ti.Vector([rot[2, 0], rot[2, 1], rot[2, 2]])
+        for a in ti.static(range(4)):
+            self.s.force_int[c[a]] += ti.Vector([fg[a, 0], fg[a, 1], fg[a, 2]])
+            self.s.moment_int[c[a]] += ti.Vector([mg[a, 0], mg[a, 1], mg[a, 2]])
+            self.s.normal_sum[c[a]] += area * e3
+            self.s.area_sum[c[a]] += area
+        self.s.internal_energy[None] += dt * area * 0.5 * t * power
+        self.s.hourglass_energy[None] += dt * 0.5 * (q_old + q_new).dot(q_rate)
+        # --- element time-step limit (method.md 5): L_e = A / longest diagonal
+        d13 = ti.Vector([x[2, 0] - x[0, 0], x[2, 1] - x[0, 1], x[2, 2] - x[0, 2]]).norm()
+        d24 = ti.Vector([x[3, 0] - x[1, 0], x[3, 1] - x[1, 1], x[3, 2] - x[1, 2]]).norm()
+        ti.atomic_min(self.s.dt_next[None], self.cfg.dt_safety * area / ti.max(d13, d24) / self.cfg.wave_speed)

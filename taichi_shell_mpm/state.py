@@ -1,0 +1,115 @@
+"""The one owner of Taichi fields: shell nodes, elements (with through-thickness points),
+the background grid and the scalar step state.  Allocated from an assembled
+:class:`~taichi_shell_mpm.assembly.Model`; nothing else allocates fields.
+
+Sign convention (method.md 0): ``force_int``/``moment_int`` are *resisting* nodal
+forces; m a = f_ext - f_int through the grid.
+"""
+from __future__ import annotations
+
+import numpy as np
+import taichi as ti
+
+from .assembly import Model
+
+STATUS_OK, STATUS_CONVERGED, STATUS_INVERTED, STATUS_LEFT_GRID, STATUS_NONFINITE, STATUS_DT_COLLAPSE = range(6)
+STATUS_TEXT = {
+    STATUS_INVERTED: "element {index} turned inside out (area <= 0)",
+    STATUS_LEFT_GRID: "node {index} left the background grid (enlarge [method].grid_min/grid_max or padding)",
+    STATUS_NONFINITE: "non-finite or runaway velocity at node {index}",
+    STATUS_DT_COLLAPSE: "time step collapsed below 1e-3 of the first one (element {index})",
+}
+
+
+@ti.data_oriented
+class State:
+    """All fields of a run (SOA layout).  ``n_nodes``, ``n_elements``, ``n_points`` and the
+    grid dimensions are fixed at construction; sizes are compile-time constants of the kernels."""
+
+    def __init__(self, model: Model, transfer: str):
+        n, m = len(model.points), len(model.quads)
+        nk = len(model.zeta)
+        self.n_nodes, self.n_elements, self.n_points = n, m, nk
+        vec3, f64 = ti.types.vector(3, ti.f64), ti.f64
+        # --- shell nodes (= particle-domain corners), method.md 1
+        self.position = ti.Vector.field(3, f64, n)        # x_c
+        self.position_ref = ti.Vector.field(3, f64, n)    # X_c
+        self.velocity = ti.Vector.field(3, f64, n)        # carried v_c (FLIP memory / APIC velocity)
+        self.grid_velocity = ti.Vector.field(3, f64, n)   # v~_c: the velocity that moved the node
+        self.omega = ti.Vector.field(3, f64, n)           # nodal angular velocity
+        self.rotation = ti.Vector.field(4, f64, n)        # accumulated orientation quaternion (output only)
+        self.corner_mass = ti.field(f64, n)
+        self.corner_inertia = ti.field(f64, n)
+        self.force_int = ti.Vector.field(3, f64, n)       # resisting internal force
+        self.moment_int = ti.Vector.field(3, f64, n)
+        self.load_force = ti.Vector.field(3, f64, n)      # external force at load factor 1
+        self.load_moment = ti.Vector.field(3, f64, n)
+        self.fix_mask = ti.field(ti.i32, n)               # bits ux uy uz rx ry rz
+        self.normal_sum = ti.Vector.field(3, f64, n)      # sum_e A_e e3 (nodal normal, method.md 2.3)
+        self.area_sum = ti.field(f64, n)
+        self.affine = ti.Matrix.field(3, 3, f64, n) if transfer == "apic" else None   # C_c (method.md 2.2)
+        # --- elements (= material points)
+        self.corners = ti.Vector.field(4, ti.i32, m)
+        self.stress = ti.Vector.field(5, f64, (m, nk))    # local (sxx, syy, sxy, txz, tyz) per point
+        self.hourglass_resultant = ti.Vector.field(5, f64, m)   # Q = (QMx, QMy, QW, QBx, QBy), local
+        # --- scalar step state
+        self.dt = ti.field(f64, ())
+        self.dt_next = ti.field(f64, ())
+        self.dt_first = ti.field(f64, ())
+        self.dt_stable = ti.field(f64, ())               # last stable dt before clipping to time_limit
+        self.time = ti.field(f64, ())
+        self.step = ti.field(ti.i64, ())
+        self.load_factor = ti.field(f64, ())
+        self.restart_factor = ti.field(f64, ())          # 0.5 on a central-difference restart from rest, else 1
+        self.velocity_keep = ti.field(f64, ())           # 0 right after a kinetic-damping reset, else 1
+        self.residual_target_sq = ti.field(f64, ())      # (tolerance * |F_ext|)^2 of the current load level
+        self.time_limit = ti.field(f64, ())              # advance() stops here exactly (next output time)
+        self.kinetic = ti.field(f64, ())
+        self.kinetic_prev = ti.field(f64, ())
+        self.internal_energy = ti.field(f64, ())
+        self.hourglass_energy = ti.field(f64, ())
+        self.external_work = ti.field(f64, ())
+        self.damped_energy = ti.field(f64, ())
+        self.residual_sq = ti.field(f64, ())
+        self.load_norm_sq = ti.field(f64, ())
+        self.max_speed = ti.field(f64, ())
+        self.status = ti.field(ti.i32, ())
+        self.status_index = ti.field(ti.i32, ())
+        # --- background grid (mpm only), flattened; only touched nodes are cleared
+        self.grid = model.grid
+        if model.grid is not None:
+            g = model.grid.n_nodes
+            self.grid_mass = ti.field(f64, g)
+            self.grid_momentum = ti.Vector.field(3, f64, g)
+            self.grid_force = ti.Vector.field(3, f64, g)
+            self.grid_v_minus = ti.Vector.field(3, f64, g)
+            self.grid_v_plus = ti.Vector.field(3, f64, g)
+            self.grid_touched = ti.field(ti.i32, g)
+            self.touched_list = ti.field(ti.i32, 8 * n)
+            self.n_touched = ti.field(ti.i32, ())
+        self._load(model)
+
+    def _load(self, model: Model) -> None:
+        self.position.from_numpy(model.points)
+        self.position_ref.from_numpy(model.points)
+        self.velocity.from_numpy(model.velocity0)
+        self.grid_velocity.from_numpy(model.velocity0)
+        self.omega.from_numpy(model.omega0)
+        q = np.zeros((self.n_nodes, 4))
+        q[:, 0] = 1.0
+        self.rotation.from_numpy(q)
+        self.corner_mass.from_numpy(model.node_mass)
+        self.corner_inertia.from_numpy(model.node_inertia)
+        self.load_force.from_numpy(model.load_force)
+        self.load_moment.from_numpy(model.load_moment)
+        self.fix_mask.from_numpy(model.fix_mask)
+        self.corners.from_numpy(model.quads.astype(np.int32))
+        self.restart_factor[None] = 1.0
+        self.velocity_keep[None] = 1.0
+        self.time_limit[None] = np.inf
+
+    # ------------------------------------------------------------ snapshots for output/restart
+    def node_arrays(self) -> dict[str, np.ndarray]:
+        return {"position": self.position.to_numpy(), "position_ref": self.position_ref.to_numpy(),
+                "velocity": self.grid_velocity.to_numpy(), "omega": self.omega.to_numpy(),
+                "rotation": self.rotation.to_numpy()}
