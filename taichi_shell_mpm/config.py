@@ -32,6 +32,7 @@ class StepConfig:
     grid_rule: bool             # include the paper's grid rule in dt (dt_rule = "both")
     length_ref: float           # L_ref for the rotational residual (mean edge)
     grid: GridGeometry | None
+    serial: bool = False        # batched serial launch: plain adds instead of atomics
 
     @staticmethod
     def from_scene(scene: Scene, model: Model) -> "StepConfig":

@@ -373,7 +373,9 @@ def _show(value: Any) -> str:
     """A short single-line rendering of a user's value, TOML-flavoured."""
     if isinstance(value, dict):
         return "a table"
-    text = ("true" if value else "false") if isinstance(value, bool) else repr(value)
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    text = f"[{', '.join(map(_show, value))}]" if isinstance(value, list) else repr(value)
     return text if len(text) <= 60 else text[:57] + "..."
 
 
@@ -563,6 +565,9 @@ _SOLVE = {"kind": _choice("static", "dynamic"), "load_steps": _int(1),
           "dt_rule": _choice("both", "shell"), "rotary_inertia": _choice("scaled", "physical"),
           "progress_every": _non_negative}
 _OUTPUT = {"every_steps": _int(0), "times": _times, "load_steps": _bool}
+_PLAIN_TABLES: dict[str, tuple[type, dict[str, Validator]]] = {
+    "scene": (SceneInfo, _INFO), "material": (Material, _MATERIAL),
+    "element": (ElementOptions, _ELEMENT), "output": (Output, _OUTPUT)}
 _MESHES: dict[str, tuple[type, dict[str, Validator]]] = {
     "plate": (PlateMesh, {"lx": _positive, "ly": _positive, "nx": _int(1), "ny": _int(1),
                           "origin": _vec3}),
@@ -664,6 +669,15 @@ class _SceneParser:
             return None
         return reader({})
 
+    def plain(self, key: str) -> Any:
+        """The top-level table `key` of _PLAIN_TABLES (no cross-checks), as its dataclass."""
+        cls, spec = _PLAIN_TABLES[key]
+        return self.part(key, lambda data: self.table_object(f"[{key}]", data, cls, spec))
+
+    def array(self, key: str, reader: Callable[[str, Any], Any]) -> list:
+        """reader(path, entry) for each entry of the top-level array of tables `key`."""
+        return [reader(path, entry) for path, entry in self.entries(f"[[{key}]]", self.raw.get(key, []))]
+
     def check_order(self, path: str, lo: Vec3 | None, hi: Vec3 | None, names: tuple[str, str],
                     strict: bool) -> None:
         """Report unless lo < hi (`strict`) or lo <= hi in every component (skipped if unset)."""
@@ -707,7 +721,8 @@ class _SceneParser:
             raise _Invalid(f"unknown component {component!r} (expected one of {', '.join(DOFS)})")
         recorded = self.recorded[name]
         if recorded is not None and component not in recorded:
-            raise _Invalid(f"probe {name!r} does not record {component!r} (it records {', '.join(recorded)})")
+            raise _Invalid(f"probe {name!r} does not record {component!r} "
+                           f"(it records {', '.join(recorded)})")
         return value
 
     def csv_column(self, file: Path | None) -> Validator:
@@ -738,20 +753,20 @@ class _SceneParser:
         for key in self.raw:
             if key not in _TABLES:
                 self.error(f"[{_key(key)}]", "unknown key" + _hint(key, _TABLES, "allowed"))
-        info = self.part("scene", lambda d: self.table_object("[scene]", d, SceneInfo, _INFO))
+        info = self.plain("scene")
         mesh = self.part("mesh", self.mesh)
-        material = self.part("material", lambda d: self.table_object("[material]", d, Material, _MATERIAL))
+        material = self.plain("material")
         section = self.part("section", self.section)
-        element = self.part("element", lambda d: self.table_object("[element]", d, ElementOptions, _ELEMENT))
+        element = self.plain("element")
         method = self.part("method", self.method)
         nodesets = self.part("nodesets", self.nodesets)
-        boundaries = [self.boundary(p, d) for p, d in self.entries("[[boundary]]", self.raw.get("boundary", []))]
-        loads = [self.load(p, d) for p, d in self.entries("[[load]]", self.raw.get("load", []))]
-        initial = [self.initial(p, d) for p, d in self.entries("[[initial]]", self.raw.get("initial", []))]
-        probes = [self.probe(p, d) for p, d in self.entries("[[probe]]", self.raw.get("probe", []))]
+        boundaries = self.array("boundary", self.boundary)
+        loads = self.array("load", self.load)
+        initial = self.array("initial", self.initial)
+        probes = self.array("probe", self.probe)            # before [reference], which refers to them
         reference = self.reference(self.raw["reference"]) if "reference" in self.raw else None
         solve = self.part("solve", self.solve)
-        output = self.part("output", lambda d: self.table_object("[output]", d, Output, _OUTPUT))
+        output = self.plain("output")
         if self.messages:
             raise SceneError(self.messages)
         return Scene(source=self.source, info=info, mesh=mesh, material=material, section=section,
@@ -778,8 +793,8 @@ class _SceneParser:
             if {"width", "depth", "corner_radius"} <= v.keys():
                 limit = min(v["width"], v["depth"]) / 2
                 if v["corner_radius"] >= limit:
-                    self.error("[mesh].corner_radius", f"expected a number < min(width, depth)/2 = {limit:g}, "
-                                                       f"got {v['corner_radius']:g}")
+                    self.error("[mesh].corner_radius", "expected a number < min(width, depth)/2 = "
+                                                       f"{limit:g}, got {v['corner_radius']:g}")
             if v.get("corner_radius", 0) > 0 and v.get("n_corner") == 0:
                 self.error("[mesh].n_corner", "expected an integer >= 1 when corner_radius > 0, got 0")
         return self.build(mark, cls, v)
@@ -801,7 +816,8 @@ class _SceneParser:
         if ("grid_min" in data) != ("grid_max" in data):
             missing = "grid_max" if "grid_min" in data else "grid_min"
             self.error(f"[method].{missing}", "missing required key (grid_min and grid_max come together)")
-        self.check_order("[method]", v.get("grid_min"), v.get("grid_max"), ("grid_min", "grid_max"), strict=True)
+        self.check_order("[method]", v.get("grid_min"), v.get("grid_max"), ("grid_min", "grid_max"),
+                         strict=True)
         return self.build(mark, Method, v)
 
     def nodesets(self, data: Any) -> list[NodeSet | None]:

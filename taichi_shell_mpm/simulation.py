@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +22,7 @@ from .output import FrameWriter, write_csv, write_json
 from .reference import compare_with_reference
 from .scene import Scene
 from .solvers.stepper import Stepper
+from .stages.timestep import DT_UNSET, initial_dt
 from .state import STATUS_TEXT, State
 
 ARCHS = {"cpu": "cpu", "cuda": "cuda", "vulkan": "vulkan"}
@@ -53,13 +54,12 @@ class Simulation:
         self.out_dir = Path(out_dir) if out_dir is not None else Path("outputs") / scene.info.name
         self.mesh: Mesh = build_mesh(scene.mesh)
         self.model: Model = assemble(scene, self.mesh)
-        self.cfg = StepConfig.from_scene(scene, self.model)
-        self.state = State(self.model, self.cfg.transfer)
         batched = arch == "cpu" and len(self.model.quads) <= BATCHED_MAX_ELEMENTS
+        self.cfg = replace(StepConfig.from_scene(scene, self.model), serial=batched)
+        self.state = State(self.model, self.cfg.transfer)
         self.stepper = Stepper(self.state, self.cfg, float(self.model.node_mass.mean()), batched)
-        self._project_initial_drilling()
+        self._initial_geometry()
         t0 = time.perf_counter()
-        self.stepper.prime()
         self.stepper.advance(0)
         ti.sync()
         self.compile_seconds = time.perf_counter() - t0
@@ -72,19 +72,25 @@ class Simulation:
         self.run_seconds = 0.0
 
     # ------------------------------------------------------------------ set-up helpers
-    def _project_initial_drilling(self) -> None:
-        """Initial omega without its drilling part (method.md 2.3 holds from step 0)."""
-        w = self.model.omega0
-        if not np.any(w):
-            return
+    def _initial_geometry(self) -> None:
+        """State before the first step: nodal normals (sum A e3 for the drilling projection,
+        method.md 2.3), initial omega without its drilling part, and the first stable dt."""
         pts, quads = self.model.points, self.model.quads
         x = pts[quads]
-        element_normal = 0.5 * np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])
+        element_normal = 0.5 * np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])     # A e3
         normal = np.zeros_like(pts)
+        area = np.zeros(len(pts))
         np.add.at(normal, quads, np.repeat(element_normal[:, None, :], 4, axis=1))
+        np.add.at(area, quads, np.repeat(np.linalg.norm(element_normal, axis=1)[:, None], 4, axis=1))
+        self.state.normal_sum.from_numpy(normal)
+        self.state.area_sum.from_numpy(area)
         unit = normal / np.maximum(np.linalg.norm(normal, axis=1), 1e-300)[:, None]
-        w = w - np.sum(w * unit, axis=1)[:, None] * unit
-        self.state.omega.from_numpy(w)
+        w = self.model.omega0
+        self.state.omega.from_numpy(w - np.sum(w * unit, axis=1)[:, None] * unit)
+        dt = initial_dt(pts, quads, self.model.velocity0, self.cfg)
+        for f in (self.state.dt, self.state.dt_stable, self.state.dt_first):
+            f[None] = dt
+        self.state.dt_next[None] = DT_UNSET
 
     # ------------------------------------------------------------------ measurements
     def kinetic_energy(self) -> float:

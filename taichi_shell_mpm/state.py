@@ -79,12 +79,18 @@ class State:
         self.grid = model.grid
         if model.grid is not None:
             g = model.grid.n_nodes
-            self.grid_mass = ti.field(f64, g)
-            self.grid_momentum = ti.Vector.field(3, f64, g)
-            self.grid_force = ti.Vector.field(3, f64, g)
-            self.grid_v_minus = ti.Vector.field(3, f64, g)
-            self.grid_v_plus = ti.Vector.field(3, f64, g)
-            self.grid_touched = ti.field(ti.i32, g)
+            self.grid_mass = ti.field(f64)
+            self.grid_momentum = ti.Vector.field(3, f64)
+            self.grid_force = ti.Vector.field(3, f64)
+            self.grid_v_minus = ti.Vector.field(3, f64) if transfer == "flip" else None
+            self.grid_v_plus = ti.Vector.field(3, f64)
+            self.grid_touched = ti.field(ti.i32)
+            # array of structures: one grid node's data share cache lines (the grid is
+            # much larger than the cache and is touched at scattered places)
+            node = ti.root.dense(ti.i, g)
+            node.place(self.grid_mass, self.grid_momentum, self.grid_force, self.grid_v_plus, self.grid_touched)
+            if transfer == "flip":
+                node.place(self.grid_v_minus)
             self.touched_list = ti.field(ti.i32, 8 * n)
             self.n_touched = ti.field(ti.i32, ())
         self._load(model)

@@ -22,7 +22,7 @@ from ..stages.grid import GridUpdate
 from ..stages.mapping import Mapping
 from ..stages.material import PlaneStressElastic
 from ..stages.shell import ShellElement
-from ..stages.timestep import DT_UNSET, TimeStep
+from ..stages.timestep import TimeStep
 
 KINETIC_CONVERGED = 1e-8     # KE <= 1e-8 W_ext (method.md 6.4)
 
@@ -102,15 +102,6 @@ class Stepper:
     @ti.kernel
     def advance_one(self):
         self.one_step()
-
-    @ti.kernel
-    def prime(self):
-        """Element pass with dt = 0 at the initial configuration: nodal normals, forces of the
-        initial stress (zero) and the first stable dt."""
-        self.s.dt_next[None] = DT_UNSET
-        self.s.dt[None] = 0.0
-        self.shell.element_pass()
-        self.timestep.next_step()
 
     def advance(self, max_steps: int) -> int:
         """Advance up to max_steps; returns the number of steps taken."""

@@ -8,6 +8,7 @@ the same BT forces are integrated directly at the nodes.
 import taichi as ti
 
 from ..state import STATUS_NONFINITE, State
+from .accumulate import Accumulator
 
 FIXED_TRANSLATION = 0b000111
 
@@ -28,6 +29,7 @@ class NodeUpdate:
         self.s = state
         self.cfg = cfg
         self.runaway_speed = 10.0 * cfg.wave_speed
+        self.acc = Accumulator(cfg.serial)
 
     @ti.func
     def is_prescribed(self, c):
@@ -72,10 +74,10 @@ class NodeUpdate:
         self.s.omega[c] = w
         self.rotate_orientation(c, dt * w)
         torque = drop_fixed(torque, mask, 3)
-        self.s.residual_sq[None] += torque.norm_sqr() / (self.cfg.length_ref ** 2)
-        self.s.kinetic[None] += 0.5 * (self.s.corner_mass[c] * vg.norm_sqr() + self.s.corner_inertia[c] * w.norm_sqr())
-        self.s.external_work[None] += dt * lam * (self.s.load_force[c].dot(vg) + self.s.load_moment[c].dot(w))
-        ti.atomic_max(self.s.max_speed[None], ti.max(ti.abs(vg[0]), ti.abs(vg[1]), ti.abs(vg[2])))
+        self.acc.total(self.s.residual_sq, torque.norm_sqr() / (self.cfg.length_ref ** 2))
+        self.acc.total(self.s.kinetic, 0.5 * (self.s.corner_mass[c] * vg.norm_sqr() + self.s.corner_inertia[c] * w.norm_sqr()))
+        self.acc.total(self.s.external_work, dt * lam * (self.s.load_force[c].dot(vg) + self.s.load_moment[c].dot(w)))
+        self.acc.maximum(self.s.max_speed, ti.max(ti.abs(vg[0]), ti.abs(vg[1]), ti.abs(vg[2])))
         self.s.force_int[c] = ti.Vector([0.0, 0.0, 0.0])
         self.s.moment_int[c] = ti.Vector([0.0, 0.0, 0.0])
         self.s.normal_sum[c] = ti.Vector([0.0, 0.0, 0.0])
@@ -103,7 +105,7 @@ class NodeUpdate:
             v = ti.Vector([0.0, 0.0, 0.0])
             if not self.is_prescribed(c):
                 r = self.residual_force(c)
-                self.s.residual_sq[None] += r.norm_sqr()
+                self.acc.total(self.s.residual_sq, r.norm_sqr())
                 v = self.s.velocity_keep[None] * self.s.grid_velocity[c] + \
                     (self.s.restart_factor[None] * self.s.dt[None] / self.s.corner_mass[c]) * r
             self.finish(c, v)

@@ -6,6 +6,7 @@ residual used by the static convergence test (method.md 6.4), and clearing.
 import taichi as ti
 
 from ..state import State
+from .accumulate import Accumulator
 
 
 @ti.data_oriented
@@ -18,6 +19,7 @@ class GridUpdate:
         self.planes = cfg.grid.planes
         self.mass_floor = mass_floor
         self.flip = cfg.transfer == "flip"
+        self.acc = Accumulator(cfg.serial)
 
     @ti.func
     def update(self):
@@ -38,7 +40,7 @@ class GridUpdate:
             if m > self.mass_floor:
                 v_minus = p / m
                 v_plus = v_minus + (self.s.restart_factor[None] * self.s.dt[None] / m) * f
-            self.s.residual_sq[None] += f.norm_sqr()
+            self.acc.total(self.s.residual_sq, f.norm_sqr())
             if ti.static(self.flip):
                 self.s.grid_v_minus[g] = v_minus
             self.s.grid_v_plus[g] = v_plus

@@ -10,6 +10,7 @@ PIC by ``flip_blend``.
 import taichi as ti
 
 from ..state import STATUS_LEFT_GRID, State
+from .accumulate import Accumulator
 from .constraints import NodeUpdate
 
 
@@ -19,6 +20,7 @@ class Mapping:
         self.s = state
         self.cfg = cfg
         self.nodes = nodes
+        self.acc = Accumulator(cfg.serial)
         g = cfg.grid
         self.h = g.h
         self.lo = g.lo
@@ -43,15 +45,25 @@ class Mapping:
 
     @ti.func
     def weight(self, frac, off):
-        """N_I = prod_d N^(r_d) and its gradient for the corner node offset `off` in {0,1}^3."""
-        w = ti.Vector([0.0, 0.0, 0.0])
-        dw = ti.Vector([0.0, 0.0, 0.0])
-        for d in ti.static(range(3)):
-            w[d] = frac[d] if off[d] == 1 else 1.0 - frac[d]
-            dw[d] = (1.0 if off[d] == 1 else -1.0) / self.h
+        """N_I = prod_d N^(r_d) and its gradient for the cell-corner offset `off` in {0,1}^3."""
+        o = ti.cast(off, ti.f64)
+        w = o * frac + (1.0 - o) * (1.0 - frac)
+        dw = (2.0 * o - 1.0) / self.h
         n = w[0] * w[1] * w[2]
         grad = ti.Vector([dw[0] * w[1] * w[2], w[0] * dw[1] * w[2], w[0] * w[1] * dw[2]])
         return n, grad
+
+    @ti.func
+    def touch(self, g):
+        """Record grid node g in the touched list the first time it receives mass."""
+        if ti.static(self.cfg.serial):
+            if self.s.grid_touched[g] == 0:
+                self.s.grid_touched[g] = 1
+                self.s.touched_list[self.s.n_touched[None]] = g
+                self.s.n_touched[None] += 1
+        else:
+            if ti.atomic_add(self.s.grid_touched[g], 1) == 0:
+                self.s.touched_list[ti.atomic_add(self.s.n_touched[None], 1)] = g
 
     @ti.func
     def particles_to_grid(self):
@@ -67,17 +79,16 @@ class Mapping:
                     keep = self.s.velocity_keep[None]
                     vel = keep * self.s.velocity[c]
                     force = self.nodes.residual_force(c)
-                    for off in ti.static(ti.grouped(ti.ndrange(2, 2, 2))):
+                    for off in ti.grouped(ti.ndrange(2, 2, 2)):
                         n, _ = self.weight(frac, off)
                         g = self.flat(base + off)
                         p = vel
                         if ti.static(self.cfg.transfer == "apic"):
-                            p += keep * (self.s.affine[c] @ ((off - frac) * self.h))
-                        if ti.atomic_add(self.s.grid_touched[g], 1) == 0:
-                            self.s.touched_list[ti.atomic_add(self.s.n_touched[None], 1)] = g
-                        self.s.grid_mass[g] += n * mass
-                        self.s.grid_momentum[g] += n * mass * p
-                        self.s.grid_force[g] += n * force
+                            p += keep * (self.s.affine[c] @ ((ti.cast(off, ti.f64) - frac) * self.h))
+                        self.touch(g)
+                        self.acc.add(self.s.grid_mass, g, n * mass)
+                        self.acc.add(self.s.grid_momentum, g, n * mass * p)
+                        self.acc.add(self.s.grid_force, g, n * force)
 
     @ti.func
     def grid_to_particles(self):
@@ -90,7 +101,7 @@ class Mapping:
                 if inside:
                     v_delta = ti.Vector([0.0, 0.0, 0.0])
                     affine = ti.Matrix.zero(ti.f64, 3, 3)
-                    for off in ti.static(ti.grouped(ti.ndrange(2, 2, 2))):
+                    for off in ti.grouped(ti.ndrange(2, 2, 2)):
                         n, grad = self.weight(frac, off)
                         g = self.flat(base + off)
                         v_grid += n * self.s.grid_v_plus[g]

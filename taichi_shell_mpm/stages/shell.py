@@ -10,6 +10,7 @@ element time-step limit (section 5).
 import taichi as ti
 
 from ..state import STATUS_INVERTED, State
+from .accumulate import Accumulator
 from .hourglass import Hourglass
 
 
@@ -40,6 +41,7 @@ class ShellElement:
         self.material = material
         self.hourglass = Hourglass(self.cfg.E, self.cfg.shear_modulus, self.cfg.thickness, self.cfg.shear_factor, self.cfg.hourglass)
         self.points = tuple(zip(self.cfg.zeta, self.cfg.zeta_weight))
+        self.acc = Accumulator(cfg.serial)
 
     @ti.func
     def gather(self, c):
@@ -137,13 +139,13 @@ class ShellElement:
         mg = m @ rot
         e3 = ti.Vector([rot[2, 0], rot[2, 1], rot[2, 2]])
         for a in ti.static(range(4)):
-            self.s.force_int[c[a]] += ti.Vector([fg[a, 0], fg[a, 1], fg[a, 2]])
-            self.s.moment_int[c[a]] += ti.Vector([mg[a, 0], mg[a, 1], mg[a, 2]])
-            self.s.normal_sum[c[a]] += area * e3
-            self.s.area_sum[c[a]] += area
-        self.s.internal_energy[None] += dt * area * 0.5 * t * power
-        self.s.hourglass_energy[None] += dt * 0.5 * (q_old + q_new).dot(q_rate)
+            self.acc.add(self.s.force_int, c[a], ti.Vector([fg[a, 0], fg[a, 1], fg[a, 2]]))
+            self.acc.add(self.s.moment_int, c[a], ti.Vector([mg[a, 0], mg[a, 1], mg[a, 2]]))
+            self.acc.add(self.s.normal_sum, c[a], area * e3)
+            self.acc.add(self.s.area_sum, c[a], area)
+        self.acc.total(self.s.internal_energy, dt * area * 0.5 * t * power)
+        self.acc.total(self.s.hourglass_energy, dt * 0.5 * (q_old + q_new).dot(q_rate))
         # --- element time-step limit (method.md 5): L_e = A / longest diagonal
         d13 = ti.Vector([x[2, 0] - x[0, 0], x[2, 1] - x[0, 1], x[2, 2] - x[0, 2]]).norm()
         d24 = ti.Vector([x[3, 0] - x[1, 0], x[3, 1] - x[1, 1], x[3, 2] - x[1, 2]]).norm()
-        ti.atomic_min(self.s.dt_next[None], self.cfg.dt_safety * area / ti.max(d13, d24) / self.cfg.wave_speed)
+        self.acc.minimum(self.s.dt_next, self.cfg.dt_safety * area / ti.max(d13, d24) / self.cfg.wave_speed)

@@ -6,6 +6,7 @@ paper's grid rule alpha h / (c_dil + max|v_d|) when ``dt_rule = "both"``, clippe
 next output time, and checked for collapse.
 """
 
+import numpy as np
 import taichi as ti
 
 from ..state import STATUS_DT_COLLAPSE, State
@@ -30,8 +31,6 @@ class TimeStep:
         dt = self.s.dt_next[None]
         if ti.static(self.cfg.grid_rule):
             dt = ti.min(dt, self.grid_limit())
-        if self.s.dt_first[None] == 0.0:
-            self.s.dt_first[None] = dt
         if dt < 1e-3 * self.s.dt_first[None]:
             self.s.status[None] = STATUS_DT_COLLAPSE
         self.s.dt_stable[None] = dt
@@ -40,3 +39,15 @@ class TimeStep:
             dt = remaining if remaining > 1e-9 * dt else 0.0
         self.s.dt[None] = dt
         self.s.dt_next[None] = DT_UNSET
+
+
+def initial_dt(points: np.ndarray, quads: np.ndarray, velocity: np.ndarray, cfg) -> float:
+    """The same rules evaluated on the initial configuration (numpy, before the first step)."""
+    x = points[quads]
+    d13, d24 = x[:, 2] - x[:, 0], x[:, 3] - x[:, 1]
+    area = 0.5 * np.linalg.norm(np.cross(d13, d24), axis=1)
+    longest = np.maximum(np.linalg.norm(d13, axis=1), np.linalg.norm(d24, axis=1))
+    dt = cfg.dt_safety * float(np.min(area / longest)) / cfg.wave_speed
+    if cfg.grid_rule:
+        dt = min(dt, cfg.dt_safety * cfg.grid.h / (cfg.dilatational_speed + float(np.max(np.abs(velocity)))))
+    return dt

@@ -1,0 +1,642 @@
+"""Scene parsing: schema, every class of user mistake, ``--set`` overrides, fuzzing."""
+from __future__ import annotations
+
+import copy
+import math
+import re
+import tomllib
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from taichi_shell_mpm.scene import (
+    DOFS, Boundary, ElementOptions, FileMesh, HemisphereMesh, InitialVelocity, Load,
+    Material, Method, NodeSet, Output, PlateMesh, Probe, Reference, ReferenceColumn, Scene,
+    SceneError, SceneInfo, Section, Solve, TubeMesh, apply_overrides, load_scene,
+    parse_scene)
+
+DOCS = Path(__file__).resolve().parents[1] / "docs" / "scenes.md"
+REF_HEADER = "P_over_Pmax,P,minus_U_tip,W_tip\n0.05,0.20,0.026,0.663\n"
+
+# A scene using every table (plate mesh, static).
+FULL = """
+[scene]
+name = "strip"
+units = "N-mm-s-t"
+description = "every table"
+
+[mesh]
+kind = "plate"
+lx = 10
+ly = 1.0
+nx = 10
+ny = 1
+origin = [0, -0.5, 0]
+
+[material]
+E = 1.2e6
+nu = 0.0
+density = 1
+
+[section]
+thickness = 0.1
+points = 5
+rule = "gauss"
+shear_factor = 0.8
+
+[element]
+hourglass = 0.1
+
+[method]
+kind = "fem"
+cell_size = 0.25
+grid_min = [-1, -1, -1]
+grid_max = [11, 1, 8]
+padding = 0.5
+transfer = "flip"
+flip_blend = 0.95
+
+[nodesets.clamped]
+plane = {point = [0, 0, 0], normal = [1, 0, 0], tol = 1e-5}
+[nodesets.tip]
+box = {min = [10, -1, -1], max = [10, 1, 1]}
+tol = 1e-4
+[nodesets.corner]
+nearest = [10, 0.5, 0]
+[nodesets.some]
+ids = [0, 3, 7]
+[nodesets.everything]
+all = true
+
+[[boundary]]
+nodes = "clamped"
+fix = "all"
+[[boundary]]
+nodes = "corner"
+fix = ["ux", "rz"]
+symmetry = "y"
+
+[[load]]
+nodes = "tip"
+force = [0, 0, 4]
+[[load]]
+nodes = "corner"
+moment = [0, 1.5, 0]
+distribute = "equal"
+
+[[initial]]
+velocity = [1, 0, 0]
+[[initial]]
+nodes = "some"
+angular_velocity = [0, 0, 2]
+center = [5, 0, 0]
+
+[[probe]]
+name = "tip"
+nodes = "tip"
+components = ["ux", "uz"]
+[[probe]]
+name = "corner_rot"
+nodes = "corner"
+
+[reference]
+file = "ref.csv"
+load_column = "P_over_Pmax"
+floor = 0.2
+[[reference.compare]]
+column = "W_tip"
+probe = "tip.uz"
+[[reference.compare]]
+column = "minus_U_tip"
+probe = "tip.ux"
+scale = -1
+
+[solve]
+kind = "static"
+load_steps = 10
+tolerance = 1e-5
+max_steps_per_load_step = 1000
+dt_safety = 0.5
+dt_rule = "shell"
+rotary_inertia = "physical"
+progress_every = 0
+
+[output]
+every_steps = 100
+times = [0, 0.5, 2]
+load_steps = false
+"""
+
+# Minimal scenes of the other mesh kinds (optional tables left at their defaults).
+TUBE = """
+[scene]
+name = "tube"
+units = "kN-mm-ms-kg"
+[mesh]
+kind = "tube"
+width = 60
+depth = 60
+corner_radius = 5
+length = 300
+n_flat = 10
+n_corner = 2
+n_length = 60
+[material]
+E = 200
+nu = 0.3
+density = 7.85e-6
+[section]
+thickness = 1
+[nodesets.front]
+plane = {point = [0, 0, 0], normal = [0, 0, 1]}
+[[boundary]]
+nodes = "front"
+fix = "all"
+[[initial]]
+velocity = [0, 0, -15]
+[solve]
+kind = "dynamic"
+end_time = 15
+"""
+
+HEMISPHERE = """
+[scene]
+name = "hemisphere"
+units = "consistent"
+[mesh]
+kind = "hemisphere"
+radius = 10
+hole_deg = 18
+n_around = 16
+n_meridian = 16
+[material]
+E = 6.825e7
+nu = 0.3
+density = 1
+[section]
+thickness = 0.04
+[nodesets.a]
+nearest = [10, 0, 0]
+[nodesets.sym_x]
+plane = {point = [0, 0, 0], normal = [1, 0, 0]}
+[[boundary]]
+nodes = "sym_x"
+symmetry = "x"
+[[load]]
+nodes = "a"
+force = [200, 0, 0]
+[solve]
+kind = "static"
+"""
+
+FILE_MESH = """
+[scene]
+name = "imported"
+units = "m-kg-s"
+[mesh]
+kind = "file"
+path = "meshes/strip.vtk"
+scale = 1e-3
+[material]
+E = 2e11
+nu = 0.3
+density = 7850
+[section]
+thickness = 0.001
+[[load]]
+nodes = "all"
+force = [0, 0, -1]
+[solve]
+kind = "static"
+"""
+
+
+@pytest.fixture(scope="module")
+def scene_dir(tmp_path_factory) -> Path:
+    """A folder with the files the scenes above refer to."""
+    folder = tmp_path_factory.mktemp("scenes")
+    (folder / "ref.csv").write_text(REF_HEADER)
+    (folder / "cantilever_end_shear.csv").write_text(REF_HEADER)
+    (folder / "meshes").mkdir()
+    (folder / "meshes" / "strip.vtk").write_text("# vtk DataFile Version 2.0\n")
+    return folder
+
+
+def raw_of(text: str) -> dict:
+    return tomllib.loads(text)
+
+
+def errors(raw: dict, folder: Path, name: str = "case.toml") -> list[str]:
+    """The messages of the SceneError that parse_scene must raise."""
+    with pytest.raises(SceneError) as caught:
+        parse_scene(raw, folder / name)
+    return caught.value.messages
+
+
+# ------------------------------------------------------------------ valid scenes
+def test_full_scene_parses_into_expected_dataclasses(scene_dir):
+    path = scene_dir / "strip.toml"
+    path.write_text(FULL)
+    scene = load_scene(path)
+    assert isinstance(scene, Scene)
+    assert scene.source == path.resolve()
+    assert scene.info == SceneInfo(name="strip", units="N-mm-s-t", description="every table")
+    assert scene.mesh == PlateMesh(lx=10.0, ly=1.0, nx=10, ny=1, origin=(0.0, -0.5, 0.0))
+    assert isinstance(scene.mesh.lx, float) and isinstance(scene.mesh.origin[0], float)
+    assert scene.material == Material(E=1.2e6, nu=0.0, density=1.0)
+    assert scene.section == Section(thickness=0.1, points=5, rule="gauss", shear_factor=0.8)
+    assert scene.element == ElementOptions(hourglass=0.1)
+    assert scene.method == Method(kind="fem", cell_size=0.25, grid_min=(-1.0, -1.0, -1.0),
+                                  grid_max=(11.0, 1.0, 8.0), padding=0.5, transfer="flip",
+                                  flip_blend=0.95)
+    assert scene.nodesets == (
+        NodeSet(name="clamped", kind="plane", point=(0.0, 0.0, 0.0), normal=(1.0, 0.0, 0.0), tol=1e-5),
+        NodeSet(name="tip", kind="box", box_min=(10.0, -1.0, -1.0), box_max=(10.0, 1.0, 1.0), tol=1e-4),
+        NodeSet(name="corner", kind="nearest", point=(10.0, 0.5, 0.0)),
+        NodeSet(name="some", kind="ids", ids=(0, 3, 7)),
+        NodeSet(name="everything", kind="all"),
+    )
+    assert scene.boundaries == (Boundary(nodes="clamped", fix=DOFS),
+                                Boundary(nodes="corner", fix=("ux", "rz"), symmetry="y"))
+    assert scene.loads == (Load(nodes="tip", force=(0.0, 0.0, 4.0)),
+                           Load(nodes="corner", moment=(0.0, 1.5, 0.0), distribute="equal"))
+    assert scene.initial == (InitialVelocity(velocity=(1.0, 0.0, 0.0)),
+                             InitialVelocity(nodes="some", angular_velocity=(0.0, 0.0, 2.0),
+                                             center=(5.0, 0.0, 0.0)))
+    assert scene.probes == (Probe(name="tip", nodes="tip", components=("ux", "uz")),
+                            Probe(name="corner_rot", nodes="corner"))
+    assert scene.reference == Reference(
+        file=(scene_dir / "ref.csv").resolve(), load_column="P_over_Pmax", floor=0.2,
+        compare=(ReferenceColumn(column="W_tip", probe="tip.uz"),
+                 ReferenceColumn(column="minus_U_tip", probe="tip.ux", scale=-1.0)))
+    assert scene.solve == Solve(kind="static", load_steps=10, tolerance=1e-5,
+                                max_steps_per_load_step=1000, dt_safety=0.5, dt_rule="shell",
+                                rotary_inertia="physical", progress_every=0.0)
+    assert scene.output == Output(every_steps=100, times=(0.0, 0.5, 2.0), load_steps=False)
+    assert scene.nodeset("all") == NodeSet(name="all", kind="all")
+    assert scene.nodeset("tip").kind == "box"
+
+
+def test_other_mesh_kinds_and_defaults(scene_dir):
+    tube = parse_scene(raw_of(TUBE), scene_dir / "tube.toml")
+    assert tube.mesh == TubeMesh(width=60.0, depth=60.0, corner_radius=5.0, length=300.0,
+                                 n_flat=10, n_corner=2, n_length=60)
+    assert tube.solve == Solve(kind="dynamic", end_time=15.0)
+    assert (tube.method, tube.element, tube.output) == (Method(), ElementOptions(), Output())
+    assert tube.section == Section(thickness=1.0)
+    assert tube.loads == () and tube.reference is None
+    assert tube.initial == (InitialVelocity(velocity=(0.0, 0.0, -15.0)),)
+
+    hemi = parse_scene(raw_of(HEMISPHERE), scene_dir / "hemi.toml")
+    assert hemi.mesh == HemisphereMesh(radius=10.0, hole_deg=18.0, n_around=16, n_meridian=16)
+    assert hemi.boundaries == (Boundary(nodes="sym_x", symmetry="x"),)
+    assert hemi.nodeset("sym_x").tol == 1e-6
+
+    imported = parse_scene(raw_of(FILE_MESH), scene_dir / "imported.toml")
+    assert imported.mesh == FileMesh(path=(scene_dir / "meshes" / "strip.vtk").resolve(), scale=1e-3)
+    assert imported.mesh.path.is_absolute()
+
+
+def test_docs_example_is_a_valid_scene(scene_dir):
+    blocks = re.findall(r"```toml\n(.*?)```", DOCS.read_text(), flags=re.S)
+    example = next(b for b in blocks if "[scene]" in b)
+    scene = parse_scene(raw_of(example), scene_dir / "cantilever.toml")
+    assert scene.mesh == PlateMesh(lx=10.0, ly=1.0, nx=10, ny=1)
+    assert scene.boundaries == (Boundary(nodes="clamped", fix=DOFS),)
+    assert scene.loads == (Load(nodes="tip", force=(0.0, 0.0, 4.0)),)
+    assert scene.probes == (Probe(name="tip", nodes="tip", components=("ux", "uz")),)
+    assert [c.probe for c in scene.reference.compare] == ["tip.uz", "tip.ux"]
+    assert scene.solve.kind == "static" and scene.solve.load_steps == 20
+
+
+# ------------------------------------------------------------------ one message per class of error
+def _set(raw: dict, path: str, value) -> dict:
+    """raw with the dotted `path` (integer parts index arrays) set to `value`."""
+    *parents, last = [int(p) if p.isdigit() else p for p in path.split(".")]
+    node = raw
+    for part in parents:
+        node = node[part]
+    node[last] = value
+    return raw
+
+
+def _del(raw: dict, path: str) -> dict:
+    *parents, last = [int(p) if p.isdigit() else p for p in path.split(".")]
+    node = raw
+    for part in parents:
+        node = node[part]
+    del node[last]
+    return raw
+
+
+BAD_VALUES = [  # (dotted path, value, expected message after "case.toml: ")
+    ("material.E", -3, "[material].E: expected a number > 0, got -3"),
+    ("material.nu", math.nan, "[material].nu: expected a number in (-1, 0.5), got nan"),
+    ("material.nu", 0.5, "[material].nu: expected a number in (-1, 0.5), got 0.5"),
+    ("material.model", "plastic", "[material].model: expected one of elastic, got 'plastic'"),
+    ("section.thickness", True, "[section].thickness: expected a number > 0, got true"),
+    ("section.shear_factor", math.inf, "[section].shear_factor: expected a number in (0, 1], got inf"),
+    ("section.points", 11, "[section].points: expected an integer in [1, 10], got 11"),
+    ("mesh.nx", 2.5, "[mesh].nx: expected an integer >= 1, got 2.5"),
+    ("mesh.ny", 0, "[mesh].ny: expected an integer >= 1, got 0"),
+    ("mesh.origin", [0, 1], "[mesh].origin: expected 3 finite numbers [x, y, z], got [0, 1]"),
+    ("mesh.kind", "plat", "[mesh].kind: expected one of plate, hemisphere, tube, file, got 'plat' "
+                          "(did you mean 'plate'?)"),
+    ("scene.name", "my run", "[scene].name: expected a file name made of letters, digits, '_', '.', '-', "
+                             "got 'my run'"),
+    ("scene.name", "..", "[scene].name: expected a file name made of letters, digits, '_', '.', '-', "
+                         "got '..'"),
+    ("scene.units", " ", "[scene].units: expected a non-empty string, got ' '"),
+    ("element.hourglass", 1.5, "[element].hourglass: expected a number in [0, 1], got 1.5"),
+    ("method.transfer", "apci", "[method].transfer: expected one of apic, pic, flip, got 'apci' "
+                                "(did you mean 'apic'?)"),
+    ("method.cell_size", 0, "[method].cell_size: expected a number > 0, got 0"),
+    ("boundary.1.fix", ["ux", "uw"], "[[boundary]][1].fix: unknown DOF 'uw' (expected some of "
+                                     "ux, uy, uz, rx, ry, rz)"),
+    ("boundary.1.fix", ["ux", "ux"], "[[boundary]][1].fix: DOF 'ux' is given twice"),
+    ("boundary.1.fix", "none", "[[boundary]][1].fix: expected a non-empty list of DOFs (some of "
+                               "ux, uy, uz, rx, ry, rz) or \"all\", got 'none'"),
+    ("boundary.1.symmetry", "w", "[[boundary]][1].symmetry: expected one of x, y, z, got 'w'"),
+    ("boundary.0.nodes", "clampd", "[[boundary]][0].nodes: unknown node set 'clampd' "
+                                   "(did you mean 'clamped'?)"),
+    ("load.0.nodes", "zz", "[[load]][0].nodes: unknown node set 'zz' "
+                           "(defined: all, clamped, corner, everything, some, tip)"),
+    ("load.0.force", [0, 0, "4"], "[[load]][0].force: expected 3 finite numbers [x, y, z], got [0, 0, '4']"),
+    ("load.1.distribute", "even", "[[load]][1].distribute: expected one of area, equal, got 'even'"),
+    ("initial.1.center", [0, 0, math.inf], "[[initial]][1].center: expected 3 finite numbers [x, y, z], "
+                                           "got [0, 0, inf]"),
+    ("nodesets.some.ids", [], "[nodesets.some].ids: expected a non-empty list of node indices >= 0, got []"),
+    ("nodesets.some.ids", [1, -2], "[nodesets.some].ids: expected a non-empty list of node indices >= 0, "
+                                   "got [1, -2]"),
+    ("nodesets.everything.all", False, "[nodesets.everything].all: expected true, got false"),
+    ("nodesets.clamped.plane.normal", [0, 0, 0], "[nodesets.clamped].plane.normal: expected a non-zero "
+                                                 "vector, got [0, 0, 0]"),
+    ("nodesets.clamped.plane.tol", -1, "[nodesets.clamped].plane.tol: expected a number > 0, got -1"),
+    ("nodesets.tip.box.max", [9, 1, 1], "[nodesets.tip].box: expected min <= max in every component, "
+                                        "got min = [10.0, -1.0, -1.0], max = [9.0, 1.0, 1.0]"),
+    ("probe.1.name", "2rot", "[[probe]][1].name: expected an identifier (letters, digits, '_'; "
+                             "not starting with a digit), got '2rot'"),
+    ("probe.1.name", "tip", "[[probe]][1].name: duplicate probe name 'tip'"),
+    ("probe.0.components", [], "[[probe]][0].components: expected a non-empty list of DOFs "
+                               "(some of ux, uy, uz, rx, ry, rz), got []"),
+    ("reference.file", "nothere.csv", "[reference].file: file not found: "),
+    ("reference.floor", 0, "[reference].floor: expected a number in (0, 1], got 0"),
+    ("reference.load_column", "P_over_Pmx", "[reference].load_column: no column 'P_over_Pmx' in the header "
+                                            "of ref.csv (did you mean 'P_over_Pmax'?)"),
+    ("reference.compare.0.column", "zzz", "[[reference.compare]][0].column: no column 'zzz' in the header of "
+                                          "ref.csv (columns: P_over_Pmax, P, minus_U_tip, W_tip)"),
+    ("reference.compare.0.probe", "tip.rz", "[[reference.compare]][0].probe: probe 'tip' does not "
+                                            "record 'rz' (it records ux, uz)"),
+    ("reference.compare.0.probe", "tp.uz", "[[reference.compare]][0].probe: unknown probe 'tp' "
+                                           "(did you mean 'tip'?)"),
+    ("reference.compare.0.probe", "tip.uw", "[[reference.compare]][0].probe: unknown component 'uw' "
+                                            "(expected one of ux, uy, uz, rx, ry, rz)"),
+    ("reference.compare.0.probe", "tip", "[[reference.compare]][0].probe: expected '<probe>.<component>' "
+                                         "(e.g. 'tip.uz'), got 'tip'"),
+    ("reference.compare.1.scale", 0, "[[reference.compare]][1].scale: expected a non-zero finite number, "
+                                     "got 0"),
+    ("solve.kind", "quasi", "[solve].kind: expected one of static, dynamic, got 'quasi'"),
+    ("solve.load_steps", 0, "[solve].load_steps: expected an integer >= 1, got 0"),
+    ("solve.tolerance", 0.5, "[solve].tolerance: expected a number in (0, 0.1], got 0.5"),
+    ("solve.dt_rule", "grid", "[solve].dt_rule: expected one of both, shell, got 'grid'"),
+    ("output.times", [0, 2, 1], "[output].times: expected strictly increasing times, got [0, 2, 1]"),
+    ("output.times", [-1], "[output].times: expected a list of numbers >= 0, got [-1]"),
+    ("output.load_steps", 1, "[output].load_steps: expected true or false, got 1"),
+    ("output.every_steps", -1, "[output].every_steps: expected an integer >= 0, got -1"),
+    ("method.cel_size", 0.5, "[method].cel_size: unknown key (did you mean 'cell_size'?)"),
+    ("mesh.radius", 10, "[mesh].radius: unknown key (allowed: lx, ly, nx, ny, origin, kind)"),
+    ("nodesets.tip.bx", 1, "[nodesets.tip].bx: unknown key (did you mean 'box'?)"),
+    ("methd", {}, "[methd]: unknown key (did you mean 'method'?)"),
+    ("boundary", {"nodes": "tip"}, "[[boundary]]: expected an array of tables ([[boundary]] sections), "
+                                   "got a table"),
+    ("material", 3, "[material]: expected a table, got 3"),
+    ("nodesets.all", {"all": True}, "[nodesets.all]: the name 'all' is predefined (every node); "
+                                    "choose another name"),
+    ("nodesets.tip.plane", {"point": [0, 0, 0], "normal": [1, 0, 0]},
+     "[nodesets.tip]: expected exactly one selector (all, box, plane, nearest, ids), got box, plane"),
+    ("nodesets.corner.tol", 0.1, "[nodesets.corner].tol: allowed only beside box (a plane takes its tol "
+                                 "inside plane = {...})"),
+]
+
+
+@pytest.mark.parametrize("path, value, expected", BAD_VALUES, ids=[f"{p}={v!r}" for p, v, _ in BAD_VALUES])
+def test_each_mistake_is_reported_with_file_and_key_path(scene_dir, path, value, expected):
+    messages = errors(_set(raw_of(FULL), path, value), scene_dir)
+    assert len(messages) == 1, messages
+    assert messages[0].startswith("case.toml: " + expected)
+
+
+MISSING = [  # (dotted path to delete, expected message after "case.toml: ")
+    ("material.E", "[material].E: missing required key"),
+    ("scene.units", "[scene].units: missing required key"),
+    ("solve", "[solve]: missing required table"),
+    ("mesh.kind", "[mesh].kind: missing required key (one of plate, hemisphere, tube, file)"),
+    ("mesh.nx", "[mesh].nx: missing required key"),
+    ("boundary.1.nodes", "[[boundary]][1].nodes: missing required key"),
+    ("nodesets.clamped.plane.point", "[nodesets.clamped].plane.point: missing required key"),
+    ("nodesets.tip.box", "[nodesets.tip]: expected exactly one selector (all, box, plane, nearest, ids), "
+                         "got none"),
+    ("reference.compare", "[reference].compare: missing required key (add [[reference.compare]] tables)"),
+    ("method.grid_max", "[method].grid_max: missing required key (grid_min and grid_max come together)"),
+    ("load", "[[load]]: a static solve needs at least one [[load]]"),
+]
+
+
+@pytest.mark.parametrize("path, expected", MISSING, ids=[p for p, _ in MISSING])
+def test_missing_keys_and_tables(scene_dir, path, expected):
+    messages = errors(_del(raw_of(FULL), path), scene_dir)
+    assert messages == ["case.toml: " + expected]
+
+
+def test_cross_checks(scene_dir):
+    def one(changes: dict, expected: str, base: str = FULL):
+        raw = raw_of(base)
+        for path, value in changes.items():
+            _set(raw, path, value)
+        assert errors(raw, scene_dir) == ["case.toml: " + expected]
+
+    one({"boundary.1": {"nodes": "corner"}}, "[[boundary]][1]: expected fix and/or symmetry")
+    one({"load.0.force": [0, 0, 0]}, "[[load]][0]: force and moment are both zero "
+                                     "(give a non-zero force and/or moment)")
+    one({"section.rule": "lobatto", "section.points": 1},
+        "[section].points: expected an integer in [2, 10] for rule = lobatto, got 1")
+    one({"method.grid_min": [0, 1, 0]}, "[method]: expected grid_min < grid_max in every component, "
+                                        "got grid_min = [0.0, 1.0, 0.0], grid_max = [11.0, 1.0, 8.0]")
+    one({"mesh.corner_radius": 30}, "[mesh].corner_radius: expected a number < min(width, depth)/2 = 30, "
+                                    "got 30", base=TUBE)
+    one({"mesh.n_corner": 0}, "[mesh].n_corner: expected an integer >= 1 when corner_radius > 0, got 0",
+        base=TUBE)
+    one({"solve.end_time": 0}, "[solve].end_time: expected a number > 0 for a dynamic solve, got 0",
+        base=TUBE)
+    one({"mesh.hole_deg": 90}, "[mesh].hole_deg: expected a number in (0, 90), got 90", base=HEMISPHERE)
+    one({"mesh.path": "meshes/none.vtk"}, "[mesh].path: file not found: "
+        f"{str(scene_dir / 'meshes/none.vtk')!r}", base=FILE_MESH)
+    # a square tube without fillets needs no fillet elements
+    raw = raw_of(TUBE)
+    _set(_set(raw, "mesh.corner_radius", 0), "mesh.n_corner", 0)
+    assert parse_scene(raw, scene_dir / "case.toml").mesh.n_corner == 0
+    # dynamic without end_time
+    assert errors(_del(raw_of(TUBE), "solve.end_time"), scene_dir) == [
+        "case.toml: [solve].end_time: missing required key (a dynamic solve needs end_time > 0)"]
+
+
+def test_reference_header_must_be_readable(scene_dir):
+    (scene_dir / "binary.csv").write_bytes(b"\xff\xfe\x00bad")
+    raw = _set(raw_of(FULL), "reference.file", "binary.csv")
+    messages = errors(raw, scene_dir)
+    assert len(messages) == 1
+    assert messages[0].startswith("case.toml: [reference].file: cannot read its header row")
+
+
+def test_all_errors_are_reported_at_once(scene_dir):
+    raw = raw_of(FULL)
+    _set(raw, "material.E", -3)
+    _set(raw, "method.cel_size", 1)
+    _set(raw, "boundary.1.fix", ["uw"])
+    _set(raw, "probe.0.nodes", "tipp")
+    _del(raw, "section.thickness")
+    _set(raw, "output.times", "often")
+    messages = errors(raw, scene_dir, name="many.toml")
+    assert sorted(messages) == sorted([
+        "many.toml: [material].E: expected a number > 0, got -3",
+        "many.toml: [method].cel_size: unknown key (did you mean 'cell_size'?)",
+        "many.toml: [[boundary]][1].fix: unknown DOF 'uw' (expected some of ux, uy, uz, rx, ry, rz)",
+        "many.toml: [[probe]][0].nodes: unknown node set 'tipp' (did you mean 'tip'?)",
+        "many.toml: [section].thickness: missing required key",
+        "many.toml: [output].times: expected a list of numbers >= 0, got 'often'",
+    ])
+    assert str(SceneError(messages)) == "\n".join(messages)
+
+
+def test_invalid_probe_components_do_not_cascade(scene_dir):
+    """A reference to a probe whose own components are wrong reports only the probe."""
+    raw = _set(raw_of(FULL), "probe.0.components", ["ux", "zz"])
+    assert errors(raw, scene_dir) == [
+        "case.toml: [[probe]][0].components: unknown DOF 'zz' (expected some of ux, uy, uz, rx, ry, rz)"]
+
+
+# ------------------------------------------------------------------ files and overrides
+def test_missing_file_is_one_line(tmp_path):
+    with pytest.raises(SceneError) as caught:
+        load_scene(tmp_path / "nope.toml")
+    assert caught.value.messages == [f"{tmp_path / 'nope.toml'}: file not found"]
+
+
+def test_toml_syntax_error_is_one_line(tmp_path):
+    path = tmp_path / "bad.toml"
+    path.write_text("[scene]\nname = \n")
+    with pytest.raises(SceneError) as caught:
+        load_scene(path)
+    (message,) = caught.value.messages
+    assert message.startswith("bad.toml: TOML syntax error: ") and "line 2" in message
+    assert "\n" not in message
+
+
+def test_overrides_scalar_vector_and_array_index():
+    raw = raw_of(FULL)
+    out = apply_overrides(raw, ["mesh.nx=20", "method.kind=fem", "solve.tolerance = 1e-3",
+                                "load.1.force=[0,0,2]", "boundary.0.fix=['ux']",
+                                "output.load_steps=true", "scene.description=two words",
+                                "mesh.nx=30"])
+    assert out["mesh"]["nx"] == 30                       # later overrides win
+    assert out["method"]["kind"] == "fem"
+    assert out["solve"]["tolerance"] == 1e-3
+    assert out["load"][1]["force"] == [0, 0, 2]
+    assert out["boundary"][0]["fix"] == ["ux"]
+    assert out["output"]["load_steps"] is True
+    assert out["scene"]["description"] == "two words"
+    assert raw == raw_of(FULL), "the input must not be modified"
+
+
+def test_overrides_create_keys_and_tables():
+    out = apply_overrides(raw_of(TUBE), ["element.hourglass=0.02", "mesh.new_key=1"])
+    assert out["element"] == {"hourglass": 0.02}
+    assert out["mesh"]["new_key"] == 1
+
+
+@pytest.mark.parametrize("item, problem", [
+    ("load.5.force=[0,0,1]", "index 5 out of range (load has 2 entries)"),
+    ("load.first.force=[0,0,1]", "load is an array of tables; expected an index, got 'first'"),
+    ("mesh.nx.value=3", "mesh.nx is not a table (it is 10)"),
+    ("mesh.nx", "expected KEY=VALUE, e.g. mesh.nx=20"),
+    ("mesh..nx=3", "empty key in 'mesh..nx'"),
+])
+def test_bad_override_paths(item, problem):
+    with pytest.raises(SceneError) as caught:
+        apply_overrides(raw_of(FULL), [item, "mesh.ny=2"])
+    assert caught.value.messages == [f"--set {item}: {problem}"]
+
+
+def test_load_scene_with_overrides(scene_dir):
+    path = scene_dir / "strip.toml"
+    path.write_text(FULL)
+    scene = load_scene(path, ["mesh.nx=20", "method.kind=mpm", "load.1.moment=[0, 0, 1]"])
+    assert scene.mesh.nx == 20 and scene.method.kind == "mpm"
+    assert scene.loads[1].moment == (0.0, 0.0, 1.0)
+    with pytest.raises(SceneError) as caught:
+        load_scene(path, ["mesh.nxx=3", "load.9.force=[1,0,0]"])
+    assert caught.value.messages == ["strip.toml: --set load.9.force=[1,0,0]: index 9 out of range "
+                                     "(load has 2 entries)"]
+    with pytest.raises(SceneError) as caught:
+        load_scene(path, ["mesh.nxx=3", "method.kind=fm"])
+    assert caught.value.messages == [
+        "strip.toml: [mesh].nxx: unknown key (did you mean 'nx'?)",
+        "strip.toml: [method].kind: expected one of mpm, fem, got 'fm' (did you mean 'fem'?)"]
+
+
+# ------------------------------------------------------------------ fuzzing
+_SCALARS = st.one_of(
+    st.text(max_size=8), st.integers(min_value=-2**63, max_value=2**63 - 1),
+    st.floats(allow_nan=True, allow_infinity=True), st.booleans(),
+    st.sampled_from([math.nan, math.inf, -math.inf, -1, -1.5, 0, "all", "ux", "tip", "tip.uz",
+                     "plate", "tube", "hemisphere", "file", "dynamic", "lobatto", "x"]))
+_VALUES = st.one_of(_SCALARS, st.lists(_SCALARS, max_size=4),
+                    st.dictionaries(st.text(max_size=5), _SCALARS, max_size=2))
+
+
+def _locations(node, found=None) -> list[tuple[object, object]]:
+    """Every (container, key) pair in the nested dicts/lists of `node`."""
+    found = [] if found is None else found
+    items = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
+    for key, child in items:
+        found.append((node, key))
+        _locations(child, found)
+    return found
+
+
+def _mutate(raw: dict, data) -> None:
+    """Delete a key, insert an unknown key, or replace a value by a random one."""
+    action = data.draw(st.sampled_from(["delete", "insert", "replace"]))
+    if action == "insert":
+        tables = [raw] + [c[k] for c, k in _locations(raw) if isinstance(c[k], dict)]
+        table = data.draw(st.sampled_from(tables))
+        table[data.draw(st.text(min_size=1, max_size=10))] = data.draw(_VALUES)
+        return
+    container, key = data.draw(st.sampled_from(_locations(raw)))
+    if action == "delete":
+        del container[key]
+    else:
+        container[key] = data.draw(_VALUES)
+
+
+@settings(max_examples=500, deadline=None, database=None,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(data=st.data())
+def test_mutated_scenes_fail_cleanly(scene_dir, data):
+    raw = copy.deepcopy(data.draw(st.sampled_from(_FUZZ_BASES)))
+    for _ in range(data.draw(st.integers(1, 3))):
+        _mutate(raw, data)
+    try:
+        scene = parse_scene(raw, scene_dir / "fuzz.toml")
+    except SceneError as exc:
+        assert exc.messages
+        for message in exc.messages:
+            assert isinstance(message, str) and "\n" not in message and "\r" not in message
+            assert message.startswith("fuzz.toml: ") and len(message) > len("fuzz.toml: ")
+    else:
+        assert isinstance(scene, Scene)
+
+
+_FUZZ_BASES = [raw_of(text) for text in (FULL, TUBE, HEMISPHERE, FILE_MESH)]
