@@ -38,7 +38,7 @@ class Stepper:
         self.timestep = TimeStep(state, cfg)
         self.mpm = cfg.method == "mpm"
         if self.mpm:
-            self.mapping = Mapping(state, cfg, self.nodes)
+            self.mapping = Mapping(state, cfg, self.nodes, 1e-12 * mass_ref)
             self.grid = GridUpdate(state, cfg, 1e-12 * mass_ref)
 
     # ------------------------------------------------------------------ one step

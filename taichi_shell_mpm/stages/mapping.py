@@ -16,11 +16,12 @@ from .constraints import NodeUpdate
 
 @ti.data_oriented
 class Mapping:
-    def __init__(self, state: State, cfg, nodes: NodeUpdate):
+    def __init__(self, state: State, cfg, nodes: NodeUpdate, mass_floor: float):
         self.s = state
         self.cfg = cfg
         self.nodes = nodes
         self.acc = Accumulator(cfg.serial)
+        self.mass_floor = mass_floor
         g = cfg.grid
         self.h = g.h
         self.lo = g.lo
@@ -101,6 +102,7 @@ class Mapping:
                 if inside:
                     v_delta = ti.Vector([0.0, 0.0, 0.0])
                     affine = ti.Matrix.zero(ti.f64, 3, 3)
+                    massive_grad = ti.Vector([0.0, 0.0, 0.0])
                     for off in ti.grouped(ti.ndrange(2, 2, 2)):
                         n, grad = self.weight(frac, off)
                         g = self.flat(base + off)
@@ -109,6 +111,14 @@ class Mapping:
                             v_delta += n * (self.s.grid_v_plus[g] - self.s.grid_v_minus[g])
                         if ti.static(self.cfg.transfer == "apic"):
                             affine += self.s.grid_v_plus[g].outer_product(grad)
+                            if self.s.grid_mass[g] > self.mass_floor:
+                                massive_grad += grad
+                    if ti.static(self.cfg.transfer == "apic"):
+                        # C = sum over nodes with mass of (v+_I - v~_c) grad N_I^T [choice]: a
+                        # massless node (weight 0, gradient not 0: a corner sitting on a grid
+                        # plane) carries no velocity, so it must not pull C towards -v/h.
+                        # Identical to sum v+_I grad N_I^T when all 8 nodes have mass.
+                        affine -= v_grid.outer_product(massive_grad)
                     carried = v_grid
                     if ti.static(self.cfg.transfer == "flip"):
                         a = self.cfg.flip_blend
