@@ -104,7 +104,12 @@ class Material:
     E: float
     nu: float
     density: float
-    model: Literal["elastic"] = "elastic"
+    model: Literal["elastic", "j2"] = "elastic"
+    """elastic: linear, corotational; j2: von Mises plane-stress plasticity (method.md 3.4)."""
+    yield_stress: float = 0.0
+    """Initial yield stress sigma_y0 (required, > 0, for model = "j2")."""
+    hardening: float = 0.0
+    """Linear isotropic hardening modulus H (0 = perfectly plastic)."""
 
 
 @dataclass(frozen=True)
@@ -552,7 +557,8 @@ _SELECTORS = ("all", "box", "plane", "nearest", "ids")
 
 _INFO = {"name": _file_name, "units": _nonempty, "description": _text}
 _MATERIAL = {"E": _positive, "nu": _number(-1, 0.5, lo_open=True, hi_open=True),
-             "density": _positive, "model": _choice("elastic")}
+             "density": _positive, "model": _choice("elastic", "j2"), "yield_stress": _positive,
+             "hardening": _non_negative}
 _SECTION = {"thickness": _positive, "points": _int(1, 10),
             "rule": _choice("lobatto", "gauss"), "shear_factor": _fraction}
 _ELEMENT = {"hourglass": _unit_interval}
@@ -756,6 +762,8 @@ class _SceneParser:
         info = self.plain("scene")
         mesh = self.part("mesh", self.mesh)
         material = self.plain("material")
+        if material is not None and material.model == "j2" and material.yield_stress <= 0:
+            self.error("[material].yield_stress", "missing required key for model = \"j2\"")
         section = self.part("section", self.section)
         element = self.plain("element")
         method = self.part("method", self.method)

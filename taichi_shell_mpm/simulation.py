@@ -23,6 +23,7 @@ from .reference import compare_with_reference
 from .scene import Scene
 from .solvers.stepper import Stepper
 from .stages.timestep import DT_UNSET, initial_dt
+from .stages.material import make_material
 from .state import STATUS_TEXT, State
 
 ARCHS = {"cpu": "cpu", "cuda": "cuda", "vulkan": "vulkan"}
@@ -56,8 +57,9 @@ class Simulation:
         self.model: Model = assemble(scene, self.mesh)
         batched = arch == "cpu" and len(self.model.quads) <= BATCHED_MAX_ELEMENTS
         self.cfg = replace(StepConfig.from_scene(scene, self.model), serial=batched)
-        self.state = State(self.model, self.cfg.transfer)
-        self.stepper = Stepper(self.state, self.cfg, float(self.model.node_mass.mean()), batched)
+        material = make_material(scene.material)
+        self.state = State(self.model, self.cfg.transfer, material.plastic)
+        self.stepper = Stepper(self.state, self.cfg, material, float(self.model.node_mass.mean()), batched)
         self._initial_geometry()
         t0 = time.perf_counter()
         self.stepper.advance(0)
@@ -103,7 +105,7 @@ class Simulation:
         s = self.state
         e = {"kinetic": self.kinetic_energy(), "internal": s.internal_energy[None],
              "hourglass": s.hourglass_energy[None], "external_work": s.external_work[None],
-             "damped": s.damped_energy[None]}
+             "damped": s.damped_energy[None], "plastic_work": s.plastic_work[None]}
         e["balance_error"] = (e["kinetic"] + e["internal"] + e["hourglass"] + e["damped"]
                               - self.initial_kinetic - e["external_work"])
         return e
@@ -136,8 +138,13 @@ class Simulation:
         m_res = 0.25 * t * t * np.einsum("k,mkc->mc", w * zeta, sig[:, :, :3])
         s = n_res / t
         vm = np.sqrt(np.maximum(s[:, 0] ** 2 - s[:, 0] * s[:, 1] + s[:, 1] ** 2 + 3 * s[:, 2] ** 2, 0.0))
-        return {"membrane_force": n_res, "bending_moment": m_res, "von_mises_mid": vm,
-                "thickness": np.full(len(sig), t)}
+        out = {"membrane_force": n_res, "bending_moment": m_res, "von_mises_mid": vm,
+               "thickness": np.full(len(sig), t)}
+        if self.state.plastic_strain is not None:
+            ep = self.state.plastic_strain.to_numpy()
+            out["plastic_strain_max"] = ep.max(axis=1)
+            out["plastic_strain_mean"] = ep @ (w / w.sum())
+        return out
 
     # ------------------------------------------------------------------ recording
     def record(self, key: float, frame: bool) -> None:

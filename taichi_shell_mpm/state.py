@@ -26,7 +26,7 @@ class State:
     """All fields of a run (SOA layout).  ``n_nodes``, ``n_elements``, ``n_points`` and the
     grid dimensions are fixed at construction; sizes are compile-time constants of the kernels."""
 
-    def __init__(self, model: Model, transfer: str):
+    def __init__(self, model: Model, transfer: str, plastic: bool):
         n, m = len(model.points), len(model.quads)
         nk = len(model.zeta)
         self.n_nodes, self.n_elements, self.n_points = n, m, nk
@@ -52,6 +52,7 @@ class State:
         self.corners = ti.Vector.field(4, ti.i32, m)
         self.stress = ti.Vector.field(5, f64, (m, nk))    # local (sxx, syy, sxy, txz, tyz) per point
         self.hourglass_resultant = ti.Vector.field(5, f64, m)   # Q = (QMx, QMy, QW, QBx, QBy), local
+        self.plastic_strain = ti.field(f64, (m, nk)) if plastic else None   # equivalent plastic strain
         # --- scalar step state
         self.dt = ti.field(f64, ())
         self.dt_next = ti.field(f64, ())
@@ -68,6 +69,7 @@ class State:
         self.kinetic_prev = ti.field(f64, ())
         self.internal_energy = ti.field(f64, ())
         self.hourglass_energy = ti.field(f64, ())
+        self.plastic_work = ti.field(f64, ())            # plastic dissipation (part of internal_energy)
         self.external_work = ti.field(f64, ())
         self.damped_energy = ti.field(f64, ())
         self.residual_sq = ti.field(f64, ())

@@ -20,7 +20,6 @@ from ..state import STATUS_CONVERGED, STATUS_OK, State
 from ..stages.constraints import NodeUpdate
 from ..stages.grid import GridUpdate
 from ..stages.mapping import Mapping
-from ..stages.material import PlaneStressElastic
 from ..stages.shell import ShellElement
 from ..stages.timestep import TimeStep
 
@@ -29,12 +28,12 @@ KINETIC_CONVERGED = 1e-8     # KE <= 1e-8 W_ext (method.md 6.4)
 
 @ti.data_oriented
 class Stepper:
-    def __init__(self, state: State, cfg, mass_ref: float, batched: bool):
+    def __init__(self, state: State, cfg, material, mass_ref: float, batched: bool):
         self.s = state
         self.cfg = cfg
         self.batched = batched
         self.nodes = NodeUpdate(state, cfg)
-        self.shell = ShellElement(state, cfg, PlaneStressElastic(cfg.E, cfg.nu))
+        self.shell = ShellElement(state, cfg, material)
         self.timestep = TimeStep(state, cfg)
         self.mpm = cfg.method == "mpm"
         if self.mpm:

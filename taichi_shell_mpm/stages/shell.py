@@ -120,11 +120,21 @@ class ShellElement:
         m_res = ti.Vector([0.0, 0.0, 0.0])       # M' = -int z sigma (paper sign)
         q_res = ti.Vector([0.0, 0.0])
         power = 0.0
+        plastic_work = 0.0
         for k, zw_k in ti.static(enumerate(self.points)):
             zeta, weight = zw_k
             d_inplane = membrane_rate + (0.5 * t * zeta) * curvature_rate
             old = self.s.stress[e, k]
-            new = self.material.update(old, dt * d_inplane, dt * shear_rate)
+            new = old
+            if ti.static(self.material.plastic):
+                updated, ep, work = self.material.update(old, self.s.plastic_strain[e, k], dt * d_inplane,
+                                                         dt * shear_rate)
+                new = updated
+                self.s.plastic_strain[e, k] = ep
+                plastic_work += weight * work
+            else:
+                updated, _, _ = self.material.update(old, 0.0, dt * d_inplane, dt * shear_rate)
+                new = updated
             self.s.stress[e, k] = new
             mid = 0.5 * (old + new)
             power += weight * (mid[0] * d_inplane[0] + mid[1] * d_inplane[1] + mid[2] * d_inplane[2]
@@ -165,6 +175,8 @@ class ShellElement:
             self.acc.add(self.s.area_sum, c[a], area)
         self.acc.total(self.s.internal_energy, dt * area_m * 0.5 * t * power)
         self.acc.total(self.s.hourglass_energy, dt * 0.5 * (q_old + q_new).dot(q_rate))
+        if ti.static(self.material.plastic):
+            self.acc.total(self.s.plastic_work, area_m * 0.5 * t * plastic_work)
         # --- element time-step limit (method.md 5): L_e = A / longest diagonal
         d13 = ti.Vector([x[2, 0] - x[0, 0], x[2, 1] - x[0, 1], x[2, 2] - x[0, 2]]).norm()
         d24 = ti.Vector([x[3, 0] - x[1, 0], x[3, 1] - x[1, 1], x[3, 2] - x[1, 2]]).norm()
