@@ -84,6 +84,12 @@ class TubeMesh:
     n_flat: int
     n_corner: int
     n_length: int
+    trigger_amplitude: float = 0.0
+    """Geometric trigger (benchmarks.md 3.1): normal offset a0 sin(pi (z - z0)/L) sin(pi s/b) on
+    each flat side for z in [z0, z0 + L], inward on the two x-faces and outward on the two
+    y-faces; corners untouched. 0 = no trigger."""
+    trigger_start: float = 5.0
+    trigger_length: float = 15.0
     kind: Literal["tube"] = "tube"
 
 
@@ -583,7 +589,8 @@ _MESHES: dict[str, tuple[type, dict[str, Validator]]] = {
                                     "quarter": _bool}),
     "tube": (TubeMesh, {"width": _positive, "depth": _positive, "corner_radius": _non_negative,
                         "length": _positive, "n_flat": _int(1), "n_corner": _int(0),
-                        "n_length": _int(1)}),
+                        "n_length": _int(1), "trigger_amplitude": _non_negative,
+                        "trigger_start": _non_negative, "trigger_length": _positive}),
     "file": (FileMesh, {"scale": _positive}),   # + "path", checked against the scene's folder
 }
 
