@@ -42,6 +42,23 @@ class ProbeSpec:
 
 
 @dataclass(frozen=True)
+class RigidBodySpec:
+    name: str
+    nodes: np.ndarray
+    added_mass: float
+    direction: tuple[float, float, float]   # unit
+    total_mass: float                       # added + slave nodes
+    velocity0: float                        # initial speed along direction
+
+
+@dataclass(frozen=True)
+class WallSpec:
+    point: tuple[float, float, float]
+    normal: tuple[float, float, float]      # unit
+    body: int                               # index of the rigid body it moves with, -1 = fixed
+
+
+@dataclass(frozen=True)
 class Model:
     points: np.ndarray            # (n, 3) reference coordinates
     quads: np.ndarray             # (m, 4) corner ids
@@ -61,6 +78,12 @@ class Model:
     probes: tuple[ProbeSpec, ...]
     min_edge: float
     mean_edge: float
+    max_edge: float
+    rigid_bodies: tuple[RigidBodySpec, ...] = ()
+    walls: tuple[WallSpec, ...] = ()
+    node_body: np.ndarray | None = None   # (n,) rigid body index of each node, -1 = none
+    neighbor_start: np.ndarray | None = None   # CSR: nodes sharing an element with node c (incl. c)
+    neighbor_nodes: np.ndarray | None = None
 
 
 def cpdi2_weights(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -193,6 +216,26 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
         velocity0[ids] = np.asarray(ic.velocity) + np.cross(w, points[ids] - np.asarray(ic.center))
         omega0[ids] = w
 
+    node_body = np.full(n, -1, dtype=np.int32)
+    bodies = []
+    for i, rb in enumerate(scene.rigid_bodies):
+        ids = nodes_of(rb.nodes)
+        if np.any(node_body[ids] >= 0):
+            raise SceneError(f"{scene.source.name}: [[rigid_body]] '{rb.name}': nodes already belong to "
+                             "another rigid body")
+        if np.any((fix_mask[ids] & 0b111) != 0):
+            raise SceneError(f"{scene.source.name}: [[rigid_body]] '{rb.name}': nodes also have fixed "
+                             "translations in a [[boundary]]")
+        node_body[ids] = i
+        d = np.asarray(rb.direction) / np.linalg.norm(rb.direction)
+        bodies.append(RigidBodySpec(rb.name, ids, rb.mass, tuple(d), rb.mass + float(node_mass[ids].sum()),
+                                    float(np.mean(velocity0[ids] @ d))))
+    names = [b.name for b in bodies]
+    walls = tuple(WallSpec(tuple(w.point), tuple(np.asarray(w.normal) / np.linalg.norm(w.normal)),
+                           names.index(w.moves_with) if w.moves_with else -1) for w in scene.walls)
+    for d in range(3):                       # supports do not move: no initial velocity there
+        velocity0[(fix_mask >> d) & 1 == 1, d] = 0.0
+        omega0[(fix_mask >> (3 + d)) & 1 == 1, d] = 0.0
     probes = tuple(ProbeSpec(p.name, nodes_of(p.nodes), p.components) for p in scene.probes)
     zeta, zw = through_thickness_rule(sec.rule, sec.points)
     min_edge = float(edges.min())
@@ -200,4 +243,15 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
     return Model(points=points, quads=quads, area0=area0, corner_weight=weight, node_mass=node_mass,
                  node_inertia=node_inertia, node_area=node_area, fix_mask=fix_mask, load_force=load_force,
                  load_moment=load_moment, velocity0=velocity0, omega0=omega0, zeta=zeta, zeta_weight=zw,
-                 grid=grid, probes=probes, min_edge=min_edge, mean_edge=float(edges.mean()))
+                 grid=grid, probes=probes, min_edge=min_edge, mean_edge=float(edges.mean()),
+                 max_edge=float(edges.max()), rigid_bodies=tuple(bodies), walls=walls, node_body=node_body,
+                 **(node_neighbors(quads, n) if scene.contact else {}))
+
+
+def node_neighbors(quads: np.ndarray, n: int) -> dict[str, np.ndarray]:
+    """CSR lists of the nodes sharing an element with each node (itself included): the
+    contact exclusion ring of method.md 7.3."""
+    pairs = np.stack(np.broadcast_arrays(quads[:, :, None], quads[:, None, :]), axis=-1).reshape(-1, 2)
+    pairs = np.unique(pairs, axis=0)
+    start = np.searchsorted(pairs[:, 0], np.arange(n + 1)).astype(np.int32)
+    return {"neighbor_start": start, "neighbor_nodes": pairs[:, 1].astype(np.int32)}

@@ -1,8 +1,8 @@
-"""Command line: ``python -m taichi_shell_mpm run|validate ...`` (thin: no physics here).
+"""Command line: ``python -m taichi_shell_mpm run|validate|render ...`` (thin: no physics here).
 
-Exit codes: 0 success, 2 scene/mesh error (user mistake, one line per problem),
-3 run-time failure (instability, non-convergence; frames written so far stay valid),
-130 interrupted (Ctrl-C).
+Exit codes: 0 success, 2 scene/mesh error (user mistake, one line per problem; for render:
+a bad output directory or option), 3 run-time failure (instability, non-convergence; frames
+written so far stay valid; for render: nothing could be drawn), 130 interrupted (Ctrl-C).
 """
 from __future__ import annotations
 
@@ -28,6 +28,17 @@ def _parser() -> argparse.ArgumentParser:
     val = sub.add_parser("validate", help="check a scene and its mesh without running")
     val.add_argument("scene", type=Path)
     val.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
+    ren = sub.add_parser("render", help="draw PNG pictures and plots of a run's output directory")
+    ren.add_argument("outdir", type=Path, help="output directory of a run (has frames.pvd)")
+    ren.add_argument("--frames", default="all", metavar="all|last|none|T1,T2,...",
+                     help="frames to draw, one PNG each: all, last, none, or those nearest to "
+                          "the given times / load factors (default all)")
+    ren.add_argument("--field", default=None, metavar="NAME[:K]",
+                     help="array to colour by (vectors: magnitude, or component K = 0..2 / x, y, z); "
+                          "default plastic_strain_max if present, else displacement")
+    ren.add_argument("--sheet", default=None, metavar="T1,T2,...|none",
+                     help="times of the side-by-side sheet (default 5,10,15 for a dynamic run "
+                          "reaching 15, else 3 evenly spread)")
     return p
 
 
@@ -101,6 +112,19 @@ def print_summary(summary: dict) -> None:
             print(f"vs reference {col:<45s} mean {100 * r['mean_rel_error']:.2f}%  max {100 * r['max_rel_error']:.2f}%")
 
 
+def _render(args) -> int:
+    from .render import RenderError, render
+    try:
+        written, warnings = render(args.outdir, frames=args.frames, field=args.field, sheet=args.sheet)
+    except RenderError as exc:
+        return _fail(exc.code, [str(exc)])
+    for w in warnings:
+        print(f"warning: {w}")
+    for path in written:
+        print(f"wrote {path}")
+    return 0
+
+
 def main(argv=None) -> int:
     args = _parser().parse_args(argv)
-    return _validate(args) if args.command == "validate" else _run(args)
+    return {"validate": _validate, "render": _render}.get(args.command, _run)(args)

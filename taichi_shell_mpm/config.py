@@ -33,6 +33,14 @@ class StepConfig:
     length_ref: float           # L_ref for the rotational residual (mean edge)
     grid: GridGeometry | None
     serial: bool = False        # batched serial launch: plain adds instead of atomics
+    bodies: tuple = ()          # (total mass, added mass, unit direction, first slave, slave count)
+    walls: tuple = ()           # (point, unit normal, rigid body index or -1)
+    contact: object = None      # scene.Contact or None (no contact kernels compiled)
+    contact_thickness: float = 0.0
+
+    @property
+    def has_contact(self) -> bool:
+        return self.contact is not None
 
     @staticmethod
     def from_scene(scene: Scene, model: Model) -> "StepConfig":
@@ -49,4 +57,14 @@ class StepConfig:
             dilatational_speed=math.sqrt((K + 4.0 * G / 3.0) / mat.density),
             dt_safety=scene.solve.dt_safety,
             grid_rule=scene.solve.dt_rule == "both" and scene.method.kind == "mpm",
-            length_ref=model.mean_edge, grid=model.grid)
+            length_ref=model.mean_edge, grid=model.grid,
+            bodies=tuple(_bodies(model)), walls=tuple((w.point, w.normal, w.body) for w in model.walls),
+            contact=scene.contact,
+            contact_thickness=(scene.contact.thickness or sec.thickness) if scene.contact else 0.0)
+
+
+def _bodies(model: Model):
+    start = 0
+    for b in model.rigid_bodies:
+        yield (b.total_mass, b.added_mass, b.direction, start, len(b.nodes))
+        start += len(b.nodes)

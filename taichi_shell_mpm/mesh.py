@@ -133,7 +133,26 @@ def _hemisphere(spec: HemisphereMesh) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _tube(spec: TubeMesh) -> tuple[np.ndarray, np.ndarray]:
-    """Rounded-rectangle tube along +z; rings counter-clockwise about +z from (w/2, -(d/2-r))."""
+    """Rounded-rectangle tube along +z; rings counter-clockwise about +z from (w/2, -(d/2-r)).
+
+    Ring layout: flat side x = +w/2 (going +y), fillet 0, flat y = +d/2 (going -x), fillet
+    1, flat x = -w/2, fillet 2, flat y = -d/2, fillet 3.  Each flat holds its start node
+    (the tangent point shared with the previous fillet) and its interior nodes.
+
+    Geometric trigger (benchmarks.md 3.1), when ``trigger_amplitude`` a0 != 0: each node of
+    a flat side is moved along that side's outward normal n by
+
+        w(s, z) = a0 sin(pi (z - z0) / L) sin(pi s / b)    for z0 <= z <= z0 + L, else 0,
+
+    with z0 = ``trigger_start``, L = ``trigger_length``, s in [0, b] the arc position across
+    the flat from one tangent point to the other and b its width between the fillets
+    (``depth`` - 2r on the two faces normal to x, ``width`` - 2r on the two faces normal to
+    y).  The offset is inward (-w n, |x| decreases) on the faces normal to x and outward
+    (+w n, |y| increases) on the faces normal to y, so adjacent sides buckle in opposite
+    directions (symmetric folding mode).  The fillet nodes are untouched (w = 0 at both
+    ends of a flat, so the section stays continuous), and so is every node outside
+    [z0, z0 + L]; a0 = 0 gives the exact untriggered mesh.
+    """
     r = spec.corner_radius
     if r < 0.0 or 2.0 * r > min(spec.width, spec.depth):
         raise SceneError("[mesh] tube: corner_radius must be in [0, min(width, depth)/2], "
@@ -158,8 +177,38 @@ def _tube(spec: TubeMesh) -> tuple[np.ndarray, np.ndarray]:
     ring = np.concatenate(ring)
     z = np.linspace(0.0, spec.length, spec.n_length + 1)
     points = np.column_stack([np.tile(ring, (z.size, 1)), np.repeat(z, len(ring))])
+    if spec.trigger_amplitude != 0.0:
+        points[:, :2] += _tube_trigger(spec, ring, z)
     # columns run counter-clockwise about +z, rows along +z: tangent x e_z is outward
     return points, _grid_quads(spec.n_length, len(ring), wrap=True)
+
+
+def _tube_trigger(spec: TubeMesh, ring: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """(len(z) * len(ring), 2) in-plane offsets of the trigger (see :func:`_tube`)."""
+    r, n_flat, n_corner = spec.corner_radius, spec.n_flat, spec.n_corner
+    z0, length = spec.trigger_start, spec.trigger_length
+    if not length > 0.0:
+        raise SceneError(f"[mesh] tube: trigger_length must be > 0, got {length}")
+    per_side = n_flat + n_corner
+    # per ring node: arc position s across its flat, flat width b, signed direction
+    s = np.zeros(len(ring))
+    b = np.ones(len(ring))
+    direction = np.zeros((len(ring), 2))
+    t_flat = np.arange(n_flat) / max(n_flat, 1)
+    for q in range(4):
+        ids = q * per_side + np.arange(n_flat)
+        width = (spec.depth if q % 2 == 0 else spec.width) - 2.0 * r
+        normal = np.array(_cos_sin_deg(90.0 * q), dtype=np.float64)
+        s[ids], b[ids] = t_flat * width, width
+        # faces normal to x (q = 0, 2) inward, faces normal to y (q = 1, 3) outward
+        direction[ids] = -normal if q % 2 == 0 else normal
+    # a zero-width flat (2r = width) has no interior: leave it untouched
+    across = np.sin(np.pi * np.clip(np.divide(s, b, out=np.zeros_like(s), where=b > 0.0),
+                                    0.0, 1.0))
+    inside = (z >= z0) & (z <= z0 + length)
+    along = np.where(inside, np.sin(np.pi * np.clip((z - z0) / length, 0.0, 1.0)), 0.0)
+    w = spec.trigger_amplitude * np.outer(along, across)           # (n_z, n_ring)
+    return (w[:, :, None] * direction[None, :, :]).reshape(-1, 2)
 
 
 # ---------------------------------------------------------------- import

@@ -215,6 +215,38 @@ class Reference:
     """Relative-error floor: e_i = |sim-ref| / max(|ref_i|, floor*max|ref|)."""
 
 
+@dataclass(frozen=True)
+class RigidBody:
+    """Nodes moving as one rigid body that translates along `direction` only, carrying an
+    added lumped `mass` (method.md 2.5c; the tube's 500 kg). Initial velocity: [[initial]]."""
+    name: str
+    nodes: str
+    mass: float = 0.0
+    direction: Vec3 = (0.0, 0.0, 1.0)
+
+
+@dataclass(frozen=True)
+class Wall:
+    """Rigid planar wall the shell mid-surface cannot approach closer than half the thickness
+    from the side `normal` points to (node-level, frictionless, method.md 7.5)."""
+    point: Vec3
+    normal: Vec3
+    moves_with: str | None = None
+    """Name of a [[rigid_body]] the wall translates with (None = fixed)."""
+
+
+@dataclass(frozen=True)
+class Contact:
+    """Penalty node-to-segment self-contact (method.md 7.3); present table = enabled."""
+    thickness: float | None = None
+    """Contact thickness t_c; None = the section thickness."""
+    stiffness: float = 0.1
+    """alpha_c in k = alpha_c m* / dt^2."""
+    friction: float = 0.0
+    damping: float = 0.1
+    """Fraction of critical damping of the contact spring."""
+
+
 # ---------------------------------------------------------------- solve / output
 @dataclass(frozen=True)
 class Solve:
@@ -235,6 +267,8 @@ class Output:
     every_steps: int = 0
     times: tuple[float, ...] = ()
     load_steps: bool = True
+    history_interval: float = 0.0
+    """Dynamic runs: also record probes, energies and forces every this much time (0 = only at frames)."""
 
 
 @dataclass(frozen=True)
@@ -254,6 +288,9 @@ class Scene:
     initial: tuple[InitialVelocity, ...] = ()
     probes: tuple[Probe, ...] = ()
     reference: Reference | None = None
+    rigid_bodies: tuple[RigidBody, ...] = ()
+    walls: tuple[Wall, ...] = ()
+    contact: Contact | None = None
 
     def nodeset(self, name: str) -> NodeSet:
         for s in self.nodesets:
@@ -557,7 +594,8 @@ def _times(value: Any) -> tuple[float, ...]:
 
 # ================================================================ table layout
 _TABLES = ("scene", "mesh", "material", "section", "element", "method", "nodesets",
-           "boundary", "load", "initial", "probe", "reference", "solve", "output")
+           "boundary", "load", "initial", "probe", "reference", "solve", "output", "rigid_body", "wall",
+           "contact")
 _REQUIRED_TABLES = ("scene", "mesh", "material", "section", "solve")
 _SELECTORS = ("all", "box", "plane", "nearest", "ids")
 
@@ -576,7 +614,7 @@ _SOLVE = {"kind": _choice("static", "dynamic"), "load_steps": _int(1),
           "end_time": _non_negative, "dt_safety": _fraction,
           "dt_rule": _choice("both", "shell"), "rotary_inertia": _choice("scaled", "physical"),
           "progress_every": _non_negative}
-_OUTPUT = {"every_steps": _int(0), "times": _times, "load_steps": _bool}
+_OUTPUT = {"every_steps": _int(0), "times": _times, "load_steps": _bool, "history_interval": _non_negative}
 _PLAIN_TABLES: dict[str, tuple[type, dict[str, Validator]]] = {
     "scene": (SceneInfo, _INFO), "material": (Material, _MATERIAL),
     "element": (ElementOptions, _ELEMENT), "output": (Output, _OUTPUT)}
@@ -782,12 +820,18 @@ class _SceneParser:
         reference = self.reference(self.raw["reference"]) if "reference" in self.raw else None
         solve = self.part("solve", self.solve)
         output = self.plain("output")
+        bodies = self.array("rigid_body", self.rigid_body)
+        walls = self.array("wall", self.wall)
+        contact = self.table_object("[contact]", self.raw["contact"], Contact, {
+            "thickness": _positive, "stiffness": _number(0, 1, lo_open=True), "friction": _non_negative,
+            "damping": _unit_interval}) if "contact" in self.raw else None
         if self.messages:
             raise SceneError(self.messages)
         return Scene(source=self.source, info=info, mesh=mesh, material=material, section=section,
                      element=element, method=method, solve=solve, output=output,
                      nodesets=tuple(nodesets), boundaries=tuple(boundaries), loads=tuple(loads),
-                     initial=tuple(initial), probes=tuple(probes), reference=reference)
+                     initial=tuple(initial), probes=tuple(probes), reference=reference,
+                     rigid_bodies=tuple(bodies), walls=tuple(walls), contact=contact)
 
     def mesh(self, data: Any) -> MeshSpec | None:
         if not isinstance(data, dict):
@@ -896,6 +940,21 @@ class _SceneParser:
         if v.get("force") == (0, 0, 0) and v.get("moment") == (0, 0, 0):
             self.error(path, "force and moment are both zero (give a non-zero force and/or moment)")
         return self.build(mark, Load, v)
+
+    def rigid_body(self, path: str, data: Any) -> RigidBody | None:
+        return self.table_object(path, data, RigidBody, {
+            "name": _identifier, "nodes": self.nodes, "mass": _non_negative, "direction": _nonzero_vec3})
+
+    def wall(self, path: str, data: Any) -> Wall | None:
+        mark = len(self.messages)
+        v = self.read(path, data, {"point": _vec3, "normal": _nonzero_vec3, "moves_with": _identifier}, Wall)
+        if v is None:
+            return None
+        bodies = [b.get("name") for b in self.raw.get("rigid_body", []) if isinstance(b, dict)]
+        if v.get("moves_with") is not None and v["moves_with"] not in bodies:
+            self.error(f"{path}.moves_with", f"no [[rigid_body]] named {v['moves_with']!r}"
+                       + _hint(v["moves_with"], bodies, "rigid bodies"))
+        return self.build(mark, Wall, v)
 
     def initial(self, path: str, data: Any) -> InitialVelocity | None:
         return self.table_object(path, data, InitialVelocity, {

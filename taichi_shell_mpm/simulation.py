@@ -30,6 +30,10 @@ ARCHS = {"cpu": "cpu", "cuda": "cuda", "vulkan": "vulkan"}
 BATCHED_MAX_ELEMENTS = 4000     # serial multi-step launches pay off below this on CPU
 
 
+ENERGY_COLUMNS = ("kinetic", "internal", "hourglass", "external_work", "damped", "wall", "contact",
+                  "plastic_work", "balance_error")
+
+
 class SimulationError(Exception):
     """A run-time failure (instability, non-convergence); message is one line."""
 
@@ -45,6 +49,7 @@ class History:
     probe_header: list[str]
     probe_rows: list[list[float]] = field(default_factory=list)
     energy_rows: list[list[float]] = field(default_factory=list)
+    force_rows: list[list[float]] = field(default_factory=list)
 
 
 class Simulation:
@@ -58,8 +63,8 @@ class Simulation:
         batched = arch == "cpu" and len(self.model.quads) <= BATCHED_MAX_ELEMENTS
         self.cfg = replace(StepConfig.from_scene(scene, self.model), serial=batched)
         material = make_material(scene.material)
-        self.state = State(self.model, self.cfg.transfer, material.plastic)
-        self.stepper = Stepper(self.state, self.cfg, material, float(self.model.node_mass.mean()), batched)
+        self.state = State(self.model, self.cfg.transfer, material.plastic, scene.contact is not None)
+        self.stepper = Stepper(self.state, self.cfg, material, self.model, batched)
         self._initial_geometry()
         t0 = time.perf_counter()
         self.stepper.advance(0)
@@ -99,15 +104,18 @@ class Simulation:
         m, J = self.model.node_mass, self.model.node_inertia
         v = self.state.grid_velocity.to_numpy()
         w = self.state.omega.to_numpy()
-        return float(0.5 * np.sum(m * np.sum(v * v, axis=1)) + 0.5 * np.sum(J * np.sum(w * w, axis=1)))
+        bodies = sum(0.5 * b.added_mass * self.state.body_velocity[i] ** 2
+                     for i, b in enumerate(self.model.rigid_bodies))
+        return float(0.5 * np.sum(m * np.sum(v * v, axis=1)) + 0.5 * np.sum(J * np.sum(w * w, axis=1)) + bodies)
 
     def energies(self) -> dict[str, float]:
         s = self.state
         e = {"kinetic": self.kinetic_energy(), "internal": s.internal_energy[None],
              "hourglass": s.hourglass_energy[None], "external_work": s.external_work[None],
-             "damped": s.damped_energy[None], "plastic_work": s.plastic_work[None]}
-        e["balance_error"] = (e["kinetic"] + e["internal"] + e["hourglass"] + e["damped"]
-                              - self.initial_kinetic - e["external_work"])
+             "damped": s.damped_energy[None], "plastic_work": s.plastic_work[None],
+             "wall": s.wall_energy[None], "contact": s.contact_energy[None] if s.contact else 0.0}
+        e["balance_error"] = (e["kinetic"] + e["internal"] + e["hourglass"] + e["damped"] + e["wall"]
+                              + e["contact"] - self.initial_kinetic - e["external_work"])
         return e
 
     def displacements(self) -> tuple[np.ndarray, np.ndarray]:
@@ -150,8 +158,11 @@ class Simulation:
     def record(self, key: float, frame: bool) -> None:
         self.history.probe_rows.append([key] + self.probe_values())
         e = self.energies()
-        self.history.energy_rows.append([key, e["kinetic"], e["internal"], e["hourglass"],
-                                         e["external_work"], e["damped"], e["balance_error"]])
+        self.history.energy_rows.append([key] + [e[k] for k in ENERGY_COLUMNS])
+        s = self.state
+        self.history.force_rows.append([key] + s.reaction[None].to_numpy().tolist()
+                                       + [s.body_displacement[i] for i in range(len(self.model.rigid_bodies))]
+                                       + [s.body_force[i] for i in range(len(self.model.rigid_bodies))])
         if frame:
             self.write_frame(key)
 
@@ -179,8 +190,10 @@ class Simulation:
         out.mkdir(parents=True, exist_ok=True)
         write_csv(out / "probes.csv", self.history.probe_header, self.history.probe_rows)
         key = self.history.probe_header[0]
-        write_csv(out / "energy.csv", [key, "kinetic", "internal", "hourglass", "external_work", "damped",
-                                       "balance_error"], self.history.energy_rows)
+        write_csv(out / "energy.csv", [key, *ENERGY_COLUMNS], self.history.energy_rows)
+        names = [b.name for b in self.model.rigid_bodies]
+        write_csv(out / "force.csv", [key, "support_x", "support_y", "support_z"]
+                  + [f"{b}.displacement" for b in names] + [f"{b}.force" for b in names], self.history.force_rows)
         e = self.energies()
         summary = {
             "scene": self.scene.info.name, "source": str(self.scene.source), "method": self.cfg.method,

@@ -26,7 +26,7 @@ class State:
     """All fields of a run (SOA layout).  ``n_nodes``, ``n_elements``, ``n_points`` and the
     grid dimensions are fixed at construction; sizes are compile-time constants of the kernels."""
 
-    def __init__(self, model: Model, transfer: str, plastic: bool):
+    def __init__(self, model: Model, transfer: str, plastic: bool, contact: bool):
         n, m = len(model.points), len(model.quads)
         nk = len(model.zeta)
         self.n_nodes, self.n_elements, self.n_points = n, m, nk
@@ -47,6 +47,7 @@ class State:
         self.fix_mask = ti.field(ti.i32, n)               # bits ux uy uz rx ry rz
         self.normal_sum = ti.Vector.field(3, f64, n)      # sum_e A_e e3 (nodal normal, method.md 2.3)
         self.area_sum = ti.field(f64, n)
+        self.node_body = ti.field(ti.i32, n)              # rigid body of the node, -1 = none
         self.affine = ti.Matrix.field(3, 3, f64, n) if transfer == "apic" else None   # C_c (method.md 2.2)
         # --- elements (= material points)
         self.corners = ti.Vector.field(4, ti.i32, m)
@@ -75,8 +76,24 @@ class State:
         self.residual_sq = ti.field(f64, ())
         self.load_norm_sq = ti.field(f64, ())
         self.max_speed = ti.field(f64, ())
+        self.reaction = ti.Vector.field(3, f64, ())      # force the fixed supports exert on the shell
+        self.wall_energy = ti.field(f64, ())             # KE removed by (inelastic) rigid walls
         self.status = ti.field(ti.i32, ())
         self.status_index = ti.field(ti.i32, ())
+        # --- rigid bodies (method.md 2.5c): speed and displacement along their direction
+        nb = max(1, len(model.rigid_bodies))
+        self.body_velocity = ti.field(f64, nb)
+        self.body_displacement = ti.field(f64, nb)
+        self.body_force = ti.field(f64, nb)               # force on the body from its slave nodes
+        self.body_impulse = ti.field(f64, nb)             # wall impulse on the body this step
+        self.slave_nodes = ti.field(ti.i32, max(1, sum(len(b.nodes) for b in model.rigid_bodies)))
+        # --- self-contact (method.md 7.3), only when the scene asks for it
+        self.contact = contact
+        if contact:
+            self.force_contact = ti.Vector.field(3, f64, n)
+            self.contact_energy = ti.field(f64, ())      # work done against contact forces
+            self.max_penetration = ti.field(f64, ())     # largest g / t_c seen
+            self.contact_pairs = ti.field(ti.i32, ())
         # --- background grid (mpm only), flattened; only touched nodes are cleared
         self.grid = model.grid
         if model.grid is not None:
@@ -112,6 +129,10 @@ class State:
         self.load_moment.from_numpy(model.load_moment)
         self.fix_mask.from_numpy(model.fix_mask)
         self.corners.from_numpy(model.quads.astype(np.int32))
+        self.node_body.from_numpy(model.node_body)
+        if model.rigid_bodies:
+            self.body_velocity.from_numpy(np.array([b.velocity0 for b in model.rigid_bodies]))
+            self.slave_nodes.from_numpy(np.concatenate([b.nodes for b in model.rigid_bodies]).astype(np.int32))
         self.restart_factor[None] = 1.0
         self.velocity_keep[None] = 1.0
         self.time_limit[None] = np.inf

@@ -297,3 +297,73 @@ def test_nodeset_empty_messages(plate_points):
         select_nodes(NodeSet(name="e", kind="ids"), plate_points)
     with pytest.raises(SceneError, match="needs normal"):
         select_nodes(NodeSet(name="p", kind="plane", point=(0, 0, 0)), plate_points)
+
+
+# ---------------------------------------------------------------- tube trigger
+TUBE = dict(width=60.0, depth=40.0, corner_radius=5.0, length=60.0, n_flat=10, n_corner=2,
+            n_length=30)
+
+
+def test_tube_trigger_shape():
+    a0, z0, lt = 0.5, 4.0, 16.0
+    plain = build_mesh(TubeMesh(**TUBE))
+    trig = build_mesh(TubeMesh(**TUBE, trigger_amplitude=a0, trigger_start=z0,
+                               trigger_length=lt))
+    np.testing.assert_array_equal(trig.quads, plain.quads)
+    assert trig.warnings == ()
+    delta = trig.points - plain.points
+    assert (delta[:, 2] == 0.0).all()
+    offset = np.linalg.norm(delta, axis=1)
+    # z step 2 (a node row at z0 + L/2); flat steps 3 (x-faces, b = 30) and 5 (y-faces,
+    # b = 50), with a node on each centre line: the sampled maximum is a0 itself
+    assert offset.max() == pytest.approx(a0, rel=1e-12)
+    peak = np.argmax(offset)
+    assert plain.points[peak, 2] == pytest.approx(z0 + lt / 2)
+    moved = offset > 1e-12
+    z = plain.points[:, 2]
+    assert (z[moved] > z0).all() and (z[moved] < z0 + lt).all()
+    assert (offset[(z < z0) | (z > z0 + lt)] == 0.0).all()
+
+    ca, cb = TUBE["width"] / 2 - 5.0, TUBE["depth"] / 2 - 5.0
+    x, y = plain.points[:, 0], plain.points[:, 1]
+    x_face = np.isclose(np.abs(x), TUBE["width"] / 2) & (np.abs(y) < cb - 1e-9)
+    y_face = np.isclose(np.abs(y), TUBE["depth"] / 2) & (np.abs(x) < ca - 1e-9)
+    fillet = ~(x_face | y_face)
+    assert (offset[fillet] == 0.0).all()          # corners (and tangent points) untouched
+    assert moved[x_face].any() and moved[y_face].any()
+    # x-faces move inward along x only, y-faces outward along y only
+    xf, yf = x_face & moved, y_face & moved
+    assert (np.abs(trig.points[xf, 0]) < np.abs(x[xf])).all() and (delta[xf, 1] == 0.0).all()
+    assert (np.abs(trig.points[yf, 1]) > np.abs(y[yf])).all() and (delta[yf, 0] == 0.0).all()
+    # the formula, node by node: s across the flat from its tangent point
+    zr = np.sin(np.pi * (z - z0) / lt)
+    sx = (y + cb) / (2 * cb)
+    sy = (x + ca) / (2 * ca)
+    np.testing.assert_allclose(offset[xf], a0 * zr[xf] * np.sin(np.pi * sx[xf]), atol=1e-12)
+    np.testing.assert_allclose(offset[yf], a0 * zr[yf] * np.sin(np.pi * sy[yf]), atol=1e-12)
+    # the maximum of each face lies on its centre line at the mid-height of the trigger
+    mid = np.isclose(z, z0 + lt / 2)
+    for centre in (x_face & mid & np.isclose(y, 0.0), y_face & mid & np.isclose(x, 0.0)):
+        assert centre.sum() == 2
+        np.testing.assert_allclose(offset[centre], a0, rtol=1e-12)
+
+
+def test_tube_trigger_default_is_untriggered():
+    plain = build_mesh(TubeMesh(**TUBE))
+    zero = build_mesh(TubeMesh(**TUBE, trigger_amplitude=0.0, trigger_start=0.0,
+                               trigger_length=60.0))
+    np.testing.assert_array_equal(zero.points, plain.points)
+    assert TubeMesh(**TUBE).trigger_amplitude == 0.0
+
+
+def test_tube_trigger_sharp_corners():
+    spec = dict(width=2.0, depth=1.0, corner_radius=0.0, length=2.0, n_flat=4, n_corner=0,
+                n_length=4)
+    plain = build_mesh(TubeMesh(**spec))
+    trig = build_mesh(TubeMesh(**spec, trigger_amplitude=0.1, trigger_start=0.0,
+                               trigger_length=2.0))
+    offset = np.linalg.norm(trig.points - plain.points, axis=1)
+    corners = np.isclose(np.abs(plain.points[:, 0]), 1.0) & np.isclose(
+        np.abs(plain.points[:, 1]), 0.5)
+    assert (offset[corners] == 0.0).all()
+    assert offset.max() == pytest.approx(0.1)

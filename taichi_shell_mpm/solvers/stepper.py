@@ -17,7 +17,9 @@ the end of each step, so a batch stops exactly at convergence.
 import taichi as ti
 
 from ..state import STATUS_CONVERGED, STATUS_OK, State
+from ..stages.bodies import RigidBodies
 from ..stages.constraints import NodeUpdate
+from ..stages.contact import SelfContact
 from ..stages.grid import GridUpdate
 from ..stages.mapping import Mapping
 from ..stages.shell import ShellElement
@@ -28,11 +30,14 @@ KINETIC_CONVERGED = 1e-8     # KE <= 1e-8 W_ext (method.md 6.4)
 
 @ti.data_oriented
 class Stepper:
-    def __init__(self, state: State, cfg, material, mass_ref: float, batched: bool):
+    def __init__(self, state: State, cfg, material, model, batched: bool):
         self.s = state
         self.cfg = cfg
         self.batched = batched
-        self.nodes = NodeUpdate(state, cfg)
+        mass_ref = float(model.node_mass.mean())
+        self.bodies = RigidBodies(state, cfg)
+        self.nodes = NodeUpdate(state, cfg, self.bodies)
+        self.contact = SelfContact(state, cfg, model) if cfg.contact is not None else None
         self.shell = ShellElement(state, cfg, material)
         self.timestep = TimeStep(state, cfg)
         self.mpm = cfg.method == "mpm"
@@ -46,12 +51,18 @@ class Stepper:
         self.s.kinetic[None] = 0.0
         self.s.residual_sq[None] = 0.0
         self.s.max_speed[None] = 0.0
+        self.s.reaction[None] = ti.Vector([0.0, 0.0, 0.0])
+        if ti.static(self.cfg.has_contact):
+            self.s.contact_pairs[None] = 0
+            self.contact.forces()
         if ti.static(self.mpm):
             self.s.n_touched[None] = 0
 
     @ti.func
     def velocity_update(self):
         """S2-S6: new nodal velocities, positions and rotations (grid or direct FE)."""
+        if ti.static(len(self.cfg.bodies) > 0):
+            self.bodies.update()
         if ti.static(self.mpm):
             self.mapping.particles_to_grid()
             self.grid.update()
@@ -63,6 +74,9 @@ class Stepper:
     @ti.func
     def end(self):
         """S8: time, dynamic-relaxation reset and convergence (static), next dt."""
+        if ti.static(len(self.cfg.bodies) > 0):
+            self.bodies.apply_wall_impulses()
+            self.s.kinetic[None] += self.bodies.kinetic_energy()
         self.s.time[None] += self.s.dt[None]
         self.s.step[None] += 1
         self.s.velocity_keep[None] = 1.0

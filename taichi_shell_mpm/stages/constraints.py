@@ -25,16 +25,18 @@ def drop_fixed(vec, mask, first_bit: ti.template()):
 
 @ti.data_oriented
 class NodeUpdate:
-    def __init__(self, state: State, cfg):
+    def __init__(self, state: State, cfg, bodies):
         self.s = state
         self.cfg = cfg
+        self.bodies = bodies
         self.runaway_speed = 10.0 * cfg.wave_speed
         self.acc = Accumulator(cfg.serial)
 
     @ti.func
     def is_prescribed(self, c):
-        """Fully prescribed translation: Lagrangian only, skipped by P2G/G2P (method.md 2.5a)."""
-        return (self.s.fix_mask[c] & FIXED_TRANSLATION) == FIXED_TRANSLATION
+        """Fully prescribed translation or rigid-body slave: Lagrangian only, skipped by P2G/G2P
+        (method.md 2.5a, 2.5c)."""
+        return (self.s.fix_mask[c] & FIXED_TRANSLATION) == FIXED_TRANSLATION or self.s.node_body[c] >= 0
 
     @ti.func
     def drill_normal(self, c):
@@ -47,6 +49,8 @@ class NodeUpdate:
     def residual_force(self, c):
         """Out-of-balance nodal force f_ext - f_int with fixed components dropped."""
         r = self.s.load_factor[None] * self.s.load_force[c] - self.s.force_int[c]
+        if ti.static(self.cfg.has_contact):
+            r += self.s.force_contact[c]
         return drop_fixed(r, self.s.fix_mask[c], 0)
 
     @ti.func
@@ -58,6 +62,19 @@ class NodeUpdate:
         mask = self.s.fix_mask[c]
         lam = self.s.load_factor[None]
         vg = drop_fixed(v_grid, mask, 0)
+        rigid = self.s.node_body[c] >= 0
+        if ti.static(len(self.cfg.bodies) > 0):
+            if rigid:
+                vg = self.bodies.slave_velocity(c)
+        if (mask & FIXED_TRANSLATION) == FIXED_TRANSLATION:
+            # support reaction R = f_int - f_ext - f_con (method.md 2.5a)
+            reaction = self.s.force_int[c] - lam * self.s.load_force[c]
+            if ti.static(self.cfg.has_contact):
+                reaction -= self.s.force_contact[c]
+            self.acc.total(self.s.reaction, reaction)
+        elif ti.static(len(self.cfg.walls) > 0):
+            if not rigid:
+                vg = self.bodies.walls(c, vg)
         if not (vg.norm() <= self.runaway_speed):       # also catches NaN
             self.s.status[None] = STATUS_NONFINITE
             self.s.status_index[None] = c
@@ -71,12 +88,16 @@ class NodeUpdate:
             w -= w.dot(normal) * normal
             torque -= torque.dot(normal) * normal
         w = drop_fixed(w, mask, 3)
+        if rigid:
+            w = ti.Vector([0.0, 0.0, 0.0])
         self.s.omega[c] = w
         self.rotate_orientation(c, dt * w)
         torque = drop_fixed(torque, mask, 3)
         self.acc.total(self.s.residual_sq, torque.norm_sqr() / (self.cfg.length_ref ** 2))
         self.acc.total(self.s.kinetic, 0.5 * (self.s.corner_mass[c] * vg.norm_sqr() + self.s.corner_inertia[c] * w.norm_sqr()))
         self.acc.total(self.s.external_work, dt * lam * (self.s.load_force[c].dot(vg) + self.s.load_moment[c].dot(w)))
+        if ti.static(self.cfg.has_contact):
+            self.acc.total(self.s.contact_energy, -dt * self.s.force_contact[c].dot(vg))
         self.acc.maximum(self.s.max_speed, ti.max(ti.abs(vg[0]), ti.abs(vg[1]), ti.abs(vg[2])))
         self.s.force_int[c] = ti.Vector([0.0, 0.0, 0.0])
         self.s.moment_int[c] = ti.Vector([0.0, 0.0, 0.0])

@@ -1,0 +1,85 @@
+"""Rigid bodies with added mass and rigid planar walls (stage S6; method.md 2.5c, 7.5).
+
+A rigid body translates along one direction: its slave nodes are Lagrangian only
+(skipped by P2G/G2P), the force their elements exert is summed, and
+M_tot V' = F (M_tot = added mass + slave node masses).  A wall keeps every free node's
+mid-surface at least half the shell thickness on the side its normal points to, by a
+velocity correction after G2P (frictionless, perfectly inelastic); the KE it removes is
+booked as wall energy, and a moving wall's impulse goes back to its rigid body.
+"""
+import taichi as ti
+
+from .accumulate import Accumulator
+
+
+@ti.data_oriented
+class RigidBodies:
+    def __init__(self, state, cfg):
+        self.s = state
+        self.cfg = cfg
+        self.acc = Accumulator(cfg.serial)
+        self.half_thickness = 0.5 * cfg.thickness
+
+    @ti.func
+    def update(self):
+        """V^{n+1/2} = V^{n-1/2} + dt F / M_tot with F = sum over slaves of (f_ext - f_int + f_con).dir."""
+        for b, body in ti.static(enumerate(self.cfg.bodies)):
+            d = ti.Vector(body[2], dt=ti.f64)
+            force = 0.0
+            for i in range(body[3], body[3] + body[4]):
+                c = self.s.slave_nodes[i]
+                f = self.s.load_factor[None] * self.s.load_force[c] - self.s.force_int[c]
+                if ti.static(self.cfg.has_contact):
+                    f += self.s.force_contact[c]
+                force += f.dot(d)
+            self.s.body_force[b] = force
+            self.s.body_velocity[b] = self.s.velocity_keep[None] * self.s.body_velocity[b] + \
+                self.s.restart_factor[None] * self.s.dt[None] * force / body[0]
+            self.s.body_displacement[b] += self.s.dt[None] * self.s.body_velocity[b]
+
+    @ti.func
+    def slave_velocity(self, c):
+        v = ti.Vector([0.0, 0.0, 0.0])
+        for b, body in ti.static(enumerate(self.cfg.bodies)):
+            if self.s.node_body[c] == b:
+                v = self.s.body_velocity[b] * ti.Vector(body[2], dt=ti.f64)
+        return v
+
+    @ti.func
+    def walls(self, c, v):
+        """Correct the velocity of free node c so that it ends the step outside every wall."""
+        out = v
+        for w in ti.static(self.cfg.walls):
+            n = ti.Vector(w[1], dt=ti.f64)
+            p = ti.Vector(w[0], dt=ti.f64)
+            if ti.static(w[2] >= 0):
+                p += self.s.body_displacement[w[2]] * ti.Vector(self.cfg.bodies[w[2]][2], dt=ti.f64)   # at t^{n+1}
+            gap = (self.s.position[c] + self.s.dt[None] * out - p).dot(n) - self.half_thickness
+            if gap < 0.0 and self.s.dt[None] > 0.0:
+                dv = -gap / self.s.dt[None]          # land exactly on the wall's offset plane
+                before = out.norm_sqr()
+                out += dv * n
+                m = self.s.corner_mass[c]
+                self.acc.total(self.s.wall_energy, 0.5 * m * (before - out.norm_sqr()))
+                if ti.static(w[2] >= 0):
+                    self.acc.add(self.s.body_impulse, w[2],
+                                 -m * dv * n.dot(ti.Vector(self.cfg.bodies[w[2]][2], dt=ti.f64)))
+        return out
+
+    @ti.func
+    def apply_wall_impulses(self):
+        """A moving wall pushes its rigid body back (end of step); its KE change is wall energy."""
+        for b, body in ti.static(enumerate(self.cfg.bodies)):
+            dv = self.s.body_impulse[b] / body[0]
+            v_old = self.s.body_velocity[b]
+            self.s.body_velocity[b] = v_old + dv
+            self.s.wall_energy[None] += 0.5 * body[0] * (v_old ** 2 - (v_old + dv) ** 2)
+            self.s.body_impulse[b] = 0.0
+
+    @ti.func
+    def kinetic_energy(self):
+        """KE of the added masses (the slave nodes' share is in the nodal KE)."""
+        ke = 0.0
+        for b, body in ti.static(enumerate(self.cfg.bodies)):
+            ke += 0.5 * body[1] * self.s.body_velocity[b] ** 2
+        return ke

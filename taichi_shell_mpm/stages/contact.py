@@ -1,0 +1,196 @@
+"""Penalty node-to-segment self-contact (stage S1; method.md 7.3), compiled only for scenes
+with a [contact] table.
+
+Segments are the element faces split into triangles (1,2,3), (1,3,4), both sides active,
+contact thickness t_c.  Search: element centroids in a spatial hash (cell = longest edge +
+t_c, 27-cell query, a bounding-sphere reject).  Excluded: elements touching the node's
+one-ring of nodes.  Each node takes its single closest penetrating segment [choice: no
+double counting where segments meet]; the force k g + c g' along the closest-point
+direction (so edges and vertices are handled too) goes to the node and, with the
+barycentric weights, back to the segment's corners.  k = alpha_c m*/dt^2 (stable for any
+dt, like LS-DYNA SOFT=1), damping a fraction of critical.  Friction [choice]: Coulomb
+regularised by the tangential slip speed, mu |F_n| v_t / sqrt(|v_t|^2 + v_eps^2), which
+needs no per-pair history.  Contact energy is the work done against the contact forces
+(booked at the node update, :mod:`.constraints`).
+"""
+import numpy as np
+import taichi as ti
+
+from .accumulate import Accumulator
+
+
+@ti.func
+def closest_point_on_triangle(p, a, b, c):
+    """Closest point to p on triangle abc and its barycentric weights (Ericson 2005, 5.1.5)."""
+    ab, ac, ap = b - a, c - a, p - a
+    d1, d2 = ab.dot(ap), ac.dot(ap)
+    bp = p - b
+    d3, d4 = ab.dot(bp), ac.dot(bp)
+    cp = p - c
+    d5, d6 = ab.dot(cp), ac.dot(cp)
+    va = d3 * d6 - d5 * d4
+    vb = d5 * d2 - d1 * d6
+    vc = d1 * d4 - d3 * d2
+    bary = ti.Vector([0.0, 0.0, 0.0])
+    if d1 <= 0.0 and d2 <= 0.0:
+        bary = ti.Vector([1.0, 0.0, 0.0])
+    elif d3 >= 0.0 and d4 <= d3:
+        bary = ti.Vector([0.0, 1.0, 0.0])
+    elif vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
+        v = d1 / (d1 - d3)
+        bary = ti.Vector([1.0 - v, v, 0.0])
+    elif d6 >= 0.0 and d5 <= d6:
+        bary = ti.Vector([0.0, 0.0, 1.0])
+    elif vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
+        w = d2 / (d2 - d6)
+        bary = ti.Vector([1.0 - w, 0.0, w])
+    elif va <= 0.0 and (d4 - d3) >= 0.0 and (d5 - d6) >= 0.0:
+        w = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+        bary = ti.Vector([0.0, 1.0 - w, w])
+    else:
+        denom = 1.0 / (va + vb + vc)
+        v = vb * denom
+        w = vc * denom
+        bary = ti.Vector([1.0 - v - w, v, w])
+    return bary[0] * a + bary[1] * b + bary[2] * c, bary
+
+
+@ti.data_oriented
+class SelfContact:
+    def __init__(self, state, cfg, model):
+        self.s = state
+        self.cfg = cfg
+        self.acc = Accumulator(cfg.serial)
+        spec = cfg.contact
+        self.t_c = cfg.contact_thickness
+        self.alpha = spec.stiffness
+        self.damping = spec.damping
+        self.friction = spec.friction
+        self.slip_eps = 1e-6 * cfg.wave_speed
+        self.cell = model.max_edge + self.t_c
+        m = len(model.quads)
+        self.n_elements = m
+        self.table = 1 << int(np.ceil(np.log2(2 * m)))          # hash table size (power of 2)
+        n = len(model.points)
+        self.neighbor_start = ti.field(ti.i32, n + 1)
+        self.neighbor_nodes = ti.field(ti.i32, len(model.neighbor_nodes))
+        self.neighbor_start.from_numpy(model.neighbor_start)
+        self.neighbor_nodes.from_numpy(model.neighbor_nodes)
+        self.cell_count = ti.field(ti.i32, self.table)
+        self.cell_start = ti.field(ti.i32, self.table + 1)
+        self.cell_items = ti.field(ti.i32, m)
+        self.element_slot = ti.field(ti.i32, m)
+        self.element_radius = ti.field(ti.f64, m)
+
+    @ti.func
+    def hash(self, cell):
+        h = (cell[0] * 73856093) ^ (cell[1] * 19349663) ^ (cell[2] * 83492791)
+        return h & (self.table - 1)
+
+    @ti.func
+    def cell_of(self, x):
+        return ti.floor(x / self.cell, ti.i32)
+
+    @ti.func
+    def centroid(self, e):
+        c = self.s.corners[e]
+        return 0.25 * (self.s.position[c[0]] + self.s.position[c[1]] + self.s.position[c[2]] + self.s.position[c[3]])
+
+    @ti.func
+    def build_hash(self):
+        """Counting sort of element centroids into hash slots."""
+        for h in range(self.table):
+            self.cell_count[h] = 0
+        for e in range(self.n_elements):
+            centre = self.centroid(e)
+            slot = self.hash(self.cell_of(centre))
+            self.element_slot[e] = slot
+            radius = 0.0
+            c = self.s.corners[e]
+            for a in ti.static(range(4)):
+                radius = ti.max(radius, (self.s.position[c[a]] - centre).norm())
+            self.element_radius[e] = radius
+            self.acc.add(self.cell_count, slot, 1)
+        self.cell_start[0] = 0
+        ti.loop_config(serialize=True)
+        for h in range(self.table):
+            self.cell_start[h + 1] = self.cell_start[h] + self.cell_count[h]
+            self.cell_count[h] = 0
+        for e in range(self.n_elements):
+            slot = self.element_slot[e]
+            k = 0
+            if ti.static(self.cfg.serial):
+                k = self.cell_count[slot]
+                self.cell_count[slot] = k + 1
+            else:
+                k = ti.atomic_add(self.cell_count[slot], 1)
+            self.cell_items[self.cell_start[slot] + k] = e
+
+    @ti.func
+    def excluded(self, c, e):
+        """True if element e touches the one-ring of node c (its own or adjacent elements)."""
+        corners = self.s.corners[e]
+        out = False
+        for i in range(self.neighbor_start[c], self.neighbor_start[c + 1]):
+            q = self.neighbor_nodes[i]
+            for a in ti.static(range(4)):
+                if corners[a] == q:
+                    out = True
+        return out
+
+    @ti.func
+    def forces(self):
+        """S1: zero the contact forces, search, and apply the penalty forces at x^n."""
+        for c in range(self.s.n_nodes):
+            self.s.force_contact[c] = ti.Vector([0.0, 0.0, 0.0])
+        self.build_hash()
+        dt = self.s.dt[None]
+        for c in range(self.s.n_nodes):
+            x = self.s.position[c]
+            home = self.cell_of(x)
+            best_dist = self.t_c
+            best_e = -1
+            best_point = ti.Vector([0.0, 0.0, 0.0])
+            best_w = ti.Vector([0.0, 0.0, 0.0, 0.0])
+            for off in ti.grouped(ti.ndrange((-1, 2), (-1, 2), (-1, 2))):
+                slot = self.hash(home + off)
+                for i in range(self.cell_start[slot], self.cell_start[slot + 1]):
+                    e = self.cell_items[i]
+                    if (x - self.centroid(e)).norm() <= self.element_radius[e] + self.t_c:
+                        if not self.excluded(c, e):
+                            corners = self.s.corners[e]
+                            p0, p1 = self.s.position[corners[0]], self.s.position[corners[1]]
+                            p2, p3 = self.s.position[corners[2]], self.s.position[corners[3]]
+                            qa, ba = closest_point_on_triangle(x, p0, p1, p2)
+                            qb, bb = closest_point_on_triangle(x, p0, p2, p3)
+                            da, db = (x - qa).norm(), (x - qb).norm()
+                            if da < best_dist:
+                                best_dist, best_e, best_point = da, e, qa
+                                best_w = ti.Vector([ba[0], ba[1], ba[2], 0.0])
+                            if db < best_dist:
+                                best_dist, best_e, best_point = db, e, qb
+                                best_w = ti.Vector([bb[0], 0.0, bb[1], bb[2]])
+            if best_e >= 0 and best_dist > 0.0 and dt > 0.0:
+                corners = self.s.corners[best_e]
+                normal = (x - best_point) / best_dist
+                gap = self.t_c - best_dist
+                m_seg = 0.0
+                v_seg = ti.Vector([0.0, 0.0, 0.0])
+                for a in ti.static(range(4)):
+                    m_seg += best_w[a] * self.s.corner_mass[corners[a]]
+                    v_seg += best_w[a] * self.s.grid_velocity[corners[a]]
+                m_node = self.s.corner_mass[c]
+                m_eff = m_node * m_seg / (m_node + m_seg)
+                k = self.alpha * m_eff / (dt * dt)
+                v_rel = self.s.grid_velocity[c] - v_seg
+                closing = -v_rel.dot(normal)
+                f_n = ti.max(0.0, k * gap + self.damping * 2.0 * ti.sqrt(k * m_eff) * closing)
+                force = f_n * normal
+                if ti.static(self.friction > 0.0):
+                    slip = v_rel - v_rel.dot(normal) * normal
+                    force -= (self.friction * f_n / ti.sqrt(slip.norm_sqr() + self.slip_eps ** 2)) * slip
+                self.acc.add(self.s.force_contact, c, force)
+                for a in ti.static(range(4)):
+                    self.acc.add(self.s.force_contact, corners[a], -best_w[a] * force)
+                self.acc.maximum(self.s.max_penetration, gap / self.t_c)
+                self.acc.total(self.s.contact_pairs, 1)

@@ -1,0 +1,148 @@
+"""`render`: pictures and plots of a run's output directory (render.py, cli.py).
+
+One small cantilever run (4x1 elements, 2 load steps) through the public CLI, rendered
+through the public CLI; the PNGs are read back with VTK and must be real pictures.
+"""
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from taichi_shell_mpm.cli import main
+from taichi_shell_mpm.render import Run, choose_frames, choose_sheet, nearest_frames, sheet_times
+
+from .conftest import ROOT
+
+MIN_PNG_BYTES = 5000
+
+
+def cli(*args: str, timeout: float = 300) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "taichi_shell_mpm", *args], capture_output=True,
+                          text=True, timeout=timeout, cwd=ROOT)
+
+
+def read_png(path: Path) -> np.ndarray:
+    """(height, width, channels) pixels of a PNG, read with VTK."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkIOImage import vtkPNGReader
+    reader = vtkPNGReader()
+    assert reader.CanReadFile(str(path)), path
+    reader.SetFileName(str(path))
+    reader.Update()
+    image = reader.GetOutput()
+    w, h, _ = image.GetDimensions()
+    pixels = vtk_to_numpy(image.GetPointData().GetScalars())
+    return pixels.reshape(h, w, -1)
+
+
+def assert_picture(path: Path, min_size=(400, 300)) -> np.ndarray:
+    assert path.is_file(), path
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert path.stat().st_size > MIN_PNG_BYTES, (path, path.stat().st_size)
+    img = read_png(path)
+    assert img.shape[1] >= min_size[0] and img.shape[0] >= min_size[1], img.shape
+    rgb = img[..., :3].reshape(-1, 3).astype(np.int64)
+    # white background plus a good share of drawn (non-white) pixels in several colours
+    assert (rgb == 255).all(axis=1).mean() > 0.3
+    assert (rgb < 200).any(axis=1).mean() > 0.005
+    assert len(np.unique(rgb @ [65536, 256, 1])) > 20
+    return img
+
+
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("render") / "cantilever"
+    proc = cli("run", str(ROOT / "scenes" / "cantilever.toml"), "--out", str(out), "--quiet",
+               "--set", "mesh.nx=4", "--set", "solve.load_steps=2")
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    return out
+
+
+@pytest.fixture(scope="module")
+def rendered(run_dir) -> tuple[Path, subprocess.CompletedProcess]:
+    return run_dir, cli("render", str(run_dir))
+
+
+def test_render_writes_pictures(rendered):
+    run_dir, proc = rendered
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert "Traceback" not in proc.stderr
+    pictures = run_dir / "pictures"
+    names = {"frame_00000.png", "frame_00001.png", "sheet.png", "energy.png",
+             "load_displacement.png"}
+    assert {p.name for p in pictures.glob("*.png")} == names
+    for name in sorted(names):
+        assert f"wrote {pictures / name}" in proc.stdout
+        assert_picture(pictures / name)
+    # frames at load factors 0.5 and 1.0 share the camera: the clamped end (which does
+    # not move) is drawn at the same pixels, so the two pictures differ only partly
+    a, b = (read_png(pictures / f"frame_0000{i}.png")[..., :3] for i in (0, 1))
+    assert a.shape == b.shape
+    differ = (a != b).any(axis=2).mean()
+    assert 0.0 < differ < 0.5
+    # the sheet holds the 2 distinct frames nearest to 1/3, 2/3, 1 plus a scalar-bar column
+    sheet = read_png(pictures / "sheet.png")
+    assert sheet.shape[1] > 2 * sheet.shape[0] * 0.8
+
+
+def test_render_selected_frames_and_field(run_dir, capsys):
+    assert main(["render", str(run_dir), "--frames", "last", "--field", "rotation:z",
+                 "--sheet", "none"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert [ln.rsplit("/", 1)[-1] for ln in lines] == ["frame_00001.png", "energy.png",
+                                                        "load_displacement.png"]
+
+
+def test_render_missing_directory(tmp_path, capsys):
+    assert main(["render", str(tmp_path / "nope")]) == 2
+    err = capsys.readouterr().err
+    assert err == f"error: {tmp_path / 'nope'}: no such output directory\n"
+    assert main(["render", str(tmp_path)]) == 2
+    assert capsys.readouterr().err.count("\n") == 1
+
+
+def test_render_missing_directory_cli(tmp_path):
+    proc = cli("render", str(tmp_path / "nope"), timeout=60)
+    assert proc.returncode == 2
+    assert proc.stderr.count("\n") == 1 and proc.stderr.startswith("error: ")
+    assert proc.stdout == ""
+
+
+@pytest.mark.parametrize("option, value, message", [
+    ("--frames", "abc", "--frames 'abc': expected"),
+    ("--sheet", "1,x", "--sheet '1,x': expected"),
+    ("--field", "nope", "--field 'nope': no such array in the frames; have bending_moment"),
+    ("--field", "displacement:7", "component must be 0..2 or x, y, z"),
+])
+def test_render_bad_options(run_dir, capsys, option, value, message):
+    assert main(["render", str(run_dir), option, value]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err
+
+
+def fake_run(keys, key="time") -> Run:
+    return Run(out_dir=Path("."), name="x", key=key, keys=np.asarray(keys, dtype=float),
+               files=[Path(f"frame_{i:05d}.vtu") for i in range(len(keys))])
+
+
+def test_frame_choice():
+    dyn = fake_run(np.arange(0.0, 15.01, 0.5))
+    assert sheet_times(dyn) == [5.0, 10.0, 15.0]
+    assert choose_sheet(dyn, None) == [10, 20, 30]
+    assert choose_frames(dyn, "all") == list(range(31))
+    assert choose_frames(dyn, "LAST") == [30]
+    assert choose_frames(dyn, "none") == []
+    assert choose_frames(dyn, "7.4, 0.1,7.6") == [0, 15]
+    assert choose_sheet(dyn, "none") == []
+    short = fake_run([0.0, 1.0, 2.0, 3.0])
+    assert sheet_times(short) == [1.0, 2.0, 3.0]
+    static = fake_run(np.linspace(0.05, 1.0, 20), key="load_factor")
+    np.testing.assert_allclose(sheet_times(static), [1 / 3, 2 / 3, 1.0])
+    assert choose_sheet(static, None) == [6, 12, 19]
+    # a static run to load factor 15 still gets thirds, not 5/10/15
+    assert choose_sheet(fake_run([5.0, 10.0, 15.0], key="load_factor"), None) == [0, 1, 2]
+    assert nearest_frames(np.array([0.0, 1.0]), [0.9, 1.0, 0.2]) == [1, 0]
