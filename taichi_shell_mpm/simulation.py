@@ -18,6 +18,7 @@ import taichi as ti
 from .assembly import Model, assemble
 from .config import StepConfig
 from .mesh import Mesh, build_mesh
+from .crush import crush_summary
 from .output import FrameWriter, write_csv, write_json
 from .reference import compare_with_reference
 from .scene import Scene
@@ -207,6 +208,8 @@ class Simulation:
         }
         if extra:
             summary.update(extra)
+        if self.model.rigid_bodies and self.scene.solve.kind == "dynamic":
+            summary.update(crush_summary(self))
         if self.scene.reference is not None:
             summary["reference"] = compare_with_reference(self.scene.reference, self.history.probe_header,
                                                           self.history.probe_rows)
