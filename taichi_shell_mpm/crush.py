@@ -31,7 +31,7 @@ def mean_force(crush: np.ndarray, force: np.ndarray, window=WINDOW) -> tuple[flo
     grid = np.linspace(lo, hi, 2000)
     order = np.argsort(crush)
     f = np.interp(grid, crush[order], force[order])
-    return float(np.trapz(f, grid) / (hi - lo)), hi - lo
+    return float(np.trapezoid(f, grid) / (hi - lo)), hi - lo
 
 
 def half_waves(z_ref: np.ndarray, lateral: np.ndarray, threshold: float) -> np.ndarray:

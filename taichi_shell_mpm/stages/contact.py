@@ -81,6 +81,11 @@ class SelfContact:
         self.cell_items = ti.field(ti.i32, m)
         self.element_slot = ti.field(ti.i32, m)
         self.element_radius = ti.field(ti.f64, m)
+        # side memory (method.md 7.3): the element a node touched last step and on which side
+        # of its facet normal; a node that crossed the mid-surface within a step is pushed back
+        self.last_element = ti.field(ti.i32, n)
+        self.last_side = ti.field(ti.f64, n)
+        self.last_element.fill(-1)
 
     @ti.func
     def hash(self, cell):
@@ -174,6 +179,16 @@ class SelfContact:
                 corners = self.s.corners[best_e]
                 normal = (x - best_point) / best_dist
                 gap = self.t_c - best_dist
+                facet = (self.s.position[corners[2]] - self.s.position[corners[0]]).cross(
+                    self.s.position[corners[3]] - self.s.position[corners[1]]).normalized()
+                side = 1.0 if normal.dot(facet) >= 0.0 else -1.0
+                if self.last_element[c] == best_e and side != self.last_side[c]:
+                    # crossed the mid-surface since last step: push back to the side it came from
+                    normal = -normal
+                    gap = self.t_c + best_dist
+                    side = -side
+                self.last_element[c] = best_e
+                self.last_side[c] = side
                 m_seg = 0.0
                 v_seg = ti.Vector([0.0, 0.0, 0.0])
                 for a in ti.static(range(4)):
@@ -181,7 +196,9 @@ class SelfContact:
                     v_seg += best_w[a] * self.s.grid_velocity[corners[a]]
                 m_node = self.s.corner_mass[c]
                 m_eff = m_node * m_seg / (m_node + m_seg)
-                k = self.alpha * m_eff / (dt * dt)
+                # k from the stable step, not the current one: a step shortened to land on an
+                # output time would otherwise make the spring arbitrarily stiff
+                k = self.alpha * m_eff / (self.s.dt_stable[None] ** 2)
                 v_rel = self.s.grid_velocity[c] - v_seg
                 closing = -v_rel.dot(normal)
                 f_n = ti.max(0.0, k * gap + self.damping * 2.0 * ti.sqrt(k * m_eff) * closing)
@@ -194,3 +211,5 @@ class SelfContact:
                     self.acc.add(self.s.force_contact, corners[a], -best_w[a] * force)
                 self.acc.maximum(self.s.max_penetration, gap / self.t_c)
                 self.acc.total(self.s.contact_pairs, 1)
+            else:
+                self.last_element[c] = -1

@@ -35,8 +35,10 @@ class TimeStep:
             self.s.status[None] = STATUS_DT_COLLAPSE
         self.s.dt_stable[None] = dt
         remaining = self.s.time_limit[None] - self.s.time[None]
-        if remaining < dt:
+        if remaining < dt:                   # land exactly on the next output time ...
             dt = remaining if remaining > 1e-9 * dt else 0.0
+        elif remaining < 2.0 * dt:           # ... in two equal steps rather than a sliver
+            dt = 0.5 * remaining
         self.s.dt[None] = dt
         self.s.dt_next[None] = DT_UNSET
 
