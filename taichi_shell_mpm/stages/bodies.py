@@ -52,11 +52,20 @@ class RigidBodies:
         for w in ti.static(self.cfg.walls):
             n = ti.Vector(w[1], dt=ti.f64)
             p = ti.Vector(w[0], dt=ti.f64)
+            wall_speed = 0.0
             if ti.static(w[2] >= 0):
-                p += self.s.body_displacement[w[2]] * ti.Vector(self.cfg.bodies[w[2]][2], dt=ti.f64)   # at t^{n+1}
-            gap = (self.s.position[c] + self.s.dt[None] * out - p).dot(n) - self.half_thickness
-            if gap < 0.0 and self.s.dt[None] > 0.0:
-                dv = -gap / self.s.dt[None]          # land exactly on the wall's offset plane
+                d = ti.Vector(self.cfg.bodies[w[2]][2], dt=ti.f64)
+                p += self.s.body_displacement[w[2]] * d          # at t^{n+1}
+                wall_speed = self.s.body_velocity[w[2]] * d.dot(n)
+            dt = self.s.dt[None]
+            gap = (self.s.position[c] + dt * out - p).dot(n) - self.half_thickness
+            if gap < 0.0 and dt > 0.0:
+                # no further approach than the wall moves, plus a bounded push-out of a node
+                # already inside (at most 1% of the half thickness per step: an unbounded
+                # "land exactly" correction kicked folded nodes behind the moving wall)
+                push = ti.min((self.s.position[c] - p).dot(n) + dt * wall_speed - self.half_thickness, 0.0)   # at t^n
+                target = wall_speed + ti.min(-push, 0.01 * self.half_thickness) / dt
+                dv = ti.max(0.0, target - out.dot(n))
                 before = out.norm_sqr()
                 out += dv * n
                 m = self.s.corner_mass[c]

@@ -79,6 +79,10 @@ class NodeUpdate:
             self.s.status[None] = STATUS_NONFINITE
             self.s.status_index[None] = c
         self.s.grid_velocity[c] = vg
+        if ti.static(self.cfg.method == "mpm"):
+            # the carried velocity gets the same BC/wall correction, else P2G would feed the
+            # removed velocity back to the grid every step
+            self.s.velocity[c] += vg - v_grid
         self.s.position[c] += dt * vg
         # rotations: J w' = mu_ext - mu_int, then remove the drilling component
         normal, project = self.drill_normal(c)
