@@ -39,19 +39,16 @@ def half_waves(z_ref: np.ndarray, lateral: np.ndarray, threshold: float) -> np.n
     order = np.argsort(z_ref)
     z, w = z_ref[order], lateral[order]
     extrema = []
-    direction = 0
-    candidate = 0
+    direction, hi, lo = 0, 0, 0
     for i in range(1, len(w)):
-        if direction >= 0 and w[i] > w[candidate]:
-            candidate = i
-        elif direction <= 0 and w[i] < w[candidate]:
-            candidate = i
-        if direction >= 0 and w[candidate] - w[i] > threshold:
-            extrema.append(candidate)
-            direction, candidate = -1, i
-        elif direction <= 0 and w[i] - w[candidate] > threshold:
-            extrema.append(candidate)
-            direction, candidate = 1, i
+        hi = i if w[i] > w[hi] else hi
+        lo = i if w[i] < w[lo] else lo
+        if direction >= 0 and w[hi] - w[i] > threshold:      # passed a maximum
+            extrema.append(hi)
+            direction, lo = -1, i
+        elif direction <= 0 and w[i] - w[lo] > threshold:    # passed a minimum
+            extrema.append(lo)
+            direction, hi = 1, i
     return z[extrema]
 
 
@@ -65,7 +62,7 @@ def fold_geometry(points: np.ndarray, positions: np.ndarray, thickness: float) -
     for axis, half in ((0, half_x), (1, half_y)):
         other = 1 - axis
         for sign in (1.0, -1.0):
-            line = (np.abs(rel[:, other]) < tol) & (np.abs(rel[:, axis] - sign * half) < tol)
+            line = (np.abs(rel[:, other]) < tol) & (sign * rel[:, axis] > 0.8 * half)   # trigger moved some
             if line.sum() < 4:
                 continue
             lateral = sign * (positions[line, axis] - points[line, axis])
