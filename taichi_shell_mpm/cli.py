@@ -1,17 +1,44 @@
 """Command line: ``python -m taichi_shell_mpm run|validate|render ...`` (thin: no physics here).
 
-Exit codes: 0 success, 2 scene/mesh error (user mistake, one line per problem; for render:
-a bad output directory or option), 3 run-time failure (instability, non-convergence; frames
-written so far stay valid; for render: nothing could be drawn), 130 interrupted (Ctrl-C).
+Exit codes: 0 success, 1 internal error (a bug: one line; set TAICHI_SHELL_MPM_TRACEBACK=1
+for the traceback), 2 scene/mesh/checkpoint error (user mistake, one line per problem,
+all problems at once; for render: a bad output directory or option), 3 run-time failure
+(instability, non-convergence, too much hourglass energy; the last good frame, frames.pvd
+and the results so far are written; for render: nothing could be drawn), 130 interrupted
+(Ctrl-C: the run stops at the next batch boundary, writes a checkpoint, the last frame and
+the results so far).
 """
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import os
 import sys
 import time
+import traceback
 from pathlib import Path
 
-EXIT_SCENE, EXIT_RUNTIME, EXIT_INTERRUPT = 2, 3, 130
+EXIT_INTERNAL, EXIT_SCENE, EXIT_RUNTIME, EXIT_INTERRUPT = 1, 2, 3, 130
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {value}")
+    return value
+
+
+def _fraction(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number >= 0, got {text!r}") from None
+    if not value >= 0.0 or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"expected a finite number >= 0, got {text}")
+    return value
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -20,11 +47,20 @@ def _parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="run a scene")
     run.add_argument("scene", type=Path)
-    run.add_argument("--out", type=Path, default=None, help="output directory (default outputs/<scene name>)")
+    run.add_argument("--out", type=Path, default=None,
+                     help="output directory (default outputs/<scene name>, or the --restart directory)")
     run.add_argument("--arch", choices=["cpu", "cuda", "vulkan"], default="cpu")
     run.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                      help="override a scene key by its dotted path, e.g. method.kind=fem")
-    run.add_argument("--quiet", action="store_true", help="only the final summary")
+    run.add_argument("--quiet", action="store_true", help="print only warnings, errors and the final summary")
+    run.add_argument("--checkpoint-every", type=_positive_int, default=0, metavar="N",
+                     help="write OUTDIR/checkpoint.npz at the first batch boundary after every N steps")
+    run.add_argument("--restart", type=Path, default=None, metavar="DIR",
+                     help="continue the run whose checkpoint is DIR/checkpoint.npz (same scene and --set "
+                          "options); the result is bit-for-bit that of an uninterrupted run")
+    run.add_argument("--hourglass-limit", type=_fraction, default=None, metavar="R",
+                     help="stop when the hourglass energy exceeds R times the internal energy "
+                          "(default 0.2; warning at R/2; 0 = never stop)")
     val = sub.add_parser("validate", help="check a scene and its mesh without running")
     val.add_argument("scene", type=Path)
     val.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
@@ -42,20 +78,114 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+def _one_line(text: str) -> str:
+    return " ".join(str(text).split())
+
+
 def _fail(code: int, lines) -> int:
+    sys.stdout.flush()
     for line in lines:
-        print(f"error: {line}", file=sys.stderr)
+        print(f"error: {_one_line(line)}", file=sys.stderr, flush=True)
     return code
 
 
-def _validate(args) -> int:
+# ------------------------------------------------------------------ scene -> mesh -> model
+def _named(scene, messages) -> list[str]:
+    """Prefix the scene file's name to lines that do not name a file yet."""
+    names = [scene.source.name, str(scene.source)]
+    path = getattr(scene.mesh, "path", None)
+    if path is not None:
+        names += [str(path), Path(path).name]
+    return [m if any(m.startswith(n) for n in names) else f"{scene.source.name}: {m}" for m in messages]
+
+
+def assembly_problems(scene, mesh) -> tuple[list[str], object]:
+    """Every assembly-time problem of `scene` on `mesh` (empty node sets, loads on fixed
+    nodes, bad symmetry planes, rigid-body conflicts, a grid not covering the mesh ...),
+    found by assembling each item on its own; returns (messages, model or None)."""
     from .assembly import assemble
+    from .nodesets import select_nodes
+    from .scene import SceneError
+    try:
+        return [], assemble(scene, mesh)
+    except SceneError as exc:
+        first = exc.messages
+    errors: list[str] = []
+    bad_sets = set()
+    names = {x.nodes for group in (scene.boundaries, scene.loads, scene.initial, scene.probes,
+                                   scene.rigid_bodies) for x in group}
+    for name in sorted(names):
+        try:
+            select_nodes(scene.nodeset(name), mesh.points)
+        except SceneError as exc:
+            errors += exc.messages
+            bad_sets.add(name)
+        except KeyError:
+            bad_sets.add(name)
+    replace = dataclasses.replace
+    keep = lambda items: tuple(x for x in items if x.nodes not in bad_sets)   # noqa: E731
+    bare = replace(scene, boundaries=(), loads=(), initial=keep(scene.initial), probes=keep(scene.probes),
+                   rigid_bodies=(), walls=(), contact=None, reference=None,
+                   method=replace(scene.method, kind="fem"))
+
+    def fails(candidate) -> bool:
+        try:
+            assemble(candidate, mesh)
+        except SceneError as exc:
+            errors.extend(exc.messages)
+            return True
+        return False
+
+    boundaries = tuple(b for b in keep(scene.boundaries) if not fails(replace(bare, boundaries=(b,))))
+    loads = tuple(ld for ld in keep(scene.loads) if not fails(replace(bare, boundaries=boundaries, loads=(ld,))))
+    bodies: tuple = ()
+    for rb in keep(scene.rigid_bodies):
+        if not fails(replace(bare, boundaries=boundaries, rigid_bodies=bodies + (rb,))):
+            bodies += (rb,)
+    names = {rb.name for rb in bodies}
+    walls = tuple(w for w in scene.walls if w.moves_with is None or w.moves_with in names)
+    final = replace(scene, boundaries=boundaries, loads=loads, initial=keep(scene.initial),
+                    probes=keep(scene.probes), rigid_bodies=bodies, walls=walls)
+    model = None
+    try:
+        model = assemble(final, mesh)
+    except SceneError as exc:
+        errors += exc.messages
+    if not errors:              # the isolation found nothing: report what the full assembly said
+        errors = list(first)
+    unique = list(dict.fromkeys(errors))
+    return unique, (model if not unique else None)
+
+
+def prepare(path: Path, overrides) -> tuple:
+    """Scene, mesh and model of a scene file, or SceneError listing every problem found."""
     from .mesh import build_mesh
     from .scene import SceneError, load_scene
+    scene = load_scene(path, overrides)
     try:
-        scene = load_scene(args.scene, args.overrides)
         mesh = build_mesh(scene.mesh)
-        model = assemble(scene, mesh)
+    except SceneError as exc:
+        raise SceneError(_named(scene, exc.messages)) from None
+    problems, model = assembly_problems(scene, mesh)
+    if problems:
+        raise SceneError(_named(scene, problems))
+    return scene, mesh, model
+
+
+def _internal_error(exc: BaseException) -> int:
+    if os.environ.get("TAICHI_SHELL_MPM_TRACEBACK"):
+        traceback.print_exc()
+    where = traceback.extract_tb(exc.__traceback__)[-1] if exc.__traceback__ else None
+    at = f" (at {Path(where.filename).name}:{where.lineno})" if where else ""
+    return _fail(EXIT_INTERNAL, [f"internal error, please report: {type(exc).__name__}: {_one_line(exc)}{at}; "
+                                 "set TAICHI_SHELL_MPM_TRACEBACK=1 for the traceback"])
+
+
+# ------------------------------------------------------------------ commands
+def _validate(args) -> int:
+    from .scene import SceneError
+    try:
+        scene, mesh, model = prepare(args.scene, args.overrides)
     except SceneError as exc:
         return _fail(EXIT_SCENE, exc.messages)
     for w in mesh.warnings:
@@ -65,51 +195,96 @@ def _validate(args) -> int:
     return 0
 
 
+def _check_out_dir(out: Path) -> str | None:
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        return f"--out {out}: cannot create the output directory ({exc.strerror or exc})"
+    if not os.access(out, os.W_OK | os.X_OK):
+        return f"--out {out}: the output directory is not writable"
+    return None
+
+
+def _finish(sim, message: str) -> None:
+    """After a failure or an interrupt: last good frame, tables and summary with the error."""
+    from .checkpoint import deferred_interrupt
+    if sim is None:
+        return
+    try:
+        with deferred_interrupt():
+            sim.final_frame()
+            sim.write_results({"error": message})
+    except KeyboardInterrupt:
+        print("error: interrupted again while writing the results", file=sys.stderr)
+    except Exception as exc:  # keep the one-line report of the original failure
+        print(f"error: could not write all results: {type(exc).__name__}: {_one_line(exc)}", file=sys.stderr)
+
+
 def _run(args) -> int:
-    from .scene import SceneError, load_scene
+    from .checkpoint import CheckpointError, RunControl, check_compatible, load_checkpoint, restore_checkpoint
+    from .progress import format_summary
+    from .scene import SceneError
+    try:
+        scene, mesh, model = prepare(args.scene, args.overrides)
+        ckpt = None
+        if args.restart is not None:
+            ckpt = load_checkpoint(args.restart)
+            check_compatible(ckpt, scene, model.points, model.quads)
+    except (SceneError, CheckpointError) as exc:
+        return _fail(EXIT_SCENE, exc.messages)
+    out = args.out if args.out is not None else (args.restart if args.restart is not None
+                                                  else Path("outputs") / scene.info.name)
+    problem = _check_out_dir(out)
+    if problem:
+        return _fail(EXIT_SCENE, [problem])
+
     from .simulation import Simulation, SimulationError, init_taichi
     from .solvers.dynamic import run_dynamic
     from .solvers.static import run_static
-    try:
-        scene = load_scene(args.scene, args.overrides)
-    except SceneError as exc:
-        return _fail(EXIT_SCENE, exc.messages)
-    init_taichi(args.arch)
     sim = None
+    control = RunControl(args.checkpoint_every, resume=ckpt.position if ckpt else None)
     try:
+        init_taichi(args.arch)
         t0 = time.perf_counter()
-        sim = Simulation(scene, args.out, args.arch, quiet=args.quiet)
+        sim = Simulation(scene, out, args.arch, quiet=args.quiet, mesh=mesh, model=model)
+        if args.hourglass_limit is not None:
+            sim.hourglass_limit = args.hourglass_limit
         for w in sim.mesh.warnings:
             print(f"warning: {w}")
-        print(f"{scene.info.name}: {len(sim.model.points)} nodes, {len(sim.model.quads)} elements, "
-              f"{sim.cfg.method}, kernels ready in {time.perf_counter() - t0:.1f} s -> {sim.out_dir}")
-        extra = run_static(sim) if scene.solve.kind == "static" else run_dynamic(sim)
+        if ckpt is not None:
+            for w in restore_checkpoint(sim, ckpt):
+                sim.warn(w)
+        sim.progress(f"{scene.info.name}: {len(sim.model.points)} nodes, {len(sim.model.quads)} elements, "
+                     f"{sim.cfg.method}, kernels ready in {time.perf_counter() - t0:.1f} s -> {sim.out_dir}"
+                     + (f" (restarted at step {sim.state.step[None]})" if ckpt else ""))
+        with control.catch_interrupts():
+            extra = run_static(sim, control) if scene.solve.kind == "static" else run_dynamic(sim, control)
         summary = sim.write_results(extra)
-    except SceneError as exc:
+    except (SceneError, CheckpointError) as exc:
         return _fail(EXIT_SCENE, exc.messages)
     except SimulationError as exc:
-        if sim is not None:
-            sim.write_frame(sim.state.time[None])
-            sim.write_results({"error": str(exc)})
+        _finish(sim, str(exc))
         return _fail(EXIT_RUNTIME, [str(exc)])
     except KeyboardInterrupt:
-        if sim is not None:
-            sim.write_results({"error": "interrupted"})
-        return _fail(EXIT_INTERRUPT, ["interrupted; results so far written to " + str(sim.out_dir if sim else "")])
-    print_summary(summary)
+        _finish(sim, "interrupted")
+        if sim is None:
+            return _fail(EXIT_INTERRUPT, ["interrupted before the run started; nothing written"])
+        sets = "".join(f" --set {o}" for o in args.overrides)
+        more = (f"; continue with: run {args.scene}{sets} --restart {sim.out_dir}"
+                if control.last_checkpoint is not None else "")
+        return _fail(EXIT_INTERRUPT, [f"interrupted at {sim.where()}; results so far written to {sim.out_dir}"
+                                      + more])
+    except Exception as exc:  # a bug: results so far, then one line
+        _finish(sim, f"internal error: {type(exc).__name__}: {_one_line(exc)}")
+        return _internal_error(exc)
+    print(format_summary(summary), flush=True)
     return 0
 
 
 def print_summary(summary: dict) -> None:
-    print(f"done: {summary['steps']} steps, compile {summary['compile_seconds']:.1f} s, "
-          f"run {summary['run_seconds']:.2f} s, {summary['us_per_element_step']:.3f} us/element-step")
-    e = summary["energies"]
-    print(f"energies: kinetic {e['kinetic']:.4e}  internal {e['internal']:.4e}  hourglass {e['hourglass']:.3e}  "
-          f"external work {e['external_work']:.4e}  balance error {e['balance_error']:.2e}")
-    ref = summary.get("reference")
-    if ref:
-        for col, r in ref["columns"].items():
-            print(f"vs reference {col:<45s} mean {100 * r['mean_rel_error']:.2f}%  max {100 * r['max_rel_error']:.2f}%")
+    """Print the final summary table (kept for callers of the old name)."""
+    from .progress import format_summary
+    print(format_summary(summary))
 
 
 def _render(args) -> int:
@@ -126,5 +301,13 @@ def _render(args) -> int:
 
 
 def main(argv=None) -> int:
+    import numpy as np
     args = _parser().parse_args(argv)
-    return {"validate": _validate, "render": _render}.get(args.command, _run)(args)
+    command = {"validate": _validate, "render": _render}.get(args.command, _run)
+    try:
+        with np.errstate(all="ignore"):      # a diverging run overflows: reported as a failure, not warnings
+            return command(args)
+    except KeyboardInterrupt:
+        return _fail(EXIT_INTERRUPT, ["interrupted"])
+    except Exception as exc:
+        return _internal_error(exc)

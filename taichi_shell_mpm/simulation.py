@@ -20,12 +20,13 @@ from .config import StepConfig
 from .mesh import Mesh, build_mesh
 from .crush import crush_summary
 from .output import FrameWriter, write_csv, write_json
+from .progress import Progress
 from .reference import compare_with_reference
 from .scene import Scene
 from .solvers.stepper import Stepper
 from .stages.timestep import DT_UNSET, initial_dt
 from .stages.material import make_material
-from .state import STATUS_TEXT, State
+from .state import STATUS_DT_COLLAPSE, STATUS_INVERTED, STATUS_LEFT_GRID, STATUS_NONFINITE, State
 
 ARCHS = {"cpu": "cpu", "cuda": "cuda", "vulkan": "vulkan"}
 BATCHED_MAX_ELEMENTS = 4000     # serial multi-step launches pay off below this on CPU
@@ -37,6 +38,26 @@ ENERGY_COLUMNS = ("kinetic", "internal", "hourglass", "external_work", "damped",
 
 class SimulationError(Exception):
     """A run-time failure (instability, non-convergence); message is one line."""
+
+
+# in-kernel failure statuses (state.py): what happened, and its likely cause
+FAILURES = {
+    STATUS_INVERTED: ("element {index} turned inside out",
+                      "time step too large ([solve].dt_safety), too little hourglass control "
+                      "([element].hourglass), or an excessive load"),
+    STATUS_LEFT_GRID: ("node {index} left the background grid",
+                       "enlarge [method].grid_min/grid_max or padding, or the shell flies away "
+                       "(a missing support, an excessive load or initial velocity)"),
+    STATUS_NONFINITE: ("node {index} got a non-finite or runaway velocity",
+                       "numerical instability: time step too large ([solve].dt_safety), an excessive "
+                       "load or initial velocity, or a missing support"),
+    STATUS_DT_COLLAPSE: ("the time step collapsed below 1e-3 of the first one at element {index}",
+                         "that element is crushed or badly distorted: an excessive load, too little "
+                         "hourglass control or too coarse a mesh"),
+}
+RUNAWAY_SPEED = 10.0     # x the shell wave speed, as the in-kernel check (stages/constraints.py)
+HOURGLASS_WARN, HOURGLASS_STOP = 0.10, 0.20     # E_hg / E_int
+HOURGLASS_ACTIVE = 1e-6     # ratio checked once max(E_int, E_hg) > this x max(W_ext, KE0)
 
 
 def init_taichi(arch: str = "cpu") -> None:
@@ -54,13 +75,14 @@ class History:
 
 
 class Simulation:
-    def __init__(self, scene: Scene, out_dir: Path | None = None, arch: str = "cpu", quiet: bool = False):
+    def __init__(self, scene: Scene, out_dir: Path | None = None, arch: str = "cpu", quiet: bool = False,
+                 mesh: Mesh | None = None, model: Model | None = None):
         self.scene = scene
         self.arch = arch
         self.quiet = quiet
         self.out_dir = Path(out_dir) if out_dir is not None else Path("outputs") / scene.info.name
-        self.mesh: Mesh = build_mesh(scene.mesh)
-        self.model: Model = assemble(scene, self.mesh)
+        self.mesh: Mesh = mesh if mesh is not None else build_mesh(scene.mesh)
+        self.model: Model = model if model is not None else assemble(scene, self.mesh)
         batched = arch == "cpu" and len(self.model.quads) <= BATCHED_MAX_ELEMENTS
         self.cfg = replace(StepConfig.from_scene(scene, self.model), serial=batched)
         material = make_material(scene.material)
@@ -78,6 +100,12 @@ class Simulation:
         self.frames: FrameWriter | None = None
         self.total_steps = 0
         self.run_seconds = 0.0
+        self.reporter = Progress(quiet, scene.solve.progress_every)
+        self.warnings: list[str] = []
+        self.hourglass_warned = False
+        self.hourglass_limit = HOURGLASS_STOP      # stop above this E_hg/E_int (0: never), warn above half
+        self._last_geometry_check = 0.0
+        self.driver_data: dict = {}          # driver counters kept in checkpoints
 
     # ------------------------------------------------------------------ set-up helpers
     def _initial_geometry(self) -> None:
@@ -175,18 +203,93 @@ class Simulation:
                           {"displacement": u, "velocity": self.state.grid_velocity.to_numpy(), "rotation": rot},
                           self.element_results())
 
+    def where(self) -> str:
+        s = self.state
+        level = f"load factor {s.load_factor[None]:.4g}, " if self.scene.solve.kind == "static" else ""
+        return f"{level}t={s.time[None]:.6g}, step {s.step[None]}"
+
+    def element_distortion(self, positions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Per element of the configuration `positions`: inside out (a corner angle >= 180 deg
+        about the diagonals' normal) and L_e = area / longest diagonal."""
+        x = positions[self.model.quads]
+        normal = np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])
+        corner = np.cross(np.roll(x, -1, axis=1) - x, np.roll(x, 1, axis=1) - x)
+        inside_out = ~(np.einsum("mai,mi->ma", corner, normal) > 0.0).all(axis=1)
+        longest = np.maximum(np.linalg.norm(x[:, 2] - x[:, 0], axis=1), np.linalg.norm(x[:, 3] - x[:, 1], axis=1))
+        return inside_out, 0.5 * np.linalg.norm(normal, axis=1) / np.maximum(longest, 1e-300)
+
     def check_status(self) -> None:
+        """Raise SimulationError for a failure flagged in-kernel or found here between batches
+        (non-finite nodes, elements inside out), then check the hourglass energy.  The kernel's
+        flag is refined here: a later stage of the failing step may have overwritten it."""
         code = self.state.status[None]
-        if code in STATUS_TEXT:
-            where = f"t={self.state.time[None]:.6g}, step {self.state.step[None]}"
-            raise SimulationError(f"{where}: " + STATUS_TEXT[code].format(index=self.state.status_index[None]))
+        index = self.state.status_index[None]
+        now = time.perf_counter()
+        if code in FAILURES or self.stepper.batched or now - self._last_geometry_check >= 1.0:
+            self._last_geometry_check = now
+            x = self.state.position.to_numpy()
+            speed = np.linalg.norm(self.state.grid_velocity.to_numpy(), axis=1)
+            bad = ~(np.isfinite(x).all(axis=1) & (speed <= RUNAWAY_SPEED * self.cfg.wave_speed))
+            if bad.any():
+                code, index = STATUS_NONFINITE, int(np.argmax(bad))
+            elif code != STATUS_NONFINITE:
+                inside_out, length = self.element_distortion(x)
+                if inside_out.any():
+                    code, index = STATUS_INVERTED, int(np.argmax(inside_out))
+                elif code == STATUS_DT_COLLAPSE:
+                    index = int(np.argmin(length))
+        if code in FAILURES:
+            what, cause = FAILURES[code]
+            raise SimulationError(f"{what.format(index=index)} at {self.where()}: {cause}")
+        self.check_hourglass()
+
+    def check_hourglass(self) -> None:
+        """Warn once when E_hg > 10% of E_int, stop when > 20%, once the energies are meaningful."""
+        s = self.state
+        e_int, e_hg = s.internal_energy[None], s.hourglass_energy[None]
+        scale = max(abs(s.external_work[None]), self.initial_kinetic)
+        if not (scale > 0.0 and max(e_int, e_hg) > HOURGLASS_ACTIVE * scale):
+            return
+        ratio = e_hg / e_int if e_int > 0.0 else math.inf
+        text = "internal energy" if math.isfinite(ratio) else "internal energy (which is zero)"
+        share = f"{100 * ratio:.0f}%" if math.isfinite(ratio) else "all"
+        limit = self.hourglass_limit
+        if limit > 0.0 and ratio > limit:
+            raise SimulationError(
+                f"hourglass energy is {share} of the {text} at {self.where()}: the elements deform in "
+                "zero-energy modes; raise [element].hourglass, refine the mesh or spread point loads "
+                "(--hourglass-limit sets this limit)")
+        warn = limit * HOURGLASS_WARN / HOURGLASS_STOP if limit > 0.0 else HOURGLASS_WARN
+        if ratio > warn and not self.hourglass_warned:
+            self.hourglass_warned = True
+            stops = f"the run stops above {100 * limit:.0f}%" if limit > 0.0 else "no limit set"
+            self.warn(f"hourglass energy is {share} of the internal energy at {self.where()} ({stops})")
+
+    def warn(self, text: str) -> None:
+        self.warnings.append(text)
+        self.reporter.warn(text)
 
     def progress(self, text: str) -> None:
-        if not self.quiet:
-            print(text, flush=True)
+        self.reporter.line(text)
+
+    def state_is_finite(self) -> bool:
+        s = self.state
+        return all(np.all(np.isfinite(f.to_numpy())) for f in (s.position, s.grid_velocity, s.omega, s.rotation,
+                                                                 s.stress))
+
+    def final_frame(self) -> bool:
+        """After a failure or an interrupt: write the current state as the last frame if it is
+        finite (never a frame with NaN) and not already the last one.  Returns True if written."""
+        key = self.state.load_factor[None] if self.scene.solve.kind == "static" else self.state.time[None]
+        if self.frames is not None and self.frames.entries and self.frames.entries[-1][0] == float(key):
+            return False
+        if not self.state_is_finite():
+            return False
+        self.write_frame(key)
+        return True
 
     # ------------------------------------------------------------------ finishing
-    def write_results(self, extra: dict | None = None) -> dict:
+    def write_tables(self) -> None:
         out = self.out_dir
         out.mkdir(parents=True, exist_ok=True)
         write_csv(out / "probes.csv", self.history.probe_header, self.history.probe_rows)
@@ -195,7 +298,11 @@ class Simulation:
         names = [b.name for b in self.model.rigid_bodies]
         write_csv(out / "force.csv", [key, "support_x", "support_y", "support_z"]
                   + [f"{b}.displacement" for b in names] + [f"{b}.force" for b in names], self.history.force_rows)
-        e = self.energies()
+
+    def write_results(self, extra: dict | None = None) -> dict:
+        out = self.out_dir
+        self.write_tables()
+        e = {k: (v if math.isfinite(v) else None) for k, v in self.energies().items()}
         summary = {
             "scene": self.scene.info.name, "source": str(self.scene.source), "method": self.cfg.method,
             "transfer": self.cfg.transfer if self.cfg.method == "mpm" else None,
@@ -204,14 +311,20 @@ class Simulation:
             "launch": "batched" if self.stepper.batched else "parallel",
             "steps": self.total_steps, "compile_seconds": self.compile_seconds, "run_seconds": self.run_seconds,
             "us_per_element_step": 1e6 * self.run_seconds / max(1, self.total_steps * len(self.model.quads)),
-            "energies": e, "mesh_warnings": list(self.mesh.warnings),
+            "energies": e, "mesh_warnings": list(self.mesh.warnings), "warnings": list(self.warnings),
         }
         if extra:
             summary.update(extra)
-        if self.model.rigid_bodies and self.scene.solve.kind == "dynamic":
-            summary.update(crush_summary(self))
-        if self.scene.reference is not None:
-            summary["reference"] = compare_with_reference(self.scene.reference, self.history.probe_header,
-                                                          self.history.probe_rows)
+        failed = bool(extra and extra.get("error"))
+        try:
+            if self.model.rigid_bodies and self.scene.solve.kind == "dynamic" and self.history.force_rows:
+                summary.update(crush_summary(self))
+            if self.scene.reference is not None:
+                summary["reference"] = compare_with_reference(self.scene.reference, self.history.probe_header,
+                                                              self.history.probe_rows)
+        except Exception as exc:   # post-processing of a run cut short must not hide its results
+            if not failed:
+                raise
+            summary["postprocessing_error"] = f"{type(exc).__name__}: {exc}"
         write_json(out / "summary.json", summary)
         return summary

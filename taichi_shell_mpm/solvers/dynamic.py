@@ -1,41 +1,68 @@
 """Explicit dynamics to an end time (method.md 2).  Frames at the listed output times and
 the end time (hit exactly: the step before an output time is shortened) or every N steps;
-histories (probes, energies, forces) also every ``[output].history_interval``."""
-import time
+histories (probes, energies, forces) also every ``[output].history_interval``.
 
+The driver is resumable (:mod:`taichi_shell_mpm.checkpoint`): its position is the index of
+the next output/history event and whether its time limit is already set; batches have a
+fixed size, so a restarted run takes the same batches.
+"""
 import numpy as np
 
+from ..checkpoint import RunControl
+from ..progress import relative_balance
 from ..simulation import Simulation
+from .static import batch_size
 
 
-def run_dynamic(sim: Simulation) -> dict:
-    scene, s, stepper = sim.scene, sim.state, sim.stepper
-    out, end = scene.output, scene.solve.end_time
-    every = out.every_steps
-    chunk = every if every > 0 else (5_000 if stepper.batched else 100)
+def events_of(sim: Simulation) -> tuple[list[float], set[float]]:
+    """Sorted event times (frames and history records) and the frame times among them."""
+    out, end = sim.scene.output, sim.scene.solve.end_time
     frame_times = {t for t in out.times if 0.0 < t <= end} | {end}
     events = set(frame_times)
     if out.history_interval > 0:
         events |= {float(t) for t in np.arange(out.history_interval, end, out.history_interval)}
-    t_start = time.perf_counter()
-    last_print = t_start
-    sim.record(0.0, frame=True)
-    for target in sorted(events):
-        s.time_limit[None] = target
-        s.dt[None] = min(s.dt_stable[None], target - s.time[None])
-        while s.dt[None] > 0.0:
-            sim.total_steps += stepper.advance(chunk)
-            sim.check_status()
-            if every > 0:
-                sim.record(s.time[None], frame=True)
-            now = time.perf_counter()
-            if now - last_print > scene.solve.progress_every:
-                last_print = now
-                e = sim.energies()
-                sim.progress(f"t {s.time[None]:.5g}/{end:g}  step {s.step[None]}  "
-                             f"dt {s.dt_stable[None]:.3e}  KE {e['kinetic']:.4e}  E_int {e['internal']:.4e}  "
-                             f"balance {e['balance_error']:.2e}  [{now - t_start:.0f} s]")
-        if every == 0:
-            sim.record(s.time[None], frame=target in frame_times)
-    sim.run_seconds = time.perf_counter() - t_start
+    return sorted(events), frame_times
+
+
+def run_dynamic(sim: Simulation, control: RunControl | None = None) -> dict:
+    control = control or RunControl()
+    scene, s, stepper = sim.scene, sim.state, sim.stepper
+    out, end = scene.output, scene.solve.end_time
+    every = out.every_steps
+    chunk = every if every > 0 else batch_size(sim, 5_000)
+    events, frame_times = events_of(sim)
+    control.start(sim)
+    reporter = sim.reporter
+    reporter.start(int(s.step[None]), s.time[None] / end if end > 0 else None)
+    if control.resume is None:
+        s.load_factor[None] = 1.0            # dead loads act in full (they are load-stepped only in statics)
+        sim.record(0.0, frame=True)
+        pos = {"event": 0, "started": False}
+    else:
+        pos = control.resume
+    i, started = int(pos["event"]), bool(pos["started"])
+    try:
+        while i < len(events):
+            target = events[i]
+            if not started:
+                s.time_limit[None] = target
+                s.dt[None] = min(s.dt_stable[None], target - s.time[None])
+                started = True
+            while s.dt[None] > 0.0:
+                sim.total_steps += stepper.advance(chunk)
+                sim.check_status()
+                if every > 0:
+                    sim.record(s.time[None], frame=True)
+                if reporter.due():
+                    reporter.show(f"t {s.time[None]:.5g}/{end:g}", int(s.step[None]), s.dt_stable[None],
+                                  relative_balance(sim.energies(), sim.initial_kinetic),
+                                  s.time[None] / end if end > 0 else None)
+                control.boundary(sim, {"event": i, "started": True})
+            if every == 0:
+                sim.record(s.time[None], frame=target in frame_times)
+            i, started = i + 1, False
+            control.boundary(sim, {"event": i, "started": False})
+    finally:
+        sim.run_seconds = control.run_seconds()
+        reporter.close()
     return {}

@@ -6,15 +6,21 @@ is done when the out-of-balance force falls below ``tolerance * |F_ext|`` and th
 energy below 1e-8 of the external work (checked in-kernel every step, see
 :class:`~taichi_shell_mpm.solvers.stepper.Stepper`).  Non-convergence within the step
 budget is an error.
+
+The driver is resumable (:mod:`taichi_shell_mpm.checkpoint`): its position is the load
+level and the steps already taken in it, and it cuts each level into batches whose sizes
+depend only on the scene and that count, so a restarted run takes the same batches.
 """
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
+from ..checkpoint import RunControl
+from ..progress import relative_balance
 from ..simulation import Simulation, SimulationError
 from ..state import STATUS_CONVERGED, STATUS_OK
+
+BATCH_ELEMENT_STEPS = 1_000_000   # one batch ~ 1 s at most, so a Ctrl-C is answered promptly
 
 
 def load_norm(sim: Simulation, lam: float) -> float:
@@ -23,46 +29,68 @@ def load_norm(sim: Simulation, lam: float) -> float:
     return lam * float(np.sqrt(np.sum(f * f) + np.sum(m * m)))
 
 
-def run_static(sim: Simulation) -> dict:
+def batch_size(sim: Simulation, cap: int) -> int:
+    """Steps per batch: `cap` for small scenes, fewer for large ones (deterministic)."""
+    if not sim.stepper.batched:
+        return min(cap, 200)
+    return int(max(100, min(cap, BATCH_ELEMENT_STEPS // max(1, len(sim.model.quads)))))
+
+
+def run_static(sim: Simulation, control: RunControl | None = None) -> dict:
+    control = control or RunControl()
     scene, s, stepper = sim.scene, sim.state, sim.stepper
     n_levels = scene.solve.load_steps
     budget = scene.solve.max_steps_per_load_step
-    chunk = 20_000 if stepper.batched else 200
-    level_steps = []
-    t_start = time.perf_counter()
-    last_print = t_start
-    for j in range(1, n_levels + 1):
-        lam = j / n_levels
-        s.load_factor[None] = lam
-        s.residual_target_sq[None] = (scene.solve.tolerance * load_norm(sim, lam)) ** 2
-        s.velocity_keep[None] = 0.0          # start each level from rest ...
-        s.restart_factor[None] = 0.5         # ... with the central-difference half step
-        s.kinetic_prev[None] = 0.0
-        s.status[None] = STATUS_OK
-        steps = 0
-        while True:
-            steps += stepper.advance(min(chunk, budget - steps))
-            code = s.status[None]
-            if code == STATUS_CONVERGED:
-                break
-            sim.check_status()
-            if steps >= budget:
-                ratio = np.sqrt(s.residual_sq[None] / max(s.residual_target_sq[None], 1e-300)) * scene.solve.tolerance
-                raise SimulationError(
-                    f"load step {j}/{n_levels} (load factor {lam:.4g}) did not converge in {budget} steps "
-                    f"(residual {ratio:.2e} of the load; raise [solve].max_steps_per_load_step or load_steps)")
-            now = time.perf_counter()
-            if now - last_print > scene.solve.progress_every:
-                last_print = now
-                sim.progress(f"  load step {j}/{n_levels}  steps {steps}  dt {s.dt[None]:.3e}  "
-                             f"residual/target {np.sqrt(s.residual_sq[None] / s.residual_target_sq[None]):.2e}")
-        sim.total_steps += steps
-        level_steps.append(steps)
-        s.status[None] = STATUS_OK
-        sim.record(lam, frame=scene.output.load_steps)
-        e = sim.energies()
-        sim.progress(f"load step {j:3d}/{n_levels}  lambda {lam:.3f}  steps {steps:7d}  dt {s.dt[None]:.3e}  "
-                     f"W_ext {e['external_work']:.4e}  E_int {e['internal']:.4e}  E_hg {e['hourglass']:.2e}  "
-                     f"[{time.perf_counter() - t_start:.1f} s]")
-    sim.run_seconds = time.perf_counter() - t_start
-    return {"load_steps": n_levels, "steps_per_load_step": level_steps}
+    chunk = batch_size(sim, 20_000)
+    level_steps = sim.driver_data.setdefault("level_steps", [])
+    pos = control.resume or {"level": 1, "steps": 0, "started": False}
+    j, steps, started = int(pos["level"]), int(pos["steps"]), bool(pos["started"])
+    control.start(sim)
+    reporter = sim.reporter
+    reporter.start(int(s.step[None]), (j - 1) / n_levels)
+    try:
+        while j <= n_levels:
+            lam = j / n_levels
+            if not started:
+                s.load_factor[None] = lam
+                s.residual_target_sq[None] = (scene.solve.tolerance * load_norm(sim, lam)) ** 2
+                s.velocity_keep[None] = 0.0          # start each level from rest ...
+                s.restart_factor[None] = 0.5         # ... with the central-difference half step
+                s.kinetic_prev[None] = 0.0
+                s.status[None] = STATUS_OK
+                steps, started = 0, True
+            while True:
+                steps += stepper.advance(min(chunk, budget - steps))
+                code = s.status[None]
+                if code == STATUS_CONVERGED:
+                    break
+                sim.check_status()
+                if steps >= budget:
+                    ratio = np.sqrt(s.residual_sq[None] / max(s.residual_target_sq[None], 1e-300)) \
+                        * scene.solve.tolerance
+                    raise SimulationError(
+                        f"load step {j}/{n_levels} (load factor {lam:.4g}) did not converge in {budget} steps "
+                        f"at {sim.where()} (residual {ratio:.2e} of the load; raise "
+                        "[solve].max_steps_per_load_step or load_steps)")
+                if reporter.due():
+                    target = max(s.residual_target_sq[None], 1e-300)
+                    reporter.show(f"load step {j}/{n_levels} (residual/target "
+                                  f"{np.sqrt(s.residual_sq[None] / target):.1e})", int(s.step[None]),
+                                  s.dt[None], relative_balance(sim.energies(), sim.initial_kinetic),
+                                  (j - 1) / n_levels)
+                control.boundary(sim, {"level": j, "steps": steps, "started": True})
+            sim.check_status()                       # hourglass energy of the converged level
+            sim.total_steps += steps
+            level_steps.append(steps)
+            s.status[None] = STATUS_OK
+            sim.record(lam, frame=scene.output.load_steps)
+            e = sim.energies()
+            sim.progress(f"load step {j:3d}/{n_levels}  lambda {lam:.3f}  steps {steps:7d}  dt {s.dt[None]:.3e}  "
+                         f"W_ext {e['external_work']:.4e}  E_int {e['internal']:.4e}  E_hg {e['hourglass']:.2e}  "
+                         f"[{control.run_seconds():.1f} s]")
+            j, steps, started = j + 1, 0, False
+            control.boundary(sim, {"level": j, "steps": 0, "started": False})
+    finally:
+        sim.run_seconds = control.run_seconds()
+        reporter.close()
+    return {"load_steps": n_levels, "steps_per_load_step": list(level_steps)}

@@ -1,0 +1,286 @@
+"""No lost work: checkpoints, restart, and a clean stop on Ctrl-C.
+
+A checkpoint (``OUTDIR/checkpoint.npz``, written atomically) holds
+
+* every Taichi field of :class:`~taichi_shell_mpm.state.State` except the background-grid
+  scratch fields (:data:`TRANSIENT_FIELDS`): between two steps the grid
+  mass, momentum, force and touched flags are zero, and the grid velocities are rewritten
+  on every touched node before they are read, so a fresh State is equivalent;
+* the recorded history rows (probes, energies, forces), the frames listed in
+  ``frames.pvd``, the step counters, the warnings given so far;
+* the driver's position (static: load level and steps taken in it; dynamic: the next
+  output/history event), and
+* a hash of the scene (every resolved key except the scene file's own path) and of the
+  mesh (node coordinates and element connectivity).
+
+``run --restart DIR`` restores all of it into a freshly built Simulation of the same scene
+and continues: the result is bit-for-bit that of an uninterrupted run, because the
+drivers cut the run into the same batches and nothing between two batches changes the
+state.
+
+:class:`RunControl` is what the drivers call at every batch boundary: it writes the
+periodic checkpoint (``--checkpoint-every N``: at the first boundary at or after each
+multiple of N steps) and turns a Ctrl-C into a clean stop there (checkpoint, then
+``KeyboardInterrupt``); a second Ctrl-C interrupts at once.
+"""
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import hashlib
+import json
+import signal
+import threading
+import time
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from .output import atomic_write
+from .scene import SceneError
+
+CHECKPOINT_NAME = "checkpoint.npz"
+FORMAT_VERSION = 1
+TRANSIENT_FIELDS = ("grid_mass", "grid_momentum", "grid_force", "grid_v_minus", "grid_v_plus", "grid_touched",
+                    "touched_list", "n_touched")      # background-grid scratch, see the module docstring
+
+stop_hook: Callable[[Any], bool] | None = None
+"""Tests and embedding code: called with the Simulation at every batch boundary; returning
+True stops the run there exactly as a Ctrl-C does."""
+
+
+class CheckpointError(SceneError):
+    """A checkpoint that cannot be used (missing, unreadable, written for another scene)."""
+
+
+# ------------------------------------------------------------------ scene identity
+def _canonical(obj: Any) -> Any:
+    """A plain, repr-stable view of a scene value (dataclasses -> tuples, paths resolved)."""
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        return (type(obj).__name__,) + tuple((f.name, _canonical(getattr(obj, f.name)))
+                                             for f in dataclasses.fields(obj) if f.name != "source")
+    if isinstance(obj, Path):
+        return str(obj.resolve())
+    if isinstance(obj, (list, tuple)):
+        return tuple(_canonical(v) for v in obj)
+    if isinstance(obj, float):
+        return float.hex(obj)
+    return obj
+
+
+def scene_hash(scene, points: np.ndarray, quads: np.ndarray) -> str:
+    """SHA-256 of the resolved scene (not its file's location) and the mesh arrays."""
+    h = hashlib.sha256()
+    h.update(repr(_canonical(scene)).encode())
+    h.update(np.ascontiguousarray(points, dtype=np.float64).tobytes())
+    h.update(np.ascontiguousarray(quads, dtype=np.int64).tobytes())
+    return h.hexdigest()
+
+
+# ------------------------------------------------------------------ fields
+def state_fields(state) -> dict:
+    """The persistent Taichi fields of `state`, by attribute name."""
+    from taichi.lang.field import Field
+    return {name: value for name, value in vars(state).items()
+            if isinstance(value, Field) and name not in TRANSIENT_FIELDS}
+
+
+def _rows(rows: list, width: int) -> np.ndarray:
+    return np.array(rows, dtype=np.float64).reshape(len(rows), width)
+
+
+# ------------------------------------------------------------------ save / load
+def save_checkpoint(sim, position: dict, path: Path | None = None) -> Path:
+    """Write the checkpoint of `sim` at driver `position` (atomically)."""
+    path = Path(path) if path is not None else sim.out_dir / CHECKPOINT_NAME
+    arrays = {f"field.{name}": f.to_numpy() for name, f in state_fields(sim.state).items()}
+    h = sim.history
+    ncols = len(h.probe_header)
+    arrays["history.probe"] = _rows(h.probe_rows, ncols)
+    arrays["history.energy"] = _rows(h.energy_rows, len(h.energy_rows[0]) if h.energy_rows else 0)
+    arrays["history.force"] = _rows(h.force_rows, len(h.force_rows[0]) if h.force_rows else 0)
+    meta = {
+        "version": FORMAT_VERSION,
+        "scene_hash": scene_hash(sim.scene, sim.model.points, sim.model.quads),
+        "scene": sim.scene.info.name, "arch": sim.arch,
+        "launch": "batched" if sim.stepper.batched else "parallel",
+        "position": position,
+        "total_steps": int(sim.total_steps), "run_seconds": float(sim.run_seconds),
+        "step": int(sim.state.step[None]),
+        "frames": [[float(k), f] for k, f in (sim.frames.entries if sim.frames else [])],
+        "warnings": list(sim.warnings), "hourglass_warned": bool(sim.hourglass_warned),
+        "driver": sim.driver_data,
+    }
+    arrays["meta"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
+
+    def write(p: Path):
+        with open(p, "wb") as fh:
+            np.savez(fh, **arrays)
+    atomic_write(path, write)
+    return path
+
+
+@dataclasses.dataclass
+class Checkpoint:
+    path: Path
+    meta: dict
+    arrays: dict
+
+    @property
+    def position(self) -> dict:
+        return self.meta["position"]
+
+
+def load_checkpoint(directory: Path) -> Checkpoint:
+    """Read ``directory/checkpoint.npz`` (raises :class:`CheckpointError`)."""
+    directory = Path(directory)
+    path = directory / CHECKPOINT_NAME if directory.suffix != ".npz" else directory
+    if not path.is_file():
+        where = f"{directory}: no such directory" if not directory.exists() else f"{path}: no checkpoint"
+        raise CheckpointError(f"--restart {where} (write one with --checkpoint-every N)")
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            arrays = {k: data[k] for k in data.files}
+        meta = json.loads(arrays.pop("meta").tobytes().decode())
+    except Exception as exc:  # zip/npz/json errors of a damaged file
+        reason = "not a checkpoint file" if "pickle" in str(exc) else " ".join(str(exc).split())
+        raise CheckpointError(f"{path}: cannot read the checkpoint ({reason or type(exc).__name__})") from None
+    if meta.get("version") != FORMAT_VERSION:
+        raise CheckpointError(f"{path}: checkpoint format {meta.get('version')} is not {FORMAT_VERSION}")
+    return Checkpoint(path, meta, arrays)
+
+
+def check_compatible(ckpt: Checkpoint, scene, points, quads) -> None:
+    """Raise :class:`CheckpointError` if `ckpt` was written for another scene or mesh."""
+    if ckpt.meta["scene_hash"] != scene_hash(scene, points, quads):
+        raise CheckpointError(f"{ckpt.path}: checkpoint was written for a different scene "
+                              f"(scene '{ckpt.meta.get('scene')}' with other keys or another mesh); "
+                              "restart with the same scene file and --set options")
+
+
+def restore_checkpoint(sim, ckpt: Checkpoint) -> list[str]:
+    """Load `ckpt` into the freshly built `sim`; returns warning lines (e.g. another arch)."""
+    from .output import FrameWriter
+    warnings = []
+    fields = state_fields(sim.state)
+    saved = {k[len("field."):] for k in ckpt.arrays if k.startswith("field.")}
+    if saved != set(fields):
+        raise CheckpointError(f"{ckpt.path}: checkpoint fields {sorted(saved ^ set(fields))} do not match "
+                              "this build of the solver")
+    for name, f in fields.items():
+        f.from_numpy(ckpt.arrays[f"field.{name}"])
+    h = sim.history
+    h.probe_rows = ckpt.arrays["history.probe"].tolist()
+    h.energy_rows = ckpt.arrays["history.energy"].tolist()
+    h.force_rows = ckpt.arrays["history.force"].tolist()
+    m = ckpt.meta
+    sim.total_steps = int(m["total_steps"])
+    sim.run_seconds = float(m["run_seconds"])
+    sim.warnings = list(m["warnings"])
+    sim.hourglass_warned = bool(m["hourglass_warned"])
+    sim.driver_data = m["driver"]
+    entries = [(float(k), str(f)) for k, f in m["frames"]]
+    source = ckpt.path.parent
+    if entries and source.resolve() != sim.out_dir.resolve():      # continuing into another directory
+        import shutil
+        (sim.out_dir / "frames").mkdir(parents=True, exist_ok=True)
+        for _, f in entries:
+            if (source / f).is_file():
+                shutil.copyfile(source / f, sim.out_dir / f)
+    if entries:
+        sim.frames = FrameWriter(sim.out_dir, sim.model.quads)
+        sim.frames.entries = entries
+        sim.frames._write_pvd()
+    frames_dir = sim.out_dir / "frames"
+    if frames_dir.is_dir():                       # frames written after the checkpoint: redone
+        keep = {Path(f).name for _, f in entries}
+        for stale in frames_dir.glob("frame_*.vtu"):
+            if stale.name not in keep:
+                stale.unlink()
+    launch = "batched" if sim.stepper.batched else "parallel"
+    if m["arch"] != sim.arch or m["launch"] != launch:
+        warnings.append(f"checkpoint was written on {m['arch']} ({m['launch']} launch), continuing on "
+                        f"{sim.arch} ({launch}): the result will not be bit-for-bit that of one run")
+    return warnings
+
+
+# ------------------------------------------------------------------ run control
+class RunControl:
+    """What the drivers call between batches: periodic checkpoints and clean stops."""
+
+    def __init__(self, checkpoint_every: int = 0, resume: dict | None = None):
+        self.checkpoint_every = int(checkpoint_every or 0)
+        self.resume = resume
+        self.stop_requested = False
+        self.checkpoints_written = 0
+        self.last_checkpoint: Path | None = None
+        self._seconds0 = 0.0
+        self._t0 = time.perf_counter()
+        self._overhead = 0.0
+
+    def start(self, sim) -> None:
+        """The driver starts (or resumes): run time counts from here, on top of the saved one."""
+        self._seconds0 = sim.run_seconds
+        self._t0 = time.perf_counter()
+        self._overhead = 0.0
+
+    def run_seconds(self) -> float:
+        """Wall time of the driver so far, all sessions, without the checkpoint writing."""
+        return self._seconds0 + time.perf_counter() - self._t0 - self._overhead
+
+    def boundary(self, sim, position: dict) -> None:
+        """A safe point between batches: the state and `position` say how to continue."""
+        step = int(sim.state.step[None])
+        every = self.checkpoint_every
+        if every > 0 and step // every > sim.driver_data.get("checkpoint_step", 0) // every:
+            self.write(sim, position, step)
+        if self.stop_requested or (stop_hook is not None and stop_hook(sim)):
+            self.write(sim, position, step)
+            raise KeyboardInterrupt
+
+    def write(self, sim, position: dict, step: int) -> None:
+        t0 = time.perf_counter()
+        sim.driver_data["checkpoint_step"] = step
+        sim.run_seconds = self.run_seconds()
+        with deferred_interrupt():
+            self.last_checkpoint = save_checkpoint(sim, position)
+        self.checkpoints_written += 1
+        self._overhead += time.perf_counter() - t0
+
+    @contextlib.contextmanager
+    def catch_interrupts(self):
+        """First Ctrl-C: stop at the next batch boundary; second: stop at once."""
+        if threading.current_thread() is not threading.main_thread():
+            yield
+            return
+
+        def handler(signum, frame):
+            if self.stop_requested:
+                raise KeyboardInterrupt
+            self.stop_requested = True
+
+        previous = signal.signal(signal.SIGINT, handler)
+        try:
+            yield
+        finally:
+            signal.signal(signal.SIGINT, previous)
+
+
+@contextlib.contextmanager
+def deferred_interrupt():
+    """Hold a Ctrl-C until the block is done (a file being written is finished first)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    received = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: received.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        if received:
+            if callable(previous) and previous not in (signal.SIG_IGN, signal.SIG_DFL):
+                previous(signal.SIGINT, None)
+            elif previous != signal.SIG_IGN:
+                raise KeyboardInterrupt

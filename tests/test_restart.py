@@ -1,0 +1,156 @@
+"""No lost work (issue 5.4): ``run --checkpoint-every N`` and ``run --restart DIR`` continue a
+run bit-for-bit as if it had never stopped.
+
+Each scene is run three ways, in-process through the CLI: (a) uninterrupted with periodic
+checkpoints, (b) stopped part-way exactly as a Ctrl-C stops it (a stop request honoured at
+the next batch boundary, here in the middle of a load level / between output times), then
+(c) restarted from (b)'s checkpoint into a new directory and (d) restarted in place from
+(a)'s last periodic checkpoint.
+probes.csv, energy.csv, force.csv and frames.pvd must be byte-for-byte those of (a), and
+the final frame's node positions exactly equal.  Batches are made small (monkeypatched
+BATCH_ELEMENT_STEPS, the same in every run) so that the stop falls inside a batch sequence.
+"""
+from __future__ import annotations
+
+import filecmp
+import json
+import shutil
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import meshio
+import numpy as np
+import pytest
+
+from taichi_shell_mpm import checkpoint
+from taichi_shell_mpm.solvers import static
+
+from .conftest import ROOT, write_scene
+from .test_reliability import cli_run
+
+TABLES = ("probes.csv", "energy.csv", "force.csv", "frames.pvd")
+
+CANTILEVER = [str(ROOT / "scenes" / "cantilever.toml"), "--set", "mesh.nx=4", "--set", "solve.load_steps=4"]
+
+FLAP = """
+[scene]
+name = "flap"
+units = "consistent"
+[mesh]
+kind = "plate"
+lx = 1.0
+ly = 1.0
+nx = 4
+ny = 4
+[material]
+E = 1e4
+nu = 0.3
+density = 1.0
+[section]
+thickness = 0.02
+[method]
+kind = "mpm"
+cell_size = 0.125
+[nodesets.edge]
+plane = {point = [0, 0, 0], normal = [1, 0, 0]}
+[nodesets.tip]
+plane = {point = [1, 0, 0], normal = [1, 0, 0]}
+[[boundary]]
+nodes = "edge"
+fix = "all"
+[[load]]
+nodes = "tip"
+force = [0.0, 0.0, 2e-3]
+[[initial]]
+velocity = [0.0, 0.05, 0.2]
+[[probe]]
+name = "tip"
+nodes = "tip"
+components = ["ux", "uz", "ry"]
+[solve]
+kind = "dynamic"
+end_time = 2.0
+[output]
+times = [0.5, 1.0, 1.5]
+history_interval = 0.1
+"""
+
+
+def last_frame_points(out: Path) -> np.ndarray:
+    files = [d.get("file") for d in ET.parse(out / "frames.pvd").getroot().iter("DataSet")]
+    return meshio.read(out / files[-1]).points
+
+
+def assert_same_run(a: Path, b: Path) -> None:
+    for name in TABLES:
+        assert filecmp.cmp(a / name, b / name, shallow=False), f"{name} differs between {a.name} and {b.name}"
+    pa, pb = last_frame_points(a), last_frame_points(b)
+    assert np.array_equal(pa, pb), np.abs(pa - pb).max()
+    sa, sb = (json.loads((d / "summary.json").read_text()) for d in (a, b))
+    assert sa["steps"] == sb["steps"] and sa["energies"] == sb["energies"]
+
+
+def position_of(out: Path) -> dict:
+    with np.load(out / "checkpoint.npz") as data:
+        return json.loads(data["meta"].tobytes())["position"]
+
+
+def restart_roundtrip(tmp_path, monkeypatch, scene_args, stop_step, every, batch_element_steps):
+    monkeypatch.setattr(static, "BATCH_ELEMENT_STEPS", batch_element_steps)
+    a, b, d = tmp_path / "a", tmp_path / "b", tmp_path / "d"       # d: restarted in place
+    r = cli_run("run", *scene_args, "--out", str(a), "--quiet", "--checkpoint-every", str(every))
+    assert r.code == 0, r.err
+    steps = json.loads((a / "summary.json").read_text())["steps"]
+    monkeypatch.setattr(checkpoint, "stop_hook", lambda sim: sim.state.step[None] >= stop_step)
+    r = cli_run("run", *scene_args, "--out", str(b), "--quiet")
+    monkeypatch.setattr(checkpoint, "stop_hook", None)
+    assert r.code == 130, r.err
+    assert r.err.startswith("error: interrupted at") and "--restart" in r.err, r.err
+    stopped = position_of(b)
+    summary_b = json.loads((b / "summary.json").read_text())
+    assert summary_b["error"] == "interrupted"
+    shutil.copytree(a, d)
+    periodic = position_of(d)
+    c = tmp_path / "c"           # continue into another directory: the frames so far are copied
+    r = cli_run("run", *scene_args, "--restart", str(b), "--out", str(c), "--quiet")
+    assert r.code == 0, r.err
+    assert_same_run(a, c)
+    r = cli_run("run", *scene_args, "--restart", str(d), "--quiet")
+    assert r.code == 0, r.err
+    assert_same_run(a, d)
+    print(f"\n{steps} steps; stopped at {stopped} and restarted, and restarted from the periodic "
+          f"checkpoint at {periodic}: tables byte-identical, final positions identical")
+    return stopped, periodic
+
+
+def test_static_restart_is_bit_for_bit(tmp_path, monkeypatch):
+    # 4 elements, 2000-step batches: level 1 takes ~12 800 steps, the stop falls inside it
+    stopped, periodic = restart_roundtrip(tmp_path, monkeypatch, CANTILEVER, stop_step=7000, every=5000,
+                                          batch_element_steps=8000)
+    assert stopped["level"] == 1 and stopped["started"] and 0 < stopped["steps"]
+
+
+def test_dynamic_restart_is_bit_for_bit(tmp_path, monkeypatch):
+    scene = write_scene(tmp_path, FLAP, "flap.toml")
+    # 16 elements, 250-step batches
+    stopped, periodic = restart_roundtrip(tmp_path, monkeypatch, [str(scene)], stop_step=1100, every=700,
+                                          batch_element_steps=4000)
+    assert stopped["event"] > 0
+
+
+def test_restart_refuses_a_missing_or_foreign_checkpoint(tmp_path):
+    r = cli_run("run", *CANTILEVER, "--restart", str(tmp_path / "nowhere"))
+    print(r.err)
+    assert r.code == 2 and r.err.startswith("error: --restart") and "Traceback" not in r.err
+    out = tmp_path / "run"
+    r = cli_run("run", *CANTILEVER, "--set", "solve.load_steps=1", "--out", str(out), "--quiet",
+                "--checkpoint-every", "1000")
+    assert r.code == 0 and (out / "checkpoint.npz").is_file()
+    r = cli_run("run", *CANTILEVER, "--set", "solve.load_steps=1", "--set", "material.E=1.3e6",
+                "--restart", str(out))
+    print(r.err)
+    assert r.code == 2 and "checkpoint was written for a different scene" in r.err
+    (out / "checkpoint.npz").write_bytes(b"not a checkpoint")
+    r = cli_run("run", *CANTILEVER, "--set", "solve.load_steps=1", "--restart", str(out))
+    print(r.err)
+    assert r.code == 2 and "cannot read the checkpoint" in r.err and len(r.err.splitlines()) == 1
