@@ -13,7 +13,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import os
-import shlex
 import sys
 import time
 import traceback
@@ -158,31 +157,11 @@ def assembly_problems(scene, mesh) -> tuple[list[str], object]:
     return unique, (model if not unique else None)
 
 
-MAX_GENERATED_ELEMENTS = 5_000_000
-"""Largest generated mesh accepted (a typo such as nx = 1e9 must not exhaust the memory)."""
-
-
-def generated_elements(spec) -> int:
-    """Element count of a generated mesh spec (0 for an imported one)."""
-    kind = getattr(spec, "kind", None)
-    if kind == "plate":
-        return spec.nx * spec.ny
-    if kind == "hemisphere":
-        return spec.n_around * spec.n_meridian
-    if kind == "tube":
-        return 4 * (spec.n_flat + spec.n_corner) * spec.n_length
-    return 0
-
-
 def prepare(path: Path, overrides) -> tuple:
     """Scene, mesh and model of a scene file, or SceneError listing every problem found."""
     from .mesh import build_mesh
     from .scene import SceneError, load_scene
     scene = load_scene(path, overrides)
-    count = generated_elements(scene.mesh)
-    if count > MAX_GENERATED_ELEMENTS:
-        raise SceneError(f"{scene.source.name}: [mesh]: the {scene.mesh.kind} would have {count:,} elements, "
-                         f"more than the {MAX_GENERATED_ELEMENTS:,} this solver accepts; use fewer divisions")
     try:
         mesh = build_mesh(scene.mesh)
     except SceneError as exc:
@@ -227,17 +206,14 @@ def _check_out_dir(out: Path) -> str | None:
 
 
 def _finish(sim, message: str) -> None:
-    """After a failure or an interrupt: last good frame, tables and summary with the error,
-    and the summary table on stdout."""
+    """After a failure or an interrupt: last good frame, tables and summary with the error."""
     from .checkpoint import deferred_interrupt
-    from .progress import format_summary
     if sim is None:
         return
     try:
         with deferred_interrupt():
             sim.final_frame()
-            summary = sim.write_results({"error": message})
-        print(format_summary(summary), flush=True)
+            sim.write_results({"error": message})
     except KeyboardInterrupt:
         print("error: interrupted again while writing the results", file=sys.stderr)
     except Exception as exc:  # keep the one-line report of the original failure
@@ -293,8 +269,8 @@ def _run(args) -> int:
         _finish(sim, "interrupted")
         if sim is None:
             return _fail(EXIT_INTERRUPT, ["interrupted before the run started; nothing written"])
-        sets = "".join(f" --set {shlex.quote(o)}" for o in args.overrides)
-        more = (f"; continue with: run {shlex.quote(str(args.scene))}{sets} --restart {shlex.quote(str(sim.out_dir))}"
+        sets = "".join(f" --set {o}" for o in args.overrides)
+        more = (f"; continue with: run {args.scene}{sets} --restart {sim.out_dir}"
                 if control.last_checkpoint is not None else "")
         return _fail(EXIT_INTERRUPT, [f"interrupted at {sim.where()}; results so far written to {sim.out_dir}"
                                       + more])

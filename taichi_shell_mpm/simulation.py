@@ -220,9 +220,8 @@ class Simulation:
 
     def check_status(self) -> None:
         """Raise SimulationError for a failure flagged in-kernel or found here between batches
-        (non-finite nodes, elements inside out).  The kernel's flag is refined here: a later
-        stage of the failing step may have overwritten it.  The drivers also call
-        :meth:`check_hourglass` after each batch."""
+        (non-finite nodes, elements inside out), then check the hourglass energy.  The kernel's
+        flag is refined here: a later stage of the failing step may have overwritten it."""
         code = self.state.status[None]
         index = self.state.status_index[None]
         now = time.perf_counter()
@@ -242,6 +241,7 @@ class Simulation:
         if code in FAILURES:
             what, cause = FAILURES[code]
             raise SimulationError(f"{what.format(index=index)} at {self.where()}: {cause}")
+        self.check_hourglass()
 
     def check_hourglass(self) -> None:
         """Warn once when E_hg > 10% of E_int, stop when > 20%, once the energies are meaningful."""

@@ -338,13 +338,12 @@ def meshes(draw):
                                                  "out_of_range", "flat2d", "only_triangles", "unused",
                                                  "repeat_node", "collapse", "huge"]), max_size=3)):
         e = int(rng.integers(len(quads)))
-        corners = np.clip(quads[e], 0, len(points) - 1)      # an earlier damage may have broken ids
         if damage == "bowtie":
             quads[e] = quads[e][[0, 2, 1, 3]]
         elif damage == "reverse":
             quads[e] = quads[e][::-1]
         elif damage == "duplicate":
-            points = np.vstack([points, points[corners[0]]])
+            points = np.vstack([points, points[quads[e][0]]])
             quads[e][0] = len(points) - 1
         elif damage in ("triangles", "only_triangles"):
             triangles = np.vstack([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
@@ -352,7 +351,7 @@ def meshes(draw):
                 quads = np.empty((0, 4), dtype=np.int64)
                 break
         elif damage == "nan":
-            points[corners[1], 0] = np.nan
+            points[quads[e][1], 0] = np.nan
         elif damage == "out_of_range":
             quads[e][2] = len(points) + 5
         elif damage == "flat2d":
@@ -362,10 +361,9 @@ def meshes(draw):
         elif damage == "repeat_node":
             quads[e][3] = quads[e][0]
         elif damage == "collapse":
-            points[corners] = points[corners[0]]
+            points[quads[e]] = points[quads[e][0]]
         elif damage == "huge":
-            with np.errstate(over="ignore"):
-                points = points * 1e150
+            points *= 1e200
     cells = [(kind, data) for kind, data in (("quad", quads), ("triangle", triangles)) if len(data)]
     return points, cells
 

@@ -188,17 +188,17 @@ def test_hourglass_warning_then_stop(tmp_path, capsys):
     s = sim.state
     s.external_work[None] = 1.0
     s.internal_energy[None], s.hourglass_energy[None] = 1e-7, 1e-7       # E_int not yet meaningful
-    sim.check_hourglass()
+    sim.check_status()
     s.internal_energy[None], s.hourglass_energy[None] = 1.0, 0.05
-    sim.check_hourglass()
+    sim.check_status()
     assert not sim.warnings
     s.hourglass_energy[None] = 0.15
-    sim.check_hourglass()
-    sim.check_hourglass()
+    sim.check_status()
+    sim.check_status()
     assert len(sim.warnings) == 1 and "15% of the internal energy" in sim.warnings[0]
     s.hourglass_energy[None] = 0.25
     with pytest.raises(SimulationError, match="hourglass energy is 25% of the internal energy"):
-        sim.check_hourglass()
+        sim.check_status()
     printed = capsys.readouterr().out
     print(printed)
     assert printed.count("warning: hourglass energy") == 1

@@ -51,7 +51,6 @@ def run_dynamic(sim: Simulation, control: RunControl | None = None) -> dict:
             while s.dt[None] > 0.0:
                 sim.total_steps += stepper.advance(chunk)
                 sim.check_status()
-                sim.check_hourglass()
                 if every > 0:
                     sim.record(s.time[None], frame=True)
                 if reporter.due():

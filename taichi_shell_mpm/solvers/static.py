@@ -65,7 +65,6 @@ def run_static(sim: Simulation, control: RunControl | None = None) -> dict:
                 if code == STATUS_CONVERGED:
                     break
                 sim.check_status()
-                sim.check_hourglass()
                 if steps >= budget:
                     ratio = np.sqrt(s.residual_sq[None] / max(s.residual_target_sq[None], 1e-300)) \
                         * scene.solve.tolerance
@@ -80,7 +79,7 @@ def run_static(sim: Simulation, control: RunControl | None = None) -> dict:
                                   s.dt[None], relative_balance(sim.energies(), sim.initial_kinetic),
                                   (j - 1) / n_levels)
                 control.boundary(sim, {"level": j, "steps": steps, "started": True})
-            sim.check_hourglass()                    # hourglass energy of the converged level
+            sim.check_status()                       # hourglass energy of the converged level
             sim.total_steps += steps
             level_steps.append(steps)
             s.status[None] = STATUS_OK
