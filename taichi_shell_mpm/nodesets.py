@@ -3,15 +3,20 @@
 Selectors (``NodeSet.kind``): ``all`` every node; ``box`` nodes with
 ``box_min - tol <= x <= box_max + tol`` componentwise; ``plane`` nodes within ``tol`` of the
 plane through ``point`` with normal ``normal``; ``nearest`` the single node nearest to
-``point`` (lowest id on ties); ``ids`` the listed 0-based node ids.  A selection that comes
-out empty is an error, so that a mistyped coordinate cannot silently drop a boundary
-condition or a load.
+``point`` (lowest id on ties), which must lie within the mesh's bounding box grown by 5% of
+its largest extent; ``ids`` the listed 0-based node ids.  A selection that comes out empty,
+or a ``nearest`` point outside the mesh, is an error, so that a mistyped coordinate cannot
+silently drop (or misplace) a boundary condition, a load or a probe.
 """
 from __future__ import annotations
 
 import numpy as np
 
 from .scene import NodeSet, SceneError
+
+
+NEAREST_SLACK = 0.05
+"""A ``nearest`` point may lie this fraction of the mesh's largest extent outside its bounding box."""
 
 
 def _vec(v) -> str:
@@ -45,7 +50,7 @@ def select_nodes(nodeset: NodeSet, points: np.ndarray) -> np.ndarray:
     """Sorted, unique int64 ids of the nodes of ``points`` (shape (n, 3)) that ``nodeset`` selects.
 
     Raises :class:`SceneError` for a missing selector field, a zero plane normal, an
-    out-of-range id, an unknown kind, or an empty selection.
+    out-of-range id, a ``nearest`` point outside the mesh, an unknown kind, or an empty selection.
     """
     points = np.asarray(points, dtype=np.float64)
     n = len(points)
@@ -67,8 +72,16 @@ def select_nodes(nodeset: NodeSet, points: np.ndarray) -> np.ndarray:
         ids = np.nonzero(np.abs(distance) <= nodeset.tol)[0]
     elif kind == "nearest":
         _require(nodeset, "point")
-        offset = points - np.asarray(nodeset.point, dtype=np.float64)
+        target = np.asarray(nodeset.point, dtype=np.float64)
+        offset = points - target
         ids = np.argmin(np.einsum("ij,ij->i", offset, offset), keepdims=True) if n else []
+        if n:
+            lo, hi = points.min(axis=0), points.max(axis=0)
+            slack = NEAREST_SLACK * float(np.max(hi - lo))
+            if np.any(target < lo - slack) or np.any(target > hi + slack):
+                raise SceneError(f"nodeset '{nodeset.name}' ({describe(nodeset)}): the point lies outside the "
+                                 f"mesh (its nodes span {_vec(lo)} .. {_vec(hi)}; the nearest node, "
+                                 f"{int(ids[0])}, is {float(np.linalg.norm(offset[ids[0]])):.3g} away)")
     elif kind == "ids":
         ids = np.asarray(nodeset.ids, dtype=np.int64)
         bad = ids[(ids < 0) | (ids >= n)]

@@ -950,10 +950,12 @@ class _SceneParser:
         v = self.read(path, data, {"point": _vec3, "normal": _nonzero_vec3, "moves_with": _identifier}, Wall)
         if v is None:
             return None
-        bodies = [b.get("name") for b in self.raw.get("rigid_body", []) if isinstance(b, dict)]
+        listed = self.raw.get("rigid_body", [])
+        bodies = [b["name"] for b in (listed if isinstance(listed, list) else [])
+                  if isinstance(b, dict) and isinstance(b.get("name"), str)]
         if v.get("moves_with") is not None and v["moves_with"] not in bodies:
             self.error(f"{path}.moves_with", f"no [[rigid_body]] named {v['moves_with']!r}"
-                       + _hint(v["moves_with"], bodies, "rigid bodies"))
+                       + _hint(v["moves_with"], bodies, "defined"))
         return self.build(mark, Wall, v)
 
     def initial(self, path: str, data: Any) -> InitialVelocity | None:

@@ -179,6 +179,36 @@ def test_guard_stops_cleanly(tmp_path, guard):
         assert len(keys) == 2 and keys[-1] > 0
 
 
+@pytest.mark.parametrize("guard, status", [("inverted", "STATUS_INVERTED"), ("dt_collapse", "STATUS_DT_COLLAPSE")])
+def test_kernel_flags_the_guard_itself(tmp_path, guard, status):
+    """The in-kernel check (not only the host's refinement in check_status) catches the problem,
+    and a later check of the same step does not overwrite it: an element folding over is flagged
+    by its corner Jacobians (its BT area is >= 0 by construction), the time-step collapse only
+    when nothing was flagged before."""
+    from taichi_shell_mpm import state as state_module
+    from taichi_shell_mpm.scene import load_scene
+    from taichi_shell_mpm.simulation import Simulation, SimulationError, init_taichi
+    from taichi_shell_mpm.solvers.dynamic import run_dynamic
+    kwargs, _ = GUARDS[guard]
+    init_taichi("cpu")
+    sim = Simulation(load_scene(plate(tmp_path, guard, **kwargs)), tmp_path / "out", quiet=True)
+    raw = []
+    host_check = sim.check_status
+
+    def record():
+        if sim.state.status[None] != state_module.STATUS_OK and not raw:
+            raw.append((sim.state.status[None], sim.state.status_index[None], sim.state.step[None]))
+        host_check()
+
+    sim.check_status = record
+    with pytest.raises(SimulationError) as caught:
+        run_dynamic(sim, checkpoint.RunControl(0))
+    print(f"\n{guard}: kernel status/index/step {raw}; {caught.value}")
+    assert raw and raw[0][0] == getattr(state_module, status)
+    if guard == "inverted":
+        assert f"element {raw[0][1]} turned inside out" in str(caught.value)
+
+
 def test_hourglass_warning_then_stop(tmp_path, capsys):
     """E_hg/E_int above 10%: one warning; above 20%: SimulationError; not before E_int matters."""
     from taichi_shell_mpm.scene import load_scene
@@ -316,6 +346,11 @@ force = [0, 0, 1]
 [[probe]]
 name = "p"
 nodes = "nothing"
+[nodesets.off]
+nearest = [0.5, 0.5, 3]
+[[probe]]
+name = "q"
+nodes = "off"
 """)
     for command in ("validate", "run"):
         r = cli_run(command, str(scene), *(["--out", str(tmp_path / "o")] if command == "run" else []))
@@ -328,7 +363,8 @@ nodes = "nothing"
         assert "nodeset 'far'" in text and "nodeset 'nothing'" in text
         assert "every node of the set has all translations fixed" in text
         assert "grid box does not cover the mesh" in text
-        assert len(lines) == 4
+        assert "nodeset 'off' (nearest point=[0.5,0.5,3]): the point lies outside the mesh" in text
+        assert len(lines) == 5
     assert not (tmp_path / "o").exists()
 
 

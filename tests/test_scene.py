@@ -510,6 +510,20 @@ def test_all_errors_are_reported_at_once(scene_dir):
     assert str(SceneError(messages)) == "\n".join(messages)
 
 
+def test_wall_moving_with_a_nameless_rigid_body(scene_dir):
+    """A [[rigid_body]] without a name beside a [[wall]] that moves with one: clean errors."""
+    raw = raw_of(TUBE)
+    raw["rigid_body"] = [{"nodes": "front"}, "not a table"]
+    raw["wall"] = [{"point": [0, 0, 0], "normal": [0, 0, 1], "moves_with": "ram"}]
+    assert errors(raw, scene_dir) == [
+        "case.toml: [[rigid_body]][0].name: missing required key",
+        "case.toml: [[rigid_body]][1]: expected a table, got 'not a table'",
+        "case.toml: [[wall]][0].moves_with: no [[rigid_body]] named 'ram' (none defined)"]
+    raw["rigid_body"] = {"name": "ram"}
+    assert errors(raw, scene_dir)[-1] == "case.toml: [[wall]][0].moves_with: no [[rigid_body]] named 'ram' " \
+                                         "(none defined)"
+
+
 def test_invalid_probe_components_do_not_cascade(scene_dir):
     """A reference to a probe whose own components are wrong reports only the probe."""
     raw = _set(raw_of(FULL), "probe.0.components", ["ux", "zz"])

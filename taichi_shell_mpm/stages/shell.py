@@ -9,7 +9,7 @@ element time-step limit (section 5).
 
 import taichi as ti
 
-from ..state import STATUS_INVERTED, State
+from ..state import STATUS_INVERTED, STATUS_OK, State
 from .accumulate import Accumulator
 from .hourglass import Hourglass
 
@@ -54,6 +54,19 @@ def gradient_operators(xh, yh):
     b1 = inv2a * ti.Vector([yh[1] - yh[3], yh[2] - yh[0], yh[3] - yh[1], yh[0] - yh[2]])
     b2 = inv2a * ti.Vector([xh[3] - xh[1], xh[0] - xh[2], xh[1] - xh[3], xh[2] - xh[0]])
     return area, b1, b2
+
+
+@ti.func
+def inverted_corner(xh, yh):
+    """True when a corner's Jacobian (x_(a+1) - x_a) x (x_(a-1) - x_a) in the local plane is
+    <= 0: the quad is folded, non-convex or a bow-tie (the numpy twin is
+    Simulation.element_distortion)."""
+    bad = False
+    for a in ti.static(range(4)):
+        n, p = (a + 1) % 4, (a + 3) % 4
+        if (xh[n] - xh[a]) * (yh[p] - yh[a]) - (yh[n] - yh[a]) * (xh[p] - xh[a]) <= 0.0:
+            bad = True
+    return bad
 
 
 @ti.data_oriented
@@ -112,7 +125,10 @@ class ShellElement:
         # --- geometry at x^(n+1) for the forces
         rot, xh, yh, zh = local_geometry(x)
         area, b1, b2 = gradient_operators(xh, yh)
-        if area <= 0.0:
+        # inside out: a corner Jacobian <= 0 in the element's own frame (e3 along d13 x d24).
+        # `area` is (d13 x d24).e3 / 2 >= 0 by construction, so it cannot flag a fold.
+        # The first problem of a step wins (later stages check status == OK as well).
+        if self.s.status[None] == STATUS_OK and inverted_corner(xh, yh):
             self.s.status[None] = STATUS_INVERTED
             self.s.status_index[None] = e
         # --- through-thickness points: stress update, resultants (paper eq 28-29)

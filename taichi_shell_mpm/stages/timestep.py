@@ -9,7 +9,7 @@ next output time, and checked for collapse.
 import numpy as np
 import taichi as ti
 
-from ..state import STATUS_DT_COLLAPSE, State
+from ..state import STATUS_DT_COLLAPSE, STATUS_OK, State
 
 DT_UNSET = 1.0e300
 
@@ -31,8 +31,9 @@ class TimeStep:
         dt = self.s.dt_next[None]
         if ti.static(self.cfg.grid_rule):
             dt = ti.min(dt, self.grid_limit())
-        if dt < 1e-3 * self.s.dt_first[None]:
+        if dt < 1e-3 * self.s.dt_first[None] and self.s.status[None] == STATUS_OK:   # the first problem wins
             self.s.status[None] = STATUS_DT_COLLAPSE
+            self.s.status_index[None] = -1   # the limiting element is found on the host (Simulation.check_status)
         self.s.dt_stable[None] = dt
         remaining = self.s.time_limit[None] - self.s.time[None]
         if remaining < dt:                   # land exactly on the next output time ...
