@@ -304,6 +304,22 @@ def _coincident_pairs(points: np.ndarray, ids: np.ndarray, tol: float) -> np.nda
     return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
 
 
+def _orientation_warnings(quads: np.ndarray, source: str) -> list[str]:
+    """Lines for neighbouring elements with opposite normals: an edge a->b that two elements
+    both run in the same direction (a consistently oriented surface runs it a->b and b->a)."""
+    edges = np.stack([quads, np.roll(quads, -1, axis=1)], axis=2).reshape(-1, 2)   # (4m, 2) directed
+    owner = np.repeat(np.arange(len(quads)), 4)
+    order = np.lexsort((edges[:, 1], edges[:, 0]))
+    edges, owner = edges[order], owner[order]
+    lines = []
+    for k in np.nonzero((edges[1:] == edges[:-1]).all(axis=1))[0]:
+        e, f = sorted((int(owner[k]), int(owner[k + 1])))
+        if e != f:
+            lines.append(f"{source}: elements {e} and {f} have opposite normals (both run edge "
+                         f"{edges[k, 0]}->{edges[k, 1]}): reverse the node order of one of them")
+    return lines
+
+
 def check_mesh(points, quads, source: str) -> tuple[str, ...]:
     """Check a quad shell mesh; raise :class:`SceneError` for fatal problems, return warnings.
 
@@ -312,7 +328,8 @@ def check_mesh(points, quads, source: str) -> tuple[str, ...]:
     element, zero-area elements (area < AREA_RTOL x mean), inverted or non-convex elements
     (a corner normal (x_{a+1}-x_a) x (x_{a-1}-x_a) not along the element normal
     (x_3-x_1) x (x_4-x_2)), and coincident nodes (within DUPLICATE_RTOL x bounding-box
-    diagonal).  Warnings: elements warped by more than WARP_WARN_DEG, unused nodes.
+    diagonal).  Warnings: elements warped by more than WARP_WARN_DEG, neighbours with opposite
+    normals (inconsistent node order), unused nodes.
     """
     points = np.asarray(points, dtype=np.float64)
     quads = np.asarray(quads)
@@ -347,7 +364,8 @@ def check_mesh(points, quads, source: str) -> tuple[str, ...]:
     area = 0.5 * np.linalg.norm(normal, axis=1)
     degenerate = area <= AREA_RTOL * area.mean()
     for e in np.nonzero(degenerate)[0]:
-        errors.append(f"{source}: element {e}: degenerate quad (area {area[e]:.3g})")
+        errors.append(f"{source}: element {e}: degenerate quad (area {area[e]:.3g}: collapsed, or a bow-tie "
+                      "whose corners are out of order)")
     corner = np.cross(np.roll(x, -1, axis=1) - x, np.roll(x, 1, axis=1) - x)  # (m, 4, 3)
     along = np.einsum("mai,mi->ma", corner, normal)
     inverted = (along <= 1e-10 * np.einsum("mi,mi->m", normal, normal)[:, None]).any(axis=1)
@@ -370,6 +388,7 @@ def check_mesh(points, quads, source: str) -> tuple[str, ...]:
     warp = np.degrees(np.arccos(np.clip(cos_warp, -1.0, 1.0)))
     for e in np.nonzero(warp > WARP_WARN_DEG)[0]:
         warnings.append(f"{source}: element {e}: warped by {warp[e]:.1f} deg")
+    warnings += _orientation_warnings(quads, source)
     warnings = _limited(warnings, source)
     if len(used) < n:
         warnings.append(f"{source}: {n - len(used)} unused nodes (not referenced by any element)")

@@ -176,7 +176,12 @@ def test_check_zero_area():
     points = np.vstack([SQUARE, [[2, 0, 0], [3, 0, 0]]])
     with pytest.raises(SceneError) as err:
         check_mesh(points, [[0, 1, 2, 3], [1, 4, 5, 0]], "m")
-    assert err.value.messages == ["m: element 1: degenerate quad (area 0)"]
+    assert err.value.messages == ["m: element 1: degenerate quad (area 0: collapsed, or a bow-tie whose "
+                                  "corners are out of order)"]
+    # a bow-tie whose diagonals are parallel has zero BT area too
+    with pytest.raises(SceneError) as err:
+        check_mesh(SQUARE, [[0, 2, 1, 3]], "m")
+    assert err.value.messages[0].startswith("m: element 0: degenerate quad (area 0: collapsed, or a bow-tie")
 
 
 def test_check_non_finite():
@@ -231,6 +236,20 @@ def test_check_limits_lines():
     assert len(err.value.messages) == 11 and err.value.messages[-1] == "m: ... and 10 more"
 
 
+def test_check_opposite_normals_warning():
+    """Two neighbours with opposite node order: a warning naming both and the shared edge; the
+    generated meshes are consistently oriented."""
+    points = np.vstack([SQUARE, [[2, 0, 0], [2, 1, 0]]])
+    assert check_mesh(points, [[0, 1, 2, 3], [1, 4, 5, 2]], "m") == ()
+    assert check_mesh(points, [[0, 1, 2, 3], [2, 5, 4, 1]], "m") == (
+        "m: elements 0 and 1 have opposite normals (both run edge 1->2): reverse the node order of one of them",)
+    for spec in (PlateMesh(lx=3.0, ly=2.0, nx=3, ny=2), HemisphereMesh(radius=1, hole_deg=10, n_around=8,
+                                                                       n_meridian=3, quarter=False),
+                 TubeMesh(width=4, depth=3, corner_radius=0.5, length=5, n_flat=2, n_corner=2, n_length=3)):
+        mesh = build_mesh(spec)
+        assert not [w for w in check_mesh(mesh.points, mesh.quads, "m") if "opposite normals" in w]
+
+
 def test_check_warp_and_unused_warnings():
     warped = SQUARE.copy()
     warped[2, 2] = 0.2
@@ -274,8 +293,16 @@ def test_nodeset_tolerance(plate_points):
 
 
 def test_nodeset_nearest_and_ids(plate_points):
-    near = NodeSet(name="c", kind="nearest", point=(4.9, 1.2, 7.0))
+    near = NodeSet(name="c", kind="nearest", point=(4.9, 1.2, 0.3))
     np.testing.assert_array_equal(select_nodes(near, plate_points), [16])
+    # a point outside the mesh's bounding box (grown by 5% of 10 = 0.5) is a mistake, not a node
+    far = NodeSet(name="c", kind="nearest", point=(4.9, 1.2, 7.0))
+    with pytest.raises(SceneError) as err:
+        select_nodes(far, plate_points)
+    assert err.value.messages == ["nodeset 'c' (nearest point=[4.9,1.2,7]): the point lies outside the mesh "
+                                  "(its nodes span [0,0,0] .. [10,2,0]; the nearest node, 16, is 7 away)"]
+    edge = NodeSet(name="c", kind="nearest", point=(10.49, -0.49, 0.49))
+    np.testing.assert_array_equal(select_nodes(edge, plate_points), [10])
     ids = NodeSet(name="i", kind="ids", ids=(5, 3, 5))
     np.testing.assert_array_equal(select_nodes(ids, plate_points), [3, 5])
     with pytest.raises(SceneError, match="nodeset 'i': node id 33 out of range"):
