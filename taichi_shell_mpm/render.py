@@ -48,6 +48,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .output import atomic_write
+
 EXIT_INPUT, EXIT_RENDER = 2, 3
 
 PLASTIC_FIELD = "plastic_strain_max"
@@ -448,10 +450,15 @@ def _key_text(run: Run, key: float) -> str:
 
 
 def _save(plotter, path: Path) -> Path:
-    img = plotter.screenshot(str(path), return_img=True)
-    plotter.close()
-    if img is None or np.asarray(img).size == 0 or np.ptp(np.asarray(img)) == 0:
-        raise RenderError(EXIT_RENDER, f"{path}: rendering produced a blank image")
+    """Write the plotter's picture to `path` atomically (a blank picture is not written)."""
+    def write(tmp: Path) -> None:
+        img = plotter.screenshot(str(tmp), return_img=True)
+        if img is None or np.asarray(img).size == 0 or np.ptp(np.asarray(img)) == 0:
+            raise RenderError(EXIT_RENDER, f"{path}: rendering produced a blank image")
+    try:
+        atomic_write(path, write)
+    finally:
+        plotter.close()
     return path
 
 

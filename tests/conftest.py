@@ -1,13 +1,18 @@
-"""Shared helpers: build scenes from TOML text and simulations in-process."""
+"""Shared helpers: scene texts, scenes and simulations built in-process, the element harness."""
 from __future__ import annotations
 
 import textwrap
 from pathlib import Path
+from unittest import mock
 
+import meshio
+import numpy as np
 import pytest
+import taichi as ti
 
 from taichi_shell_mpm.scene import load_scene
 from taichi_shell_mpm.simulation import Simulation, init_taichi
+from taichi_shell_mpm.solvers.stepper import Stepper
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -39,6 +44,80 @@ dt_rule = "shell"
 """
 
 
+# Small valid scenes of the generated curved meshes (optional tables at their defaults), shared
+# by the parser tests (test_scene.py) and the CLI fuzzing (test_fuzz_run.py).
+TUBE_SCENE = """
+[scene]
+name = "tube"
+units = "kN-mm-ms-kg"
+[mesh]
+kind = "tube"
+width = 60
+depth = 40
+corner_radius = 5
+length = 40
+n_flat = 2
+n_corner = 1
+n_length = 4
+[material]
+E = 200
+nu = 0.3
+density = 7.85e-6
+[section]
+thickness = 1
+[nodesets.front]
+plane = {point = [0, 0, 0], normal = [0, 0, 1]}
+[[boundary]]
+nodes = "front"
+fix = "all"
+[[initial]]
+velocity = [0, 0, -15]
+[solve]
+kind = "dynamic"
+end_time = 0.1
+"""
+
+HEMISPHERE_SCENE = """
+[scene]
+name = "hemisphere"
+units = "consistent"
+[mesh]
+kind = "hemisphere"
+radius = 10
+hole_deg = 18
+n_around = 4
+n_meridian = 3
+[material]
+E = 6.825e7
+nu = 0.3
+density = 1
+[section]
+thickness = 0.04
+[nodesets.a]
+nearest = [10, 0, 0]
+[nodesets.sym_x]
+plane = {point = [0, 0, 0], normal = [1, 0, 0]}
+[[boundary]]
+nodes = "sym_x"
+symmetry = "x"
+[[load]]
+nodes = "a"
+force = [200, 0, 0]
+[solve]
+kind = "static"
+"""
+
+
+def locations(node, found=None) -> list[tuple[object, object]]:
+    """Every (container, key) pair in the nested dicts and lists of `node` (for mutating scenes)."""
+    found = [] if found is None else found
+    items = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
+    for key, child in items:
+        found.append((node, key))
+        locations(child, found)
+    return found
+
+
 def write_scene(tmp_path: Path, text: str, name: str = "scene.toml") -> Path:
     path = tmp_path / name
     path.write_text(textwrap.dedent(text))
@@ -62,3 +141,65 @@ def make_simulation(tmp_path):
     def make(scene):
         return simulation(scene, tmp_path)
     return make
+
+
+# ------------------------------------------------------------------ one element, its stage alone
+ELEMENT = """
+[scene]
+name = "element"
+units = "consistent"
+[mesh]
+kind = "file"
+path = "element.vtu"
+[material]
+E = {E}
+nu = {nu}
+density = 1.0
+{material}
+[section]
+thickness = {t}
+{section}
+[method]
+kind = "fem"
+[solve]
+kind = "dynamic"
+end_time = 1.0
+"""
+
+
+def element_simulation(tmp_path: Path, corners, *, E: float, nu: float, t: float, material: str = "",
+                       section: str = "") -> Simulation:
+    """A Simulation of the single quad `corners` (4x3, explicit FE) for driving the element stage
+    (S7) alone; `material` and `section` are extra TOML lines of those tables.  The full step is
+    not compiled (Simulation.__init__ warms it up with advance(0), which the element tests never
+    call and which would triple their cold time)."""
+    meshio.write(tmp_path / "element.vtu", meshio.Mesh(np.asarray(corners, dtype=float),
+                                                       [("quad", np.array([[0, 1, 2, 3]]))]))
+    scene = load_scene(write_scene(tmp_path, ELEMENT.format(E=E, nu=nu, t=t, material=material,
+                                                            section=section)))
+    with mock.patch.object(Stepper, "advance", lambda self, max_steps: 0):
+        return simulation(scene, tmp_path)
+
+
+def element_pass(sim: Simulation, end, velocity, omega, dt: float, steps: int = 1):
+    """Element updates (stage S7) from zero stress: the corners arrive at `end` having moved with
+    `velocity`, with nodal angular velocity `omega`; the stage runs `steps` times with these
+    rates (stresses, plastic strains and nodal forces accumulate).  Returns (stress of element 0
+    per point, nodal internal forces, nodal internal moments, hourglass resultant of element 0)."""
+    s = sim.state
+    s.position.from_numpy(np.asarray(end, dtype=float))
+    s.grid_velocity.from_numpy(np.asarray(velocity, dtype=float))
+    s.omega.from_numpy(np.asarray(omega, dtype=float))
+    for f in (s.stress, s.plastic_strain, s.hourglass_resultant, s.force_int, s.moment_int):
+        if f is not None:
+            f.fill(0)
+    s.dt[None] = dt
+
+    @ti.kernel
+    def run():
+        sim.stepper.shell.element_pass()
+
+    for _ in range(steps):
+        run()
+    return (s.stress.to_numpy()[0], s.force_int.to_numpy(), s.moment_int.to_numpy(),
+            s.hourglass_resultant.to_numpy()[0])

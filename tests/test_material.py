@@ -3,18 +3,15 @@ point (uniaxial hardening line, return onto the ellipse with normal flow, plasti
 incompressibility, random-path robustness) and the limit moment of a plate bent through
 one BT element."""
 
-import meshio
 import numpy as np
 import pytest
 import taichi as ti
 
 from taichi_shell_mpm.quadrature import through_thickness_rule
-from taichi_shell_mpm.scene import load_scene
 from taichi_shell_mpm.simulation import init_taichi
-from taichi_shell_mpm.solvers.stepper import Stepper
 from taichi_shell_mpm.stages.material import PlaneStressJ2
 
-from .conftest import simulation, write_scene
+from .conftest import element_pass, element_simulation
 
 E, NU, SY0, H = 2.0e5, 0.3, 250.0, 2000.0
 EPS_Y = SY0 / E                                          # uniaxial yield strain
@@ -221,33 +218,7 @@ def test_random_paths_stay_admissible():
         assert plastic_steps > n * steps // 10
 
 
-BENDING = """
-[scene]
-name = "bending"
-units = "consistent"
-[mesh]
-kind = "file"
-path = "element.vtu"
-[material]
-model = "j2"
-E = {E}
-nu = {nu}
-density = 1.0
-yield_stress = {sy}
-hardening = 0.0
-[section]
-thickness = {t}
-points = {points}
-rule = "lobatto"
-[method]
-kind = "fem"
-[solve]
-kind = "dynamic"
-end_time = 1.0
-"""
-
-
-def test_bending_limit_moment_through_bt_element(tmp_path, monkeypatch):
+def test_bending_limit_moment_through_bt_element(tmp_path):
     """Square flat element, nodal rotations theta_y = kappa_dot x (zero translations): a
     uniform curvature rate kappa_xx with kappa_yy = 0, so every point is in plane stress
     with eyy = 0 (plane strain in y). At full plasticity there, dev strain rate has no yy part:
@@ -257,31 +228,17 @@ def test_bending_limit_moment_through_bt_element(tmp_path, monkeypatch):
     t, dt, steps = 0.05, 1e-4, 500
     factor = 2 / np.sqrt(3)                                   # plane-strain limit sxx / sigma_y
     corners = np.array([[-0.5, -0.5, 0.0], [0.5, -0.5, 0.0], [0.5, 0.5, 0.0], [-0.5, 0.5, 0.0]])
-    meshio.write(tmp_path / "element.vtu", meshio.Mesh(corners, [("quad", np.array([[0, 1, 2, 3]]))]))
     # first yield at the surface: elastic plane strain sxx = E' exx, syy = nu sxx, q = sxx sqrt(1 - nu + nu^2)
     kappa_y = 2 / t * SY0 * (1 - NU ** 2) / (E * np.sqrt(1 - NU + NU ** 2))
     kappa_dot = 50 * kappa_y / (steps * dt)
     ratios = []
-    # only the element stage runs here: skip compiling the full step when the Simulation is built
-    # (Simulation.__init__ warms it up with advance(0)), which would triple this test's cold time
-    monkeypatch.setattr(Stepper, "advance", lambda self, max_steps: 0)
     for points in (3, 5, 7, 9):
-        scene = load_scene(write_scene(tmp_path, BENDING.format(E=E, nu=NU, sy=SY0, t=t, points=points)))
-        sim = simulation(scene, tmp_path)
+        sim = element_simulation(tmp_path, corners, E=E, nu=NU, t=t,
+                                 material=f'model = "j2"\nyield_stress = {SY0}\nhardening = 0.0',
+                                 section=f'points = {points}\nrule = "lobatto"')
         s = sim.state
-        s.position.from_numpy(corners)
-        s.grid_velocity.fill(0)
-        s.omega.from_numpy(np.column_stack([np.zeros(4), kappa_dot * corners[:, 0], np.zeros(4)]))
-        for f in (s.stress, s.plastic_strain, s.hourglass_resultant):
-            f.fill(0)
-        s.dt[None] = dt
-
-        @ti.kernel
-        def bend():
-            sim.stepper.shell.element_pass()
-
-        for _ in range(steps):
-            bend()
+        element_pass(sim, corners, np.zeros((4, 3)),
+                     np.column_stack([np.zeros(4), kappa_dot * corners[:, 0], np.zeros(4)]), dt, steps=steps)
         sig = s.stress.to_numpy()[0]
         zeta, w = through_thickness_rule("lobatto", points)
         ratio = np.sum(w * zeta * sig[:, 0]) / SY0                  # M_xx / (sigma_y t^2/4)

@@ -17,6 +17,8 @@ from taichi_shell_mpm.scene import (
     SceneError, SceneInfo, Section, Solve, TubeMesh, apply_overrides, load_scene,
     parse_scene)
 
+from .conftest import HEMISPHERE_SCENE, TUBE_SCENE, locations
+
 DOCS = Path(__file__).resolve().parents[1] / "docs" / "scenes.md"
 REF_HEADER = "P_over_Pmax,P,minus_U_tip,W_tip\n0.05,0.20,0.026,0.663\n"
 
@@ -129,68 +131,8 @@ times = [0, 0.5, 2]
 load_steps = false
 """
 
-# Minimal scenes of the other mesh kinds (optional tables left at their defaults).
-TUBE = """
-[scene]
-name = "tube"
-units = "kN-mm-ms-kg"
-[mesh]
-kind = "tube"
-width = 60
-depth = 60
-corner_radius = 5
-length = 300
-n_flat = 10
-n_corner = 2
-n_length = 60
-[material]
-E = 200
-nu = 0.3
-density = 7.85e-6
-[section]
-thickness = 1
-[nodesets.front]
-plane = {point = [0, 0, 0], normal = [0, 0, 1]}
-[[boundary]]
-nodes = "front"
-fix = "all"
-[[initial]]
-velocity = [0, 0, -15]
-[solve]
-kind = "dynamic"
-end_time = 15
-"""
-
-HEMISPHERE = """
-[scene]
-name = "hemisphere"
-units = "consistent"
-[mesh]
-kind = "hemisphere"
-radius = 10
-hole_deg = 18
-n_around = 16
-n_meridian = 16
-[material]
-E = 6.825e7
-nu = 0.3
-density = 1
-[section]
-thickness = 0.04
-[nodesets.a]
-nearest = [10, 0, 0]
-[nodesets.sym_x]
-plane = {point = [0, 0, 0], normal = [1, 0, 0]}
-[[boundary]]
-nodes = "sym_x"
-symmetry = "x"
-[[load]]
-nodes = "a"
-force = [200, 0, 0]
-[solve]
-kind = "static"
-"""
-
+# A minimal scene of the file mesh kind (optional tables left at their defaults); those of the
+# tube and the hemisphere are conftest.TUBE_SCENE and HEMISPHERE_SCENE.
 FILE_MESH = """
 [scene]
 name = "imported"
@@ -280,17 +222,17 @@ def test_full_scene_parses_into_expected_dataclasses(scene_dir):
 
 
 def test_other_mesh_kinds_and_defaults(scene_dir):
-    tube = parse_scene(raw_of(TUBE), scene_dir / "tube.toml")
-    assert tube.mesh == TubeMesh(width=60.0, depth=60.0, corner_radius=5.0, length=300.0,
-                                 n_flat=10, n_corner=2, n_length=60)
-    assert tube.solve == Solve(kind="dynamic", end_time=15.0)
+    tube = parse_scene(raw_of(TUBE_SCENE), scene_dir / "tube.toml")
+    assert tube.mesh == TubeMesh(width=60.0, depth=40.0, corner_radius=5.0, length=40.0,
+                                 n_flat=2, n_corner=1, n_length=4)
+    assert tube.solve == Solve(kind="dynamic", end_time=0.1)
     assert (tube.method, tube.element, tube.output) == (Method(), ElementOptions(), Output())
     assert tube.section == Section(thickness=1.0)
     assert tube.loads == () and tube.reference is None
     assert tube.initial == (InitialVelocity(velocity=(0.0, 0.0, -15.0)),)
 
-    hemi = parse_scene(raw_of(HEMISPHERE), scene_dir / "hemi.toml")
-    assert hemi.mesh == HemisphereMesh(radius=10.0, hole_deg=18.0, n_around=16, n_meridian=16)
+    hemi = parse_scene(raw_of(HEMISPHERE_SCENE), scene_dir / "hemi.toml")
+    assert hemi.mesh == HemisphereMesh(radius=10.0, hole_deg=18.0, n_around=4, n_meridian=3)
     assert hemi.boundaries == (Boundary(nodes="sym_x", symmetry="x"),)
     assert hemi.nodeset("sym_x").tol == 1e-6
 
@@ -464,21 +406,21 @@ def test_cross_checks(scene_dir):
         "[section].points: expected an integer in [2, 10] for rule = lobatto, got 1")
     one({"method.grid_min": [0, 1, 0]}, "[method]: expected grid_min < grid_max in every component, "
                                         "got grid_min = [0.0, 1.0, 0.0], grid_max = [11.0, 1.0, 8.0]")
-    one({"mesh.corner_radius": 30}, "[mesh].corner_radius: expected a number < min(width, depth)/2 = 30, "
-                                    "got 30", base=TUBE)
+    one({"mesh.corner_radius": 20}, "[mesh].corner_radius: expected a number < min(width, depth)/2 = 20, "
+                                    "got 20", base=TUBE_SCENE)
     one({"mesh.n_corner": 0}, "[mesh].n_corner: expected an integer >= 1 when corner_radius > 0, got 0",
-        base=TUBE)
+        base=TUBE_SCENE)
     one({"solve.end_time": 0}, "[solve].end_time: expected a number > 0 for a dynamic solve, got 0",
-        base=TUBE)
-    one({"mesh.hole_deg": 90}, "[mesh].hole_deg: expected a number in (0, 90), got 90", base=HEMISPHERE)
+        base=TUBE_SCENE)
+    one({"mesh.hole_deg": 90}, "[mesh].hole_deg: expected a number in (0, 90), got 90", base=HEMISPHERE_SCENE)
     one({"mesh.path": "meshes/none.vtk"}, "[mesh].path: file not found: "
         f"{str(scene_dir / 'meshes/none.vtk')!r}", base=FILE_MESH)
     # a square tube without fillets needs no fillet elements
-    raw = raw_of(TUBE)
+    raw = raw_of(TUBE_SCENE)
     _set(_set(raw, "mesh.corner_radius", 0), "mesh.n_corner", 0)
     assert parse_scene(raw, scene_dir / "case.toml").mesh.n_corner == 0
     # dynamic without end_time
-    assert errors(_del(raw_of(TUBE), "solve.end_time"), scene_dir) == [
+    assert errors(_del(raw_of(TUBE_SCENE), "solve.end_time"), scene_dir) == [
         "case.toml: [solve].end_time: missing required key (a dynamic solve needs end_time > 0)"]
 
 
@@ -512,7 +454,7 @@ def test_all_errors_are_reported_at_once(scene_dir):
 
 def test_wall_moving_with_a_nameless_rigid_body(scene_dir):
     """A [[rigid_body]] without a name beside a [[wall]] that moves with one: clean errors."""
-    raw = raw_of(TUBE)
+    raw = raw_of(TUBE_SCENE)
     raw["rigid_body"] = [{"nodes": "front"}, "not a table"]
     raw["wall"] = [{"point": [0, 0, 0], "normal": [0, 0, 1], "moves_with": "ram"}]
     assert errors(raw, scene_dir) == [
@@ -565,7 +507,7 @@ def test_overrides_scalar_vector_and_array_index():
 
 
 def test_overrides_create_keys_and_tables():
-    out = apply_overrides(raw_of(TUBE), ["element.hourglass=0.02", "mesh.new_key=1"])
+    out = apply_overrides(raw_of(TUBE_SCENE), ["element.hourglass=0.02", "mesh.new_key=1"])
     assert out["element"] == {"hourglass": 0.02}
     assert out["mesh"]["new_key"] == 1
 
@@ -610,25 +552,15 @@ _VALUES = st.one_of(_SCALARS, st.lists(_SCALARS, max_size=4),
                     st.dictionaries(st.text(max_size=5), _SCALARS, max_size=2))
 
 
-def _locations(node, found=None) -> list[tuple[object, object]]:
-    """Every (container, key) pair in the nested dicts/lists of `node`."""
-    found = [] if found is None else found
-    items = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
-    for key, child in items:
-        found.append((node, key))
-        _locations(child, found)
-    return found
-
-
 def _mutate(raw: dict, data) -> None:
     """Delete a key, insert an unknown key, or replace a value by a random one."""
     action = data.draw(st.sampled_from(["delete", "insert", "replace"]))
     if action == "insert":
-        tables = [raw] + [c[k] for c, k in _locations(raw) if isinstance(c[k], dict)]
+        tables = [raw] + [c[k] for c, k in locations(raw) if isinstance(c[k], dict)]
         table = data.draw(st.sampled_from(tables))
         table[data.draw(st.text(min_size=1, max_size=10))] = data.draw(_VALUES)
         return
-    container, key = data.draw(st.sampled_from(_locations(raw)))
+    container, key = data.draw(st.sampled_from(locations(raw)))
     if action == "delete":
         del container[key]
     else:
@@ -653,4 +585,4 @@ def test_mutated_scenes_fail_cleanly(scene_dir, data):
         assert isinstance(scene, Scene)
 
 
-_FUZZ_BASES = [raw_of(text) for text in (FULL, TUBE, HEMISPHERE, FILE_MESH)]
+_FUZZ_BASES = [raw_of(text) for text in (FULL, TUBE_SCENE, HEMISPHERE_SCENE, FILE_MESH)]

@@ -2,67 +2,19 @@
 and the small-deflection cantilever against beam theory."""
 from __future__ import annotations
 
-import meshio
 import numpy as np
 import pytest
-import taichi as ti
 
 from taichi_shell_mpm.scene import load_scene
 from taichi_shell_mpm.solvers.static import run_static
 
-from .conftest import plate_scene, simulation, write_scene
+from .conftest import element_pass, element_simulation, simulation
 
 E, NU, T = 2.0e5, 0.3, 0.05
 DT = 1.0e-4
 
-SINGLE = """
-[scene]
-name = "element"
-units = "consistent"
-[mesh]
-kind = "file"
-path = "element.vtu"
-[material]
-E = {E}
-nu = {nu}
-density = 1.0
-[section]
-thickness = {t}
-[method]
-kind = "fem"
-[solve]
-kind = "dynamic"
-end_time = 1.0
-"""
-
 FLAT = np.array([[0.0, 0.0, 0.0], [1.2, 0.1, 0.0], [1.0, 0.9, 0.0], [-0.1, 1.1, 0.0]])
 WARPED = FLAT + np.array([[0, 0, 0.06], [0, 0, -0.06], [0, 0, 0.06], [0, 0, -0.06]])
-
-
-def element_simulation(tmp_path, corners):
-    meshio.write(tmp_path / "element.vtu", meshio.Mesh(corners, [("quad", np.array([[0, 1, 2, 3]]))]))
-    scene = load_scene(write_scene(tmp_path, SINGLE.format(E=E, nu=NU, t=T)))
-    return simulation(scene, tmp_path)
-
-
-def element_pass(sim, end, velocity, omega):
-    """One element update (stage S7) from zero stress: the corners arrive at `end` having
-    moved with `velocity` for DT, with nodal angular velocity `omega`."""
-    s = sim.state
-    s.position.from_numpy(np.asarray(end, dtype=float))
-    s.grid_velocity.from_numpy(np.asarray(velocity, dtype=float))
-    s.omega.from_numpy(np.asarray(omega, dtype=float))
-    for f in (s.stress, s.hourglass_resultant, s.force_int, s.moment_int):
-        f.fill(0)
-    s.dt[None] = DT
-
-    @ti.kernel
-    def run():
-        sim.stepper.shell.element_pass()
-
-    run()
-    return (s.stress.to_numpy()[0], s.force_int.to_numpy(), s.moment_int.to_numpy(),
-            s.hourglass_resultant.to_numpy()[0])
 
 
 def rotation_matrix(theta):
@@ -77,7 +29,7 @@ def test_rigid_translation_and_rotation_give_nothing(tmp_path, corners):
     """Discrete rigid motions over one step. For the rotation the nodal omega is the
     rotation's mid-step (Cayley) rate 2 tan(theta/2)/dt, which the mid-step strain
     increment integrates exactly; the rotation is large (0.5 rad) on purpose."""
-    sim = element_simulation(tmp_path, corners)
+    sim = element_simulation(tmp_path, corners, E=E, nu=NU, t=T)
     centre = corners.mean(axis=0)
     theta = np.array([0.2, -0.35, 0.25])
     angle = np.linalg.norm(theta)
@@ -87,7 +39,7 @@ def test_rigid_translation_and_rotation_give_nothing(tmp_path, corners):
     cases = {"translation": (corners + DT * shift, shift, np.zeros((4, 3))),
              "rotation": (rotated, (rotated - corners) / DT, np.tile(cayley_rate, (4, 1)))}
     for name, (end, velocity, omega) in cases.items():
-        stress, force, moment, hg = element_pass(sim, end, velocity, omega)
+        stress, force, moment, hg = element_pass(sim, end, velocity, omega, DT)
         scale = E * DT * np.abs(velocity).max()        # stress of a unit strain increment
         print(f"{name}: max |stress| {np.abs(stress).max():.2e}, |f| {np.abs(force).max():.2e}, "
               f"|m| {np.abs(moment).max():.2e}, |hg| {np.abs(hg).max():.2e} (scale {scale:.1e})")
@@ -99,11 +51,12 @@ def test_rigid_translation_and_rotation_give_nothing(tmp_path, corners):
 
 def test_membrane_patch_gives_exact_stress(tmp_path):
     """Uniform stretch rate on a distorted flat quad: plane-stress C dt eps, every point."""
-    sim = element_simulation(tmp_path, FLAT)
+    sim = element_simulation(tmp_path, FLAT, E=E, nu=NU, t=T)
     rate = np.array([[2e-3, 5e-4, 0.0], [5e-4, -1e-3, 0.0], [0.0, 0.0, 0.0]])   # symmetric L
     # displacement increment dt L x applied about the mid-step geometry: x^n = x - dt/2 L x,
     # x^(n+1) = x + dt/2 L x, so the mid-step strain increment is exactly dt sym(L)
-    stress, force, _, hg = element_pass(sim, FLAT + 0.5 * DT * FLAT @ rate.T, FLAT @ rate.T, np.zeros((4, 3)))
+    stress, force, _, hg = element_pass(sim, FLAT + 0.5 * DT * FLAT @ rate.T, FLAT @ rate.T,
+                                    np.zeros((4, 3)), DT)
     exx, eyy, gxy = rate[0, 0], rate[1, 1], 2 * rate[0, 1]
     c = E / (1 - NU ** 2)
     exact = DT * np.array([c * (exx + NU * eyy), c * (NU * exx + eyy), E / (2 * (1 + NU)) * gxy])
