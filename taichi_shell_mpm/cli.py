@@ -157,6 +157,27 @@ def assembly_problems(scene, mesh) -> tuple[list[str], object]:
     return unique, (model if not unique else None)
 
 
+def load_warnings(scene, model) -> list[str]:
+    """Loads whose set includes nodes with all translations fixed: the share of the force put
+    there does nothing (a set of only such nodes is an error, see assembly.assemble)."""
+    import numpy as np
+
+    from .nodesets import select_nodes
+    lines = []
+    fixed = (model.fix_mask & 0b111) == 0b111
+    for i, ld in enumerate(scene.loads):
+        if not any(ld.force):
+            continue
+        ids = select_nodes(scene.nodeset(ld.nodes), model.points)
+        share = model.node_area[ids] if ld.distribute == "area" else np.ones(len(ids))
+        lost = float(share[fixed[ids]].sum() / share.sum())
+        if lost > 0.0:
+            lines.append(f"{scene.source.name}: [[load]][{i}] on '{ld.nodes}': {int(fixed[ids].sum())} of "
+                         f"{len(ids)} nodes have all translations fixed; the {100 * lost:.3g}% of the force "
+                         "spread onto them does nothing")
+    return lines
+
+
 def prepare(path: Path, overrides) -> tuple:
     """Scene, mesh and model of a scene file, or SceneError listing every problem found."""
     from .mesh import build_mesh
@@ -188,7 +209,7 @@ def _validate(args) -> int:
         scene, mesh, model = prepare(args.scene, args.overrides)
     except SceneError as exc:
         return _fail(EXIT_SCENE, exc.messages)
-    for w in mesh.warnings:
+    for w in (*mesh.warnings, *load_warnings(scene, model)):
         print(f"warning: {w}")
     grid = f", grid {model.grid.dims} nodes at h={model.grid.h:g}" if model.grid else ""
     print(f"{args.scene}: ok ({len(mesh.points)} nodes, {len(mesh.quads)} elements, {scene.method.kind}{grid})")
@@ -249,7 +270,7 @@ def _run(args) -> int:
         sim = Simulation(scene, out, args.arch, quiet=args.quiet, mesh=mesh, model=model)
         if args.hourglass_limit is not None:
             sim.hourglass_limit = args.hourglass_limit
-        for w in sim.mesh.warnings:
+        for w in (*sim.mesh.warnings, *load_warnings(scene, model)):
             print(f"warning: {w}")
         if ckpt is not None:
             for w in restore_checkpoint(sim, ckpt):

@@ -368,6 +368,16 @@ nodes = "off"
     assert not (tmp_path / "o").exists()
 
 
+def test_load_partly_on_fixed_nodes_warns(tmp_path):
+    """A load spread over a set that includes clamped nodes: validate warns with the share lost."""
+    scene = plate(tmp_path, "partly", extra=CLAMP + '[[load]]\nnodes = "all"\nforce = [0, 0, 1]\ndistribute = "equal"\n')
+    r = cli_run("validate", str(scene))
+    print(r.out)
+    assert r.code == 0 and r.err == ""
+    assert ("warning: partly.toml: [[load]][0] on 'all': 3 of 9 nodes have all translations fixed; "
+            "the 33.3% of the force spread onto them does nothing") in r.out
+
+
 def test_unwritable_output_directory(tmp_path):
     blocker = tmp_path / "file"
     blocker.write_text("x")
