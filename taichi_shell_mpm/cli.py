@@ -182,7 +182,18 @@ def prepare(path: Path, overrides) -> tuple:
     """Scene, mesh and model of a scene file, or SceneError listing every problem found."""
     from .mesh import build_mesh
     from .scene import SceneError, load_scene
-    scene = load_scene(path, overrides)
+    try:
+        scene = load_scene(path, overrides)
+    except SceneError as exc:         # the mesh is checked too when its own table is valid
+        if exc.mesh is None:
+            raise
+        try:
+            build_mesh(exc.mesh)
+        except SceneError as mesh_exc:
+            names = tuple(str(n) for n in (path.name, path, getattr(exc.mesh, "path", None)) if n is not None)
+            raise SceneError(exc.messages + [m if m.startswith(names) else f"{path.name}: {m}"
+                                             for m in mesh_exc.messages]) from None
+        raise
     try:
         mesh = build_mesh(scene.mesh)
     except SceneError as exc:

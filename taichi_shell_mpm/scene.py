@@ -29,8 +29,11 @@ DOFS = ("ux", "uy", "uz", "rx", "ry", "rz")
 class SceneError(Exception):
     """A user mistake in a scene file or a mesh (one line per problem)."""
 
-    def __init__(self, messages: list[str] | str):
+    def __init__(self, messages: list[str] | str, mesh: "MeshSpec | None" = None):
         self.messages = [messages] if isinstance(messages, str) else list(messages)
+        self.mesh = mesh
+        """The scene's valid [mesh] table when other tables had problems (so that the mesh can
+        be checked as well and every problem reported at once), else None."""
         super().__init__("\n".join(self.messages))
 
 
@@ -826,7 +829,7 @@ class _SceneParser:
             "thickness": _positive, "stiffness": _number(0, 1, lo_open=True), "friction": _non_negative,
             "damping": _unit_interval}) if "contact" in self.raw else None
         if self.messages:
-            raise SceneError(self.messages)
+            raise SceneError(self.messages, mesh=mesh)
         return Scene(source=self.source, info=info, mesh=mesh, material=material, section=section,
                      element=element, method=method, solve=solve, output=output,
                      nodesets=tuple(nodesets), boundaries=tuple(boundaries), loads=tuple(loads),

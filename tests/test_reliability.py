@@ -27,7 +27,7 @@ from taichi_shell_mpm import checkpoint
 from taichi_shell_mpm.cli import main
 from taichi_shell_mpm.progress import Progress, format_summary
 
-from .conftest import ROOT, write_scene
+from .conftest import HEMISPHERE_SCENE, ROOT, write_scene
 
 
 # ------------------------------------------------------------------ helpers (also used by the other new tests)
@@ -366,6 +366,20 @@ nodes = "off"
         assert "nodeset 'off' (nearest point=[0.5,0.5,3]): the point lies outside the mesh" in text
         assert len(lines) == 5
     assert not (tmp_path / "o").exists()
+
+
+def test_scene_and_mesh_problems_are_reported_together(tmp_path):
+    """A mistake in [material] does not hide one in the mesh: both lines, exit 2."""
+    scene = write_scene(tmp_path, HEMISPHERE_SCENE, "hemi.toml")
+    for command in ("validate", "run"):
+        r = cli_run(command, str(scene), "--set", "material.E=0", "--set", "mesh.quarter=false",
+                    "--set", "mesh.n_around=2", *(["--out", str(tmp_path / "o")] if command == "run" else []))
+        print(r.err)
+        assert r.code == 2
+        assert_clean_output(r)
+        assert r.err.splitlines() == [
+            "error: hemi.toml: [material].E: expected a number > 0, got 0",
+            "error: hemi.toml: [mesh] hemisphere: a full hemisphere needs n_around >= 3, got 2"]
 
 
 def test_load_partly_on_fixed_nodes_warns(tmp_path):
