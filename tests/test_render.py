@@ -146,3 +146,56 @@ def test_frame_choice():
     # a static run to load factor 15 still gets thirds, not 5/10/15
     assert choose_sheet(fake_run([5.0, 10.0, 15.0], key="load_factor"), None) == [0, 1, 2]
     assert nearest_frames(np.array([0.0, 1.0]), [0.9, 1.0, 0.2]) == [1, 0]
+
+
+DYNAMIC_PLATE = """
+[scene]
+name = "flap"
+units = "consistent"
+[mesh]
+kind = "plate"
+lx = 1.0
+ly = 1.0
+nx = 2
+ny = 2
+[material]
+E = 1e4
+nu = 0.3
+density = 1.0
+model = "j2"
+yield_stress = 50.0
+[section]
+thickness = 0.05
+[method]
+kind = "fem"
+[nodesets.edge]
+plane = {point = [0, 0, 0], normal = [1, 0, 0]}
+[[boundary]]
+nodes = "edge"
+fix = "all"
+[[initial]]
+velocity = [0, 0, 0.1]
+[solve]
+kind = "dynamic"
+end_time = 0.3
+[output]
+times = [0.1, 0.2]
+"""
+
+
+def test_render_a_dynamic_run(tmp_path):
+    """Every kind of scene renders: a dynamic run (times, plastic strain) without a reference
+    gets frames, the sheet and the energy plot, and no load-displacement plot."""
+    scene = tmp_path / "flap.toml"
+    scene.write_text(DYNAMIC_PLATE)
+    out = tmp_path / "flap"
+    proc = cli("run", str(scene), "--out", str(out), "--quiet")
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    proc = cli("render", str(out))
+    assert proc.returncode == 0 and "Traceback" not in proc.stderr, proc.stderr[-2000:]
+    names = {p.name for p in (out / "pictures").glob("*.png")}
+    assert names == {"frame_00000.png", "frame_00001.png", "frame_00002.png", "frame_00003.png", "sheet.png",
+                     "energy.png"}, names
+    for name in names:
+        assert_picture(out / "pictures" / name)
+    assert not list((out / "pictures").glob(".*")), "temporary files left"
