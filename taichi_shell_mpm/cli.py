@@ -75,6 +75,9 @@ def _parser() -> argparse.ArgumentParser:
     ren.add_argument("--sheet", default=None, metavar="T1,T2,...|none",
                      help="times of the side-by-side sheet (default 5,10,15 for a dynamic run "
                           "reaching 15, else 3 evenly spread)")
+    from .bench import add_arguments as bench_arguments
+    bench_arguments(sub.add_parser("bench", help="speed against error: refinement study of the benchmark "
+                                                 "scenes, results.csv, plots and BENCHMARKS.md"))
     return p
 
 
@@ -332,10 +335,15 @@ def _render(args) -> int:
     return 0
 
 
+def _bench(args) -> int:
+    from .bench import main as bench_main
+    return bench_main(args)
+
+
 def main(argv=None) -> int:
     import numpy as np
     args = _parser().parse_args(argv)
-    command = {"validate": _validate, "render": _render}.get(args.command, _run)
+    command = {"validate": _validate, "render": _render, "bench": _bench}.get(args.command, _run)
     try:
         with np.errstate(all="ignore"):      # a diverging run overflows: reported as a failure, not warnings
             return command(args)
