@@ -1,0 +1,151 @@
+"""`bench`: the speed-against-error study (bench.py, cli.py; issue 4).
+
+One ``bench --quick`` through the public CLI in a temporary directory (six small runs:
+cantilever 5x1 and 10x1, quarter hemisphere 8x8 with 10 load steps, mpm and fem), then its
+files are checked: the rows of results.csv with sane numbers (not timings), the observed
+orders, the plots and the report.  A second call with ``--resume`` must run nothing.
+The rest are in-process checks of the plan, the slope fit and the plotting fallback.
+"""
+from __future__ import annotations
+
+import csv
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from taichi_shell_mpm import bench
+
+QUICK_CASES = ["cantilever_5x1_mpm_r0.5", "cantilever_5x1_fem", "cantilever_10x1_mpm_r0.5", "cantilever_10x1_fem",
+               "hemisphere_8x8_mpm_r0.5_ls10", "hemisphere_8x8_fem_ls10"]
+ELEMENTS = {"cantilever_5x1": 5, "cantilever_10x1": 10, "hemisphere_8x8": 64}
+MIN_PNG_BYTES = 5000
+
+
+def cli(*args: str, cwd: Path, timeout: float = 600) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "taichi_shell_mpm", "bench", *args], capture_output=True,
+                          text=True, timeout=timeout, cwd=cwd)
+
+
+def read_csv(path: Path) -> list[dict]:
+    with open(path, newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+@pytest.fixture(scope="module")
+def quick(tmp_path_factory):
+    work = tmp_path_factory.mktemp("bench")
+    out = work / "out"
+    proc = cli("--quick", "--out", str(out), cwd=work)
+    return work, out, proc
+
+
+def test_quick_results(quick):
+    work, out, proc = quick
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    rows = read_csv(out / "results.csv")
+    assert [r["case"] for r in rows] == QUICK_CASES
+    for r in rows:
+        name = r["case"]
+        assert r["status"] == "ok", (name, r["status"])
+        assert int(r["elements"]) == ELEMENTS["_".join(name.split("_")[:2])], name
+        assert r["mode"] in ("mpm", "fem") and r["mode"] in name
+        assert int(r["steps"]) > 1000, name
+        for key in ("wall_s", "compile_s", "run_s", "us_per_element_step"):
+            assert 0.0 < float(r[key]) < 1e4, (name, key, r[key])
+        assert float(r["compile_s"]) + float(r["run_s"]) < float(r["wall_s"]), name
+        assert 20.0 < float(r["peak_mem_MB"]) < 16_000, (name, r["peak_mem_MB"])
+        assert int(r["rows_compared"]) == (10 if name.endswith("_ls10") else 20), name
+        for k in (1, 2):
+            mean, worst = float(r[f"err{k}_mean"]), float(r[f"err{k}_max"])
+            assert math.isfinite(mean) and math.isfinite(worst), name
+            assert 0.0 < mean <= worst < 0.20, (name, k, mean, worst)
+        assert (r["comp1"], r["comp2"]) == (("W_tip", "-U_tip") if name.startswith("cantilever") else ("d_out", "d_in"))
+        assert (out / "runs" / name / "summary.json").is_file()
+        assert (out / "runs" / name / "bench.log").read_text().startswith("$ ")
+    # mpm with the grid and fem without it solve the same elements: nearly the same answer
+    by = {r["case"]: r for r in rows}
+    for mesh in ("cantilever_5x1", "cantilever_10x1"):
+        assert float(by[f"{mesh}_mpm_r0.5"]["err2_mean"]) == pytest.approx(float(by[f"{mesh}_fem"]["err2_mean"]),
+                                                                             rel=0.05)
+    # refinement reduces the cantilever's error
+    assert float(by["cantilever_10x1_fem"]["err2_mean"]) < float(by["cantilever_5x1_fem"]["err2_mean"])
+
+
+def test_quick_orders_plots_report(quick):
+    work, out, proc = quick
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    orders = read_csv(out / "orders.csv")
+    cantilever = [o for o in orders if o["scene"] == "cantilever"]
+    assert {o["series"] for o in cantilever} == {"fem", "mpm h=0.5l"}
+    for o in cantilever:
+        for k in (1, 2):
+            assert 0.5 < float(o[f"order{k}"]) < 5.0, o
+    for name in ("error_vs_time.png", "convergence.png"):
+        path = out / name
+        assert path.is_file() and path.stat().st_size > MIN_PNG_BYTES, name
+        assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert not (out / "tube.png").exists()             # no tube in --quick
+    report = (out / "BENCHMARKS.md").read_text()
+    assert not (work / "BENCHMARKS.md").exists()       # --quick keeps its report in --out
+    for case in QUICK_CASES:
+        assert f"| {case} |" in report
+    assert "**Machine:**" in report and "Taichi" in report
+    assert "python -m taichi_shell_mpm bench --quick --out" in report
+    assert "![convergence](convergence.png)" in report
+    assert "None: every planned case has a result." in report
+
+
+def test_resume_and_case_selection(quick):
+    work, out, proc = quick
+    assert proc.returncode == 0
+    before = (out / "results.csv").read_text()
+    again = cli("--quick", "--out", str(out), "--resume", cwd=work, timeout=300)
+    assert again.returncode == 0, again.stderr
+    assert "0 case(s) to run" in again.stdout
+    assert (out / "results.csv").read_text() == before
+    none = cli("--quick", "--out", str(out), "--cases", "no_such_case*", cwd=work, timeout=120)
+    assert none.returncode == 2 and none.stderr.startswith("error: --cases")
+
+
+# ------------------------------------------------------------------ in-process
+def test_plan_names():
+    full = bench.plan(quick=False, peers=False)
+    names = [c.name for c in full]
+    assert len(names) == len(set(names)) == 4 * 3 + 3 * 3 + 2
+    assert {"cantilever_40x4_mpm_r1", "hemisphere_32x32_fem", "tube_2.5mm_mpm"} <= set(names)
+    quick = bench.plan(quick=True, peers=False)
+    assert [c.name for c in quick] == QUICK_CASES
+    with_peers = bench.plan(quick=False, peers=True)
+    assert len([c for c in with_peers if c.mode == "kratos"]) == 4 + 3
+    tube = next(c for c in full if c.name == "tube_2.5mm_mpm")
+    assert {"mesh.n_flat=20", "mesh.n_corner=4", "mesh.n_length=120", "method.cell_size=1.25"} <= set(tube.overrides)
+    c = next(c for c in full if c.name == "cantilever_20x2_mpm_r1")
+    assert "method.cell_size=0.5" in c.overrides and c.element_size == 0.5
+
+
+def test_observed_order_is_the_log_log_slope():
+    rows = [{"case": f"c{n}_fem", "scene": "cantilever", "mesh": f"{n}x1", "mode": "fem", "cell_ratio": "",
+             "element_size": str(10 / n), "status": "ok", "comp1": "a", "comp2": "b",
+             "err1_mean": str(0.3 * (10 / n) ** 2), "err2_mean": str(0.1 * (10 / n) ** 1.5)} for n in (5, 10, 20)]
+    rows.append(dict(rows[0], case="c5_mpm", mode="mpm", cell_ratio="0.5"))    # one mesh only: no slope
+    (o,) = bench.observed_orders(rows)
+    assert o["series"] == "fem" and o["meshes"] == "5x1 10x1 20x1"
+    assert o["order1"] == pytest.approx(2.0) and o["order2"] == pytest.approx(1.5)
+
+
+def test_plots_without_matplotlib(tmp_path, monkeypatch):
+    """Without matplotlib the plots are drawn with pyvista's charts (as render does)."""
+    monkeypatch.setattr(bench, "have_matplotlib", lambda: False)
+    monkeypatch.setattr(bench, "_plot_matplotlib", None)
+    x = np.array([1.0, 2.0, 4.0])
+    panels = [bench.Panel("error", "time", "error (%)", [bench.Series(x, 1 / x ** 2, "mean", "#1f77b4"),
+                                                         bench.Series(x, 2 / x ** 2, "max", "#1f77b4", dashed=True,
+                                                                      filled=False)]),
+              bench.Panel("force", "crush", "force", [bench.Series(x, x, "f", "#d62728", marker="")],
+                          logx=False, logy=False)]
+    path = bench.draw(panels, tmp_path / "p.png")
+    assert path.is_file() and path.stat().st_size > MIN_PNG_BYTES
