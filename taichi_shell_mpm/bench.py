@@ -47,6 +47,7 @@ import os
 import platform
 import shlex
 import shutil
+import signal
 import subprocess
 import sys
 import time
@@ -332,8 +333,12 @@ def run_case(case: Case, out: Path, arch: str, machine: str, echo=print) -> dict
         proc = subprocess.Popen(cmd, stdout=fh, stderr=subprocess.STDOUT, env=env, cwd=ROOT)
         try:
             _, status, usage = os.wait4(proc.pid, 0)
-        except KeyboardInterrupt:          # the child got the Ctrl-C too: let it write its results
-            proc.wait()
+        except KeyboardInterrupt:          # a terminal's Ctrl-C reaches the child too: let it write its results
+            try:
+                proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:   # it did not get the signal (e.g. `kill -INT` of this process)
+                proc.send_signal(signal.SIGINT)
+                proc.wait()
             raise
         proc.returncode = os.waitstatus_to_exitcode(status)
     wall = time.perf_counter() - t0
@@ -609,6 +614,10 @@ def _fmt(v: float, digits: int = 3) -> str:
     return f"{v:.{digits}g}"
 
 
+def _status(r: dict) -> str:
+    return str(r.get("status", "")).replace("|", "\\|")
+
+
 def _errs(r: dict, k: int) -> str:
     return f"{_pct(_num(r, f'err{k}_mean'))} / {_pct(_num(r, f'err{k}_max'))}"
 
@@ -625,7 +634,7 @@ def _static_table(rows: list[dict]) -> list[str]:
                      f"| {_fmt(_num(r, 'elements'))} | {_fmt(_num(r, 'steps'))} | {_fmt(_num(r, 'compile_s'))} "
                      f"| {_fmt(_num(r, 'run_s'))} | {_fmt(_num(r, 'us_per_element_step'))} "
                      f"| {_fmt(_num(r, 'peak_mem_MB'))} | {_errs(r, 1)} | {_errs(r, 2)} "
-                     f"| {r.get('rows_compared') or '–'} | {r.get('status', '')} |")
+                     f"| {r.get('rows_compared') or '–'} | {_status(r)} |")
     return lines
 
 
@@ -640,7 +649,7 @@ def _tube_table(rows: list[dict]) -> list[str]:
                      f"| {_fmt(_num(r, 'us_per_element_step'))} | {_fmt(_num(r, 'peak_mem_MB'))} "
                      f"| {_fmt(_num(r, 'crush'), 4)} | {_fmt(_num(r, 'mean_force'))} | {_fmt(_num(r, 'peak_force'))} "
                      f"| {_fmt(_num(r, 'half_wavelength'))} | {_pct(_num(r, 'balance'))} % "
-                     f"| {_pct(_num(r, 'hg_ratio'))} % | {_pct(_num(r, 'penetration'))} % | {r.get('status', '')} |")
+                     f"| {_pct(_num(r, 'hg_ratio'))} % | {_pct(_num(r, 'penetration'))} % | {_status(r)} |")
     return lines
 
 

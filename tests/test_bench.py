@@ -9,6 +9,7 @@ The rest are in-process checks of the plan, the slope fit and the plotting fallb
 from __future__ import annotations
 
 import csv
+import json
 import math
 import subprocess
 import sys
@@ -47,13 +48,13 @@ def test_quick_results(quick):
     work, out, proc = quick
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
     rows = read_csv(out / "results.csv")
-    assert [r["case"] for r in rows] == QUICK_CASES
+    assert [r["case"] for r in rows if r["mode"] != "kratos"] == QUICK_CASES     # + *_kratos with the extra
     for r in rows:
         name = r["case"]
         assert r["status"] == "ok", (name, r["status"])
         assert int(r["elements"]) == ELEMENTS["_".join(name.split("_")[:2])], name
-        assert r["mode"] in ("mpm", "fem") and r["mode"] in name
-        assert int(r["steps"]) > 1000, name
+        assert r["mode"] in ("mpm", "fem", "kratos") and r["mode"] in name
+        assert int(r["steps"]) > (0 if r["mode"] == "kratos" else 1000), name
         for key in ("wall_s", "compile_s", "run_s", "us_per_element_step"):
             assert 0.0 < float(r[key]) < 1e4, (name, key, r[key])
         assert float(r["compile_s"]) + float(r["run_s"]) < float(r["wall_s"]), name
@@ -93,6 +94,7 @@ def test_quick_orders_plots_report(quick):
     assert not (work / "BENCHMARKS.md").exists()       # --quick keeps its report in --out
     for case in QUICK_CASES:
         assert f"| {case} |" in report
+    assert ("Peer comparison" in report) != bench.peers_available()
     assert "**Machine:**" in report and "Taichi" in report
     assert "python -m taichi_shell_mpm bench --quick --out" in report
     assert "![convergence](convergence.png)" in report
@@ -149,3 +151,27 @@ def test_plots_without_matplotlib(tmp_path, monkeypatch):
                           logx=False, logy=False)]
     path = bench.draw(panels, tmp_path / "p.png")
     assert path.is_file() and path.stat().st_size > MIN_PNG_BYTES
+
+
+def test_peer_case_row(tmp_path, monkeypatch):
+    """A ``kratos`` case writes a summary.json shaped like ours (set-up as compile, Newton solve
+    as run, iterations as steps) and becomes a results.csv row like the others."""
+    from taichi_shell_mpm.peers import kratos
+    case = next(c for c in bench.plan(quick=True, peers=True) if c.name == "cantilever_5x1_kratos")
+    cmd = bench.case_command(case, tmp_path)
+    assert cmd[:2] == [sys.executable, "-c"] and "--set" not in cmd and "mesh.nx=5" in cmd
+
+    def fake_solve(scene, mesh, model):
+        tip = np.arange(1, 21)[:, None] / 20 * np.array([-3.3, 6.7])
+        return {"probes": tip, "header": ["tip.ux", "tip.uz"], "load_factors": np.arange(1, 21) / 20,
+                "solve_seconds": 0.5, "setup_seconds": 0.1, "newton_iterations": 100, "nodes": len(model.points),
+                "elements": len(model.quads), "element": "fake", "kratos_version": "0"}
+    monkeypatch.setattr(kratos, "solve_static", fake_solve)
+    assert bench.peer_child(str(case.scene_file), str(tmp_path), list(case.overrides)) == 0
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    row = bench.row_from_summary(case, summary)
+    assert row["mode"] == "kratos" and row["elements"] == 5 and row["steps"] == 100
+    assert row["compile_s"] == 0.1 and row["run_s"] == 0.5
+    assert row["us_per_element_step"] == pytest.approx(1e6 * 0.5 / (100 * 5))
+    assert (row["comp1"], row["comp2"]) == ("W_tip", "-U_tip") and row["rows_compared"] == 20
+    assert 0.0 < row["err1_mean"] <= row["err1_max"]
