@@ -1,7 +1,8 @@
 """`bench`: the speed-against-error study (bench.py, cli.py; issue 4).
 
-One ``bench --quick`` through the public CLI in a temporary directory (six small runs:
-cantilever 5x1 and 10x1, quarter hemisphere 8x8 with 10 load steps, mpm and fem), then its
+One ``bench --quick`` through the public CLI in a temporary directory (five small runs:
+cantilever 5x1 mpm, 10x1 mpm and fem, quarter hemisphere 8x8 with 10 load steps in mpm and
+fem; about 1 minute with Taichi's offline kernel cache warm, 2.5-3 minutes cold), then its
 files are checked: the rows of results.csv with sane numbers (not timings), the observed
 orders, the plots and the report.  A second call with ``--resume`` must run nothing.
 The rest are in-process checks of the plan, the slope fit and the plotting fallback.
@@ -20,7 +21,7 @@ import pytest
 
 from taichi_shell_mpm import bench
 
-QUICK_CASES = ["cantilever_5x1_mpm_r0.5", "cantilever_5x1_fem", "cantilever_10x1_mpm_r0.5", "cantilever_10x1_fem",
+QUICK_CASES = ["cantilever_5x1_mpm_r0.5", "cantilever_10x1_mpm_r0.5", "cantilever_10x1_fem",
                "hemisphere_8x8_mpm_r0.5_ls10", "hemisphere_8x8_fem_ls10"]
 ELEMENTS = {"cantilever_5x1": 5, "cantilever_10x1": 10, "hemisphere_8x8": 64}
 MIN_PNG_BYTES = 5000
@@ -69,11 +70,14 @@ def test_quick_results(quick):
         assert (out / "runs" / name / "bench.log").read_text().startswith("$ ")
     # mpm with the grid and fem without it solve the same elements: nearly the same answer
     by = {r["case"]: r for r in rows}
-    for mesh in ("cantilever_5x1", "cantilever_10x1"):
-        assert float(by[f"{mesh}_mpm_r0.5"]["err2_mean"]) == pytest.approx(float(by[f"{mesh}_fem"]["err2_mean"]),
-                                                                             rel=0.05)
+    for mesh in ("cantilever_10x1", "hemisphere_8x8"):
+        tag = "_ls10" if mesh.startswith("hemisphere") else ""
+        for k in (1, 2):
+            assert float(by[f"{mesh}_mpm_r0.5{tag}"][f"err{k}_mean"]) == pytest.approx(
+                float(by[f"{mesh}_fem{tag}"][f"err{k}_mean"]), rel=0.05)
     # refinement reduces the cantilever's error
-    assert float(by["cantilever_10x1_fem"]["err2_mean"]) < float(by["cantilever_5x1_fem"]["err2_mean"])
+    for k in (1, 2):
+        assert float(by["cantilever_10x1_mpm_r0.5"][f"err{k}_mean"]) < float(by["cantilever_5x1_mpm_r0.5"][f"err{k}_mean"])
 
 
 def test_quick_orders_plots_report(quick):
@@ -81,7 +85,7 @@ def test_quick_orders_plots_report(quick):
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
     orders = read_csv(out / "orders.csv")
     cantilever = [o for o in orders if o["scene"] == "cantilever"]
-    assert {o["series"] for o in cantilever} == {"fem", "mpm h=0.5l"}
+    assert {o["series"] for o in cantilever} == {"mpm h=0.5l"}      # fem has one mesh in --quick
     for o in cantilever:
         for k in (1, 2):
             assert 0.5 < float(o[f"order{k}"]) < 5.0, o
