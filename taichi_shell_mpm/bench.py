@@ -124,7 +124,8 @@ def cantilever_cases(nxs=CANTILEVER_NX, ratios=RATIOS, fem=True, peers=False) ->
             out.append(Case(f"cantilever_{mesh}_mpm_{_ratio_tag(r)}", "cantilever", mesh, "mpm", r, ell,
                             base + ("method.kind=mpm", f"method.cell_size={r * ell:g}")))
         if fem:
-            out.append(Case(f"cantilever_{mesh}_fem", "cantilever", mesh, "fem", None, ell, base + ("method.kind=fem",)))
+            out.append(Case(f"cantilever_{mesh}_fem", "cantilever", mesh, "fem", None, ell,
+                            base + ("method.kind=fem",)))
         if peers:
             out.append(Case(f"cantilever_{mesh}_kratos", "cantilever", mesh, "kratos", None, ell, base))
     return out
@@ -631,7 +632,8 @@ def _static_table(rows: list[dict]) -> list[str]:
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         ratio = _num(r, "cell_ratio")
-        lines.append(f"| {r['case']} | {r['mesh']} | {r['mode']} | {'–' if not math.isfinite(ratio) else f'{ratio:g}'} "
+        h = "–" if not math.isfinite(ratio) else f"{ratio:g}"
+        lines.append(f"| {r['case']} | {r['mesh']} | {r['mode']} | {h} "
                      f"| {_fmt(_num(r, 'elements'))} | {_fmt(_num(r, 'steps'))} | {_fmt(_num(r, 'compile_s'))} "
                      f"| {_fmt(_num(r, 'run_s'))} | {_fmt(_num(r, 'us_per_element_step'))} "
                      f"| {_fmt(_num(r, 'peak_mem_MB'))} | {_errs(r, 1)} | {_errs(r, 2)} "
@@ -691,7 +693,8 @@ def write_report(path: Path, out: Path, rows: list[dict], planned: list[Case], c
               "Least-squares slope p of log(mean error) against log(element size) over the meshes measured "
               "(error ~ l^p).  Below about 0.1 % the errors reach the resolution of the comparison (the "
               "reference tables are rounded to 3 decimals, up to about 0.1 % of their smaller entries; each "
-              "load step is relaxed to a residual of 1e-4 of the load), where refining stops paying and the slope flattens; see the plots.", "",
+              "load step is relaxed to a residual of 1e-4 of the load), where refining stops paying and the "
+              "slope flattens; see the plots.", "",
               "| scene | series | meshes | component 1 | p | component 2 | p |", "|---|---|---|---|---|---|---|"]
         for o in orders:
             L.append(f"| {o['scene']} | {o['series']} | {o['meshes']} | {o['comp1']} | "
