@@ -17,7 +17,8 @@ class StepConfig:
     method: str                 # "mpm" | "fem"
     transfer: str               # "apic" | "pic" | "flip"
     flip_blend: float
-    static: bool                # dynamic relaxation with kinetic damping (method.md 6)
+    static: bool                # dynamic relaxation (method.md 6)
+    fire: bool                  # static: FIRE velocity mixing instead of plain kinetic damping
     E: float
     nu: float
     shear_modulus: float
@@ -49,7 +50,8 @@ class StepConfig:
         K = mat.E / (3.0 * (1.0 - 2.0 * mat.nu))
         return StepConfig(
             method=scene.method.kind, transfer=scene.method.transfer, flip_blend=scene.method.flip_blend,
-            static=scene.solve.kind == "static", E=mat.E, nu=mat.nu, shear_modulus=G,
+            static=scene.solve.kind == "static",
+            fire=scene.solve.kind == "static" and scene.solve.relaxation == "fire", E=mat.E, nu=mat.nu, shear_modulus=G,
             thickness=sec.thickness, shear_factor=sec.shear_factor,
             zeta=tuple(float(z) for z in model.zeta), zeta_weight=tuple(float(w) for w in model.zeta_weight),
             hourglass=scene.element.hourglass,

@@ -261,6 +261,9 @@ class Solve:
     dt_safety: float = 0.9
     dt_rule: Literal["both", "shell"] = "both"
     rotary_inertia: Literal["scaled", "physical"] = "scaled"
+    relaxation: Literal["fire", "kinetic"] = "fire"
+    """Static solves: dynamic relaxation by FIRE (velocity mixing towards the force) or plain
+    kinetic damping (method.md 6.2)."""
     progress_every: float = 2.0
     """Seconds of wall time between progress lines."""
 
@@ -616,7 +619,7 @@ _SOLVE = {"kind": _choice("static", "dynamic"), "load_steps": _int(1),
           "tolerance": _number(0, 0.1, lo_open=True), "max_steps_per_load_step": _int(1),
           "end_time": _non_negative, "dt_safety": _fraction,
           "dt_rule": _choice("both", "shell"), "rotary_inertia": _choice("scaled", "physical"),
-          "progress_every": _non_negative}
+          "relaxation": _choice("fire", "kinetic"), "progress_every": _non_negative}
 _OUTPUT = {"every_steps": _int(0), "times": _times, "load_steps": _bool, "history_interval": _non_negative}
 _PLAIN_TABLES: dict[str, tuple[type, dict[str, Validator]]] = {
     "scene": (SceneInfo, _INFO), "material": (Material, _MATERIAL),

@@ -64,6 +64,12 @@ class State:
         self.load_factor = ti.field(f64, ())
         self.restart_factor = ti.field(f64, ())          # 0.5 on a central-difference restart from rest, else 1
         self.velocity_keep = ti.field(f64, ())           # 0 right after a kinetic-damping reset, else 1
+        self.fire_mix = ti.field(f64, ())                # FIRE: v += fire_mix * F / m (a time)
+        self.fire_alpha = ti.field(f64, ())              # FIRE: current mixing parameter alpha
+        self.fire_uphill = ti.field(ti.i32, ())          # FIRE: steps since the power was last <= 0
+        self.fire_power = ti.field(f64, ())              # FIRE scratch: P = F.v, |v|_M^2, |F|_M^-1^2
+        self.fire_speed_sq = ti.field(f64, ())
+        self.fire_force_sq = ti.field(f64, ())
         self.residual_target_sq = ti.field(f64, ())      # (tolerance * |F_ext|)^2 of the current load level
         self.time_limit = ti.field(f64, ())              # advance() stops here exactly (next output time)
         self.kinetic = ti.field(f64, ())

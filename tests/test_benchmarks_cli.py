@@ -21,12 +21,14 @@ from .conftest import ROOT
 
 BOUNDS = {"cantilever": (0.010, 0.020), "hemisphere": (0.030, 0.040)}    # mean, max
 RUNS = [(scene, method) for scene in ("hemisphere", "cantilever") for method in ("mpm", "fem")]
+KINETIC = ("cantilever", "fem", "kinetic")     # the default FIRE relaxation against plain kinetic damping
 
 
-def run_cli(out: Path, scene: str, method: str) -> tuple[Path, subprocess.CompletedProcess]:
-    target = out / f"{scene}_{method}"
+def run_cli(out: Path, scene: str, method: str, relaxation: str = "fire") -> tuple[Path, subprocess.CompletedProcess]:
+    target = out / f"{scene}_{method}_{relaxation}"
     proc = subprocess.run([sys.executable, "-m", "taichi_shell_mpm", "run", str(ROOT / "scenes" / f"{scene}.toml"),
-                           "--out", str(target), "--set", f"method.kind={method}"],
+                           "--out", str(target), "--set", f"method.kind={method}",
+                           "--set", f"solve.relaxation={relaxation}"],
                           capture_output=True, text=True, timeout=1500)
     return target, proc
 
@@ -35,7 +37,7 @@ def run_cli(out: Path, scene: str, method: str) -> tuple[Path, subprocess.Comple
 def runs(tmp_path_factory):
     out = tmp_path_factory.mktemp("cli")
     with ThreadPoolExecutor(max_workers=2) as pool:
-        futures = {key: pool.submit(run_cli, out, *key) for key in RUNS}
+        futures = {key: pool.submit(run_cli, out, *key) for key in RUNS + [KINETIC]}
         return {key: f.result() for key, f in futures.items()}
 
 
@@ -84,3 +86,21 @@ def test_output_contract(runs):
     ry = mesh.point_data["rotation"][[10, 21], 1].mean()
     print(f"tip rotation {np.degrees(-ry):.1f} deg")
     assert 60 < np.degrees(-ry) < 68
+
+
+def test_fire_relaxation_same_answer_fewer_steps(runs):
+    """FIRE (the default) and plain kinetic damping converge to the same equilibria (both to
+    the residual tolerance 1e-4 of the load), FIRE in fewer steps."""
+    summaries = {}
+    for key in (("cantilever", "fem"), KINETIC):
+        target, proc = runs[key]
+        assert proc.returncode == 0, proc.stderr[-2000:]
+        summaries[key] = json.loads((target / "summary.json").read_text())
+    fire, kinetic = summaries[("cantilever", "fem")], summaries[KINETIC]
+    w_fire = np.array(fire["reference"]["columns"]["W_tip"]["simulated"])
+    w_kin = np.array(kinetic["reference"]["columns"]["W_tip"]["simulated"])
+    diff = np.abs(w_fire - w_kin).max() / np.abs(w_kin).max()
+    print(f"\nFIRE {fire['steps']} steps, kinetic damping {kinetic['steps']} steps "
+          f"(ratio {fire['steps'] / kinetic['steps']:.2f}); largest W_tip difference {100 * diff:.3f}%")
+    assert diff < 1e-3
+    assert fire["steps"] < kinetic["steps"]

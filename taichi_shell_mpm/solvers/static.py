@@ -1,5 +1,6 @@
 """Quasi-static problems: load control in N equal steps, each relaxed to equilibrium by
-dynamic relaxation with kinetic damping (method.md 6).
+dynamic relaxation (method.md 6): FIRE by default, plain kinetic damping on request
+(``[solve].relaxation``; both decided in-kernel, see :mod:`~taichi_shell_mpm.solvers.stepper`).
 
 The load is never advanced by comparing with a reference answer (the paper did): a level
 is done when the out-of-balance force falls below ``tolerance * |F_ext|`` and the kinetic
@@ -19,6 +20,7 @@ from ..checkpoint import RunControl
 from ..progress import relative_balance
 from ..simulation import Simulation, SimulationError
 from ..state import STATUS_CONVERGED, STATUS_OK
+from .stepper import FIRE_ALPHA_START
 
 BATCH_ELEMENT_STEPS = 1_000_000   # one batch ~ 1 s at most, so a Ctrl-C is answered promptly
 
@@ -57,6 +59,7 @@ def run_static(sim: Simulation, control: RunControl | None = None) -> dict:
                 s.velocity_keep[None] = 0.0          # start each level from rest ...
                 s.restart_factor[None] = 0.5         # ... with the central-difference half step
                 s.kinetic_prev[None] = 0.0
+                s.fire_alpha[None], s.fire_uphill[None], s.fire_mix[None] = FIRE_ALPHA_START, 0, 0.0
                 s.status[None] = STATUS_OK
                 steps, started = 0, True
             while True:

@@ -10,13 +10,14 @@ Two launch strategies, chosen at construction, share the same stage code:
 * ``parallel`` (large scenes, GPU): one kernel per step; its stage loops are top-level and
   run in parallel.
 
-The kinetic-damping decisions of dynamic relaxation (method.md 6.2) are made in-kernel at
-the end of each step, so a batch stops exactly at convergence.
+The dynamic-relaxation decisions (kinetic damping or FIRE, method.md 6.2) are made
+in-kernel at the end of each step, so a batch stops exactly at convergence.
 """
 
 import taichi as ti
 
 from ..state import STATUS_CONVERGED, STATUS_OK, State
+from ..stages.accumulate import Accumulator
 from ..stages.bodies import RigidBodies
 from ..stages.constraints import NodeUpdate
 from ..stages.contact import SelfContact
@@ -26,6 +27,11 @@ from ..stages.shell import ShellElement
 from ..stages.timestep import TimeStep
 
 KINETIC_CONVERGED = 1e-8     # KE <= 1e-8 W_ext (method.md 6.4)
+# FIRE (Bitzek et al., PRL 97, 170201, 2006), their standard parameters; the time step is not
+# adapted (ours already sits at the stability limit)
+FIRE_ALPHA_START = 0.1
+FIRE_ALPHA_SHRINK = 0.99
+FIRE_DELAY = 5
 
 
 @ti.data_oriented
@@ -40,6 +46,7 @@ class Stepper:
         self.contact = SelfContact(state, cfg, model) if cfg.contact is not None else None
         self.shell = ShellElement(state, cfg, material)
         self.timestep = TimeStep(state, cfg)
+        self.acc = Accumulator(cfg.serial)
         self.mpm = cfg.method == "mpm"
         if self.mpm:
             self.mapping = Mapping(state, cfg, self.nodes, 1e-12 * mass_ref)
@@ -85,15 +92,55 @@ class Stepper:
             if self.s.status[None] == STATUS_OK and self.s.residual_sq[None] <= self.s.residual_target_sq[None] \
                     and self.s.kinetic[None] <= KINETIC_CONVERGED * self.s.external_work[None]:
                 self.s.status[None] = STATUS_CONVERGED
-            if self.s.kinetic[None] < self.s.kinetic_prev[None]:
-                # kinetic damping: a KE peak has passed -> stop, restart from rest with a half step
-                self.s.damped_energy[None] += self.s.kinetic[None]
-                self.s.kinetic_prev[None] = 0.0
-                self.s.velocity_keep[None] = 0.0
-                self.s.restart_factor[None] = 0.5
+            if ti.static(self.cfg.fire):
+                self.fire()
+            elif self.s.kinetic[None] < self.s.kinetic_prev[None]:
+                self.restart_from_rest()         # kinetic damping: a KE peak has passed
             else:
                 self.s.kinetic_prev[None] = self.s.kinetic[None]
         self.timestep.next_step()
+
+    @ti.func
+    def restart_from_rest(self):
+        """Dynamic relaxation reset (method.md 6.2): drop the velocities and restart from rest
+        with the central-difference half step; the kinetic energy goes to damped_energy."""
+        self.s.damped_energy[None] += self.s.kinetic[None]
+        self.s.kinetic_prev[None] = 0.0
+        self.s.velocity_keep[None] = 0.0
+        self.s.restart_factor[None] = 0.5
+
+    @ti.func
+    def fire(self):
+        """FIRE relaxation [choice, replaces plain kinetic damping in statics; measured in the
+        note of issue 4]: with the power P = F.v of the out-of-balance forces at the new
+        configuration, P <= 0 restarts from rest (as kinetic damping does at a KE peak);
+        otherwise the next step mixes the velocity towards the force,
+        v <- (1 - alpha) v + alpha |v|_M / |F|_M^-1 M^-1 F (mass-weighted norms, rotations
+        with their inertia), and after FIRE_DELAY uphill steps alpha shrinks by
+        FIRE_ALPHA_SHRINK per step."""
+        self.s.fire_power[None] = 0.0
+        self.s.fire_speed_sq[None] = 0.0
+        self.s.fire_force_sq[None] = 0.0
+        for c in range(self.s.n_nodes):
+            if not self.nodes.is_prescribed(c):
+                force, torque = self.nodes.residual_force(c), self.nodes.residual_torque(c)
+                v, w = self.s.grid_velocity[c], self.s.omega[c]
+                m, inertia = self.s.corner_mass[c], self.s.corner_inertia[c]
+                self.acc.total(self.s.fire_power, force.dot(v) + torque.dot(w))
+                self.acc.total(self.s.fire_speed_sq, m * v.norm_sqr() + inertia * w.norm_sqr())
+                self.acc.total(self.s.fire_force_sq, force.norm_sqr() / m + torque.norm_sqr() / inertia)
+        if self.s.fire_power[None] > 0.0:
+            self.s.fire_uphill[None] += 1
+            if self.s.fire_uphill[None] > FIRE_DELAY:
+                self.s.fire_alpha[None] *= FIRE_ALPHA_SHRINK
+            alpha = self.s.fire_alpha[None]
+            self.s.velocity_keep[None] = 1.0 - alpha
+            self.s.fire_mix[None] = alpha * ti.sqrt(self.s.fire_speed_sq[None] / ti.max(self.s.fire_force_sq[None], 1e-300))
+        else:
+            self.restart_from_rest()
+            self.s.fire_uphill[None] = 0
+            self.s.fire_alpha[None] = FIRE_ALPHA_START
+            self.s.fire_mix[None] = 0.0
 
     @ti.func
     def one_step(self):

@@ -54,6 +54,24 @@ class NodeUpdate:
         return drop_fixed(r, self.s.fix_mask[c], 0)
 
     @ti.func
+    def residual_torque(self, c):
+        """Out-of-balance nodal moment mu_ext - mu_int without its drilling part (method.md 2.3),
+        fixed components dropped."""
+        normal, project = self.drill_normal(c)
+        torque = self.s.load_factor[None] * self.s.load_moment[c] - self.s.moment_int[c]
+        if project:
+            torque -= torque.dot(normal) * normal
+        return drop_fixed(torque, self.s.fix_mask[c], 3)
+
+    @ti.func
+    def velocity_gain(self, mass):
+        """dv = gain * F: the central-difference dt/m, plus FIRE's mixing term in a static solve."""
+        gain = self.s.restart_factor[None] * self.s.dt[None] / mass
+        if ti.static(self.cfg.fire):
+            gain += self.s.fire_mix[None] / mass
+        return gain
+
+    @ti.func
     def finish(self, c, v_grid):
         """Given the node's new grid velocity: apply BCs, move it, update omega
         (S5 with the drilling projection of method.md 2.3), accumulate KE, external work,
@@ -87,17 +105,15 @@ class NodeUpdate:
         # rotations: J w' = mu_ext - mu_int, then remove the drilling component
         normal, project = self.drill_normal(c)
         torque = lam * self.s.load_moment[c] - self.s.moment_int[c]
-        w = self.s.velocity_keep[None] * self.s.omega[c] + (self.s.restart_factor[None] * dt / self.s.corner_inertia[c]) * torque
+        w = self.s.velocity_keep[None] * self.s.omega[c] + self.velocity_gain(self.s.corner_inertia[c]) * torque
         if project:
             w -= w.dot(normal) * normal
-            torque -= torque.dot(normal) * normal
         w = drop_fixed(w, mask, 3)
         if rigid:
             w = ti.Vector([0.0, 0.0, 0.0])
         self.s.omega[c] = w
         self.rotate_orientation(c, dt * w)
-        torque = drop_fixed(torque, mask, 3)
-        self.acc.total(self.s.residual_sq, torque.norm_sqr() / (self.cfg.length_ref ** 2))
+        self.acc.total(self.s.residual_sq, self.residual_torque(c).norm_sqr() / (self.cfg.length_ref ** 2))
         self.acc.total(self.s.kinetic, 0.5 * (self.s.corner_mass[c] * vg.norm_sqr() + self.s.corner_inertia[c] * w.norm_sqr()))
         self.acc.total(self.s.external_work, dt * lam * (self.s.load_force[c].dot(vg) + self.s.load_moment[c].dot(w)))
         if ti.static(self.cfg.has_contact):
@@ -131,6 +147,5 @@ class NodeUpdate:
             if not self.is_prescribed(c):
                 r = self.residual_force(c)
                 self.acc.total(self.s.residual_sq, r.norm_sqr())
-                v = self.s.velocity_keep[None] * self.s.grid_velocity[c] + \
-                    (self.s.restart_factor[None] * self.s.dt[None] / self.s.corner_mass[c]) * r
+                v = self.s.velocity_keep[None] * self.s.grid_velocity[c] + self.velocity_gain(self.s.corner_mass[c]) * r
             self.finish(c, v)

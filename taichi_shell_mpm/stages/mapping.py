@@ -78,8 +78,10 @@ class Mapping:
                 else:
                     mass = self.s.corner_mass[c]
                     keep = self.s.velocity_keep[None]
-                    vel = keep * self.s.velocity[c]
                     force = self.nodes.residual_force(c)
+                    vel = keep * self.s.velocity[c]
+                    if ti.static(self.cfg.fire):
+                        vel += (self.s.fire_mix[None] / mass) * force    # FIRE mixing (solvers/stepper.py)
                     for off in ti.grouped(ti.ndrange(2, 2, 2)):
                         n, _ = self.weight(frac, off)
                         g = self.flat(base + off)
