@@ -2,10 +2,10 @@
 
 A checkpoint (``OUTDIR/checkpoint.npz``, written atomically) holds
 
-* every Taichi field of :class:`~taichi_shell_mpm.state.State` except the background-grid
-  scratch fields (:data:`TRANSIENT_FIELDS`): between two steps the grid
-  mass, momentum, force and touched flags are zero, and the grid velocities are rewritten
-  on every touched node before they are read, so a fresh State is equivalent;
+* every Taichi field of :class:`~taichi_shell_mpm.state.State` except the scratch fields
+  (:data:`TRANSIENT_FIELDS`): between two steps the grid mass, momentum, force and touched
+  flags are zero, and the grid velocities are rewritten on every touched node before they
+  are read; the contact hash is rebuilt before it is read; so a fresh State is equivalent;
 * the recorded history rows (probes, energies, forces), the frames listed in
   ``frames.pvd``, the step counters, the warnings given so far;
 * the driver's position (static: load level and steps taken in it; dynamic: the next
@@ -43,7 +43,9 @@ from .scene import SceneError
 CHECKPOINT_NAME = "checkpoint.npz"
 FORMAT_VERSION = 1
 TRANSIENT_FIELDS = ("grid_mass", "grid_momentum", "grid_force", "grid_v_minus", "grid_v_plus", "grid_touched",
-                    "touched_list", "n_touched")      # background-grid scratch, see the module docstring
+                    "touched_list", "n_touched",      # background-grid scratch, see the module docstring
+                    "hash_cell", "hash_count", "hash_start", "hash_elements", "element_slot",
+                    "element_radius")                  # contact hash: scratch of a candidate rebuild
 
 stop_hook: Callable[[Any], bool] | None = None
 """Tests and embedding code: called with the Simulation at every batch boundary; returning

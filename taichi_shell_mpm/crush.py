@@ -8,8 +8,15 @@ Definitions (also in docs/crush.md):
   (first peak excluded), trapezoidal in the recorded history;
 * folds: along the centre line of each flat face (reference coordinates), the lateral
   displacement w(Z) of the final state has alternating extrema (hysteresis: a new extremum
-  must differ from the last by more than 2t); each extremum is one half-wave, the fold
-  half-wavelength H is their mean spacing in Z, and completed folds = half-waves // 2;
+  must differ from the last by more than 2t).  Each extremum is the outermost (or innermost)
+  hinge of one lobe: a lobe folds a wall length 2H (hinges at Z0, Z0 + H, Z0 + 2H, the
+  middle one displaced by about H), and in the symmetric mode consecutive lobes of a face
+  alternate outward / inward, so consecutive extrema are one lobe = 2H apart
+  (benchmarks.md 3.2: "each [lobe] consuming 2H of tube").  Lobes = folds = the number of
+  extrema (median over the four faces); H = half their mean spacing in Z.  (Until
+  2026-11-23 the code called each extremum a half-wave and reported the spacing itself as
+  H, twice the half-wavelength; the 15 ms profile, extrema +-12..17 mm about 35 mm apart,
+  shows one extremum per lobe.)
 * energy balance error = |E_kin + E_int + E_hg + E_contact + E_wall - E_kin0 - W_ext| /
   (E_int + E_hg + E_contact + E_wall), the energy the tube absorbed (the 56 kJ of the
   mass would hide errors), largest over the recorded history after 0.5 ms.
@@ -34,8 +41,10 @@ def mean_force(crush: np.ndarray, force: np.ndarray, window=WINDOW) -> tuple[flo
     return float(np.trapezoid(f, grid) / (hi - lo)), hi - lo
 
 
-def half_waves(z_ref: np.ndarray, lateral: np.ndarray, threshold: float) -> np.ndarray:
-    """Reference positions of the alternating extrema of lateral(z) (hysteresis threshold)."""
+def lobe_peaks(z_ref: np.ndarray, lateral: np.ndarray, threshold: float) -> np.ndarray:
+    """Reference positions of the alternating interior extrema of lateral(z) (hysteresis
+    threshold).  The ends of the line are supports, not lobe hinges: a line that starts by
+    rising (falling) has no extremum at its first point."""
     order = np.argsort(z_ref)
     z, w = z_ref[order], lateral[order]
     extrema = []
@@ -44,16 +53,19 @@ def half_waves(z_ref: np.ndarray, lateral: np.ndarray, threshold: float) -> np.n
         hi = i if w[i] > w[hi] else hi
         lo = i if w[i] < w[lo] else lo
         if direction >= 0 and w[hi] - w[i] > threshold:      # passed a maximum
-            extrema.append(hi)
+            if hi > 0:
+                extrema.append(hi)
             direction, lo = -1, i
         elif direction <= 0 and w[i] - w[lo] > threshold:    # passed a minimum
-            extrema.append(lo)
+            if lo > 0:
+                extrema.append(lo)
             direction, hi = 1, i
     return z[extrema]
 
 
 def fold_geometry(points: np.ndarray, positions: np.ndarray, thickness: float) -> dict:
-    """Half-waves on the centre lines of the four flat faces of a tube along z."""
+    """Lobes and fold half-wavelength on the centre lines of the four flat faces of a tube
+    along z (module docstring)."""
     centre = points[:, :2].mean(axis=0)
     rel = points[:, :2] - centre
     half_x, half_y = np.abs(rel[:, 0]).max(), np.abs(rel[:, 1]).max()
@@ -66,15 +78,15 @@ def fold_geometry(points: np.ndarray, positions: np.ndarray, thickness: float) -
             if line.sum() < 4:
                 continue
             lateral = sign * (positions[line, axis] - points[line, axis])
-            z = half_waves(points[line, 2], lateral, 2.0 * thickness)
+            z = lobe_peaks(points[line, 2], lateral, 2.0 * thickness)
             counts.append(len(z))
             if len(z) > 1:
                 spacings.append(np.diff(z).mean())
     if not counts:
-        return {"half_waves": 0, "folds": 0, "half_wavelength": None}
+        return {"lobes": 0, "folds": 0, "half_wavelength": None}
     n = int(np.median(counts))
-    return {"half_waves": n, "folds": n // 2,
-            "half_wavelength": float(np.mean(spacings)) if spacings else None}
+    return {"lobes": n, "folds": n,
+            "half_wavelength": 0.5 * float(np.mean(spacings)) if spacings else None}
 
 
 def crush_summary(sim) -> dict:

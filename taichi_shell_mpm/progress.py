@@ -180,7 +180,7 @@ def summary_rows(summary: dict) -> list[tuple[str, str]]:
         rows.append(("peak support force", _num(crush.get("peak_support_force"), ".3f")))
         rows.append(("mean crush force", _num(crush.get("mean_crush_force"), ".3f")
                      + f"  (window {crush.get('mean_force_window')})"))
-        rows.append(("folds / half-waves", f"{crush.get('folds', '-')} / {crush.get('half_waves', '-')}"))
+        rows.append(("folds (lobes)", f"{crush.get('folds', '-')}"))
         rows.append(("fold half-wavelength", _num(crush.get("half_wavelength"), ".2f")))
         rows.append(("energy balance error", _pct(crush.get("energy_balance_error_max"))))
         rows.append(("hourglass / internal", _pct(crush.get("hourglass_over_internal"))))

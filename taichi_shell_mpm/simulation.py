@@ -26,7 +26,8 @@ from .scene import Scene
 from .solvers.stepper import Stepper
 from .stages.timestep import DT_UNSET, initial_dt
 from .stages.material import make_material
-from .state import STATUS_DT_COLLAPSE, STATUS_INVERTED, STATUS_LEFT_GRID, STATUS_NONFINITE, State
+from .state import (CANDIDATES_PER_NODE, STATUS_CONTACT_FULL, STATUS_DT_COLLAPSE, STATUS_INVERTED,
+                    STATUS_LEFT_GRID, STATUS_NONFINITE, State)
 
 ARCHS = {"cpu": "cpu", "cuda": "cuda", "vulkan": "vulkan"}
 BATCHED_MAX_ELEMENTS = 4000     # serial multi-step launches pay off below this on CPU
@@ -54,6 +55,10 @@ FAILURES = {
     STATUS_DT_COLLAPSE: ("the time step collapsed below 1e-3 of the first one at element {index}",
                          "that element is crushed or badly distorted: an excessive load, too little "
                          "hourglass control or too coarse a mesh"),
+    STATUS_CONTACT_FULL: ("the contact candidate lists overflowed ({index} entries, room for "
+                          f"{CANDIDATES_PER_NODE} per node)",
+                          "far more shell layers packed within one element size than a crush produces: "
+                          "the mesh is collapsing (see the frames); raise state.CANDIDATES_PER_NODE if it is real"),
 }
 RUNAWAY_SPEED = 10.0     # x the shell wave speed, as the in-kernel check (stages/constraints.py)
 HOURGLASS_WARN, HOURGLASS_STOP = 0.10, 0.20     # E_hg / E_int

@@ -12,15 +12,9 @@ import taichi as ti
 
 from .assembly import Model
 
-STATUS_OK, STATUS_CONVERGED, STATUS_INVERTED, STATUS_LEFT_GRID, STATUS_NONFINITE, STATUS_DT_COLLAPSE = range(6)
-STATUS_TEXT = {
-    STATUS_INVERTED: "element {index} turned inside out (area <= 0)",
-    STATUS_LEFT_GRID: "node {index} left the background grid (enlarge [method].grid_min/grid_max or padding)",
-    STATUS_NONFINITE: "non-finite or runaway velocity at node {index}",
-    STATUS_DT_COLLAPSE: "time step collapsed below 1e-3 of the first one (element {index})",
-}
-
-
+(STATUS_OK, STATUS_CONVERGED, STATUS_INVERTED, STATUS_LEFT_GRID, STATUS_NONFINITE, STATUS_DT_COLLAPSE,
+ STATUS_CONTACT_FULL) = range(7)
+CANDIDATES_PER_NODE = 64     # capacity of the contact candidate lists, on average per node
 @ti.data_oriented
 class State:
     """All fields of a run (SOA layout).  ``n_nodes``, ``n_elements``, ``n_points`` and the
@@ -100,6 +94,28 @@ class State:
             self.contact_energy = ti.field(f64, ())      # work done against contact forces
             self.max_penetration = ti.field(f64, ())     # largest g / t_c seen
             self.contact_pairs = ti.field(ti.i32, ())
+            # candidate (Verlet) lists, stages/contact.py: per node, the elements that can come
+            # within t_c before any node moves skin/2 from where the lists were built
+            self.contact_rebuild = ti.field(ti.i32, ())               # 1: rebuild at the next step
+            self.contact_build_position = ti.Vector.field(3, f64, n)  # x_c when the lists were built
+            self.candidate_start = ti.field(ti.i32, n + 1)            # CSR into candidate_elements
+            self.candidate_elements = ti.field(ti.i32, CANDIDATES_PER_NODE * n)
+            self.contact_builds = ti.field(ti.i32, ())                # rebuilds so far (diagnostics)
+            # side memory (method.md 7.3): the element a node touched last step, and on which
+            # side of its facet normal
+            self.contact_last_element = ti.field(ti.i32, n)
+            self.contact_last_side = ti.field(f64, n)
+            # exclusion ring (method.md 7.3), CSR: the nodes sharing an element with node c
+            self.neighbor_start = ti.field(ti.i32, n + 1)
+            self.neighbor_nodes = ti.field(ti.i32, len(model.neighbor_nodes))
+            # spatial hash of element centroids, scratch of a rebuild (checkpoint.TRANSIENT_FIELDS)
+            table = 1 << int(np.ceil(np.log2(2 * m)))
+            self.hash_cell = ti.field(f64, ())
+            self.hash_count = ti.field(ti.i32, table)
+            self.hash_start = ti.field(ti.i32, table + 1)
+            self.hash_elements = ti.field(ti.i32, m)
+            self.element_slot = ti.field(ti.i32, m)
+            self.element_radius = ti.field(f64, m)
         # --- background grid (mpm only), flattened; only touched nodes are cleared
         self.grid = model.grid
         if model.grid is not None:
@@ -139,6 +155,11 @@ class State:
         if model.rigid_bodies:
             self.body_velocity.from_numpy(np.array([b.velocity0 for b in model.rigid_bodies]))
             self.slave_nodes.from_numpy(np.concatenate([b.nodes for b in model.rigid_bodies]).astype(np.int32))
+        if self.contact:
+            self.neighbor_start.from_numpy(model.neighbor_start)
+            self.neighbor_nodes.from_numpy(model.neighbor_nodes)
+            self.contact_last_element.fill(-1)
+            self.contact_rebuild[None] = 1
         self.restart_factor[None] = 1.0
         self.velocity_keep[None] = 1.0
         self.time_limit[None] = np.inf

@@ -304,7 +304,7 @@ def test_summary_table_handles_everything():
                             "damped": 0.0, "balance_error": 1e-6},
                "reference": {"missing_levels": [], "columns": {"W": {"mean_rel_error": 0.01, "max_rel_error": None}}},
                "crush": {"crush_distance": 200.0, "peak_support_force": 30.0, "mean_crush_force": 8.0,
-                         "mean_force_window": [20, 200], "folds": 3, "half_waves": 7, "half_wavelength": None,
+                         "mean_force_window": [20, 200], "folds": 3, "lobes": 3, "half_wavelength": None,
                          "energy_balance_error_max": 0.01, "hourglass_over_internal": 0.02},
                "error": "interrupted"}
     table = format_summary(summary)

@@ -2,21 +2,31 @@
 with a [contact] table.
 
 Segments are the element faces split into triangles (1,2,3), (1,3,4), both sides active,
-contact thickness t_c.  Search: element centroids in a spatial hash (cell = longest edge +
-t_c, 27-cell query, a bounding-sphere reject).  Excluded: elements touching the node's
-one-ring of nodes.  Each node takes its single closest penetrating segment [choice: no
-double counting where segments meet]; the force k g + c g' along the closest-point
-direction (so edges and vertices are handled too) goes to the node and, with the
-barycentric weights, back to the segment's corners.  k = alpha_c m*/dt^2 (stable for any
-dt, like LS-DYNA SOFT=1), damping a fraction of critical.  Friction [choice]: Coulomb
-regularised by the tangential slip speed, mu |F_n| v_t / sqrt(|v_t|^2 + v_eps^2), which
-needs no per-pair history.  Contact energy is the work done against the contact forces
-(booked at the node update, :mod:`.constraints`).
+contact thickness t_c.  Excluded: elements touching the node's one-ring of nodes.  Each
+node takes its single closest penetrating segment [choice: no double counting where
+segments meet]; the force k g + c g' along the closest-point direction (so edges and
+vertices are handled too) goes to the node and, with the barycentric weights, back to the
+segment's corners.  k = alpha_c m*/dt^2 (stable for any dt, like LS-DYNA SOFT=1), damping
+a fraction of critical.  Friction [choice]: Coulomb regularised by the tangential slip
+speed, mu |F_n| v_t / sqrt(|v_t|^2 + v_eps^2), which needs no per-pair history.  Contact
+energy is the work done against the contact forces (booked at the node update,
+:mod:`.constraints`).
+
+Search [choice, issue 4; replaces a hash query of every node at every step]: candidate
+(Verlet) lists.  Each node keeps the elements e with |x_c - centroid_e| - R_e <= t_c + s
+(R_e: the largest centroid-corner distance, so the element lies in that ball; s: the
+skin), found through a spatial hash of centroids (cell = max R_e + t_c + s, 27-cell query)
+and with the one-ring excluded once, at build time.  While no node has moved more than
+s/2 since the build, no element outside a node's list can come within t_c of it (node and
+segment points each moved at most s/2), so the per-step test runs over the lists only and
+finds exactly the pairs the full search would.  s = SKIN_OVER_THICKNESS t_c.
 """
-import numpy as np
 import taichi as ti
 
+from ..state import CANDIDATES_PER_NODE, STATUS_CONTACT_FULL, STATUS_OK
 from .accumulate import Accumulator
+
+SKIN_OVER_THICKNESS = 1.0
 
 
 @ti.func
@@ -63,29 +73,14 @@ class SelfContact:
         self.acc = Accumulator(cfg.serial)
         spec = cfg.contact
         self.t_c = cfg.contact_thickness
+        self.skin = SKIN_OVER_THICKNESS * self.t_c
         self.alpha = spec.stiffness
         self.damping = spec.damping
         self.friction = spec.friction
         self.slip_eps = 1e-6 * cfg.wave_speed
-        self.cell = model.max_edge + self.t_c
-        m = len(model.quads)
-        self.n_elements = m
-        self.table = 1 << int(np.ceil(np.log2(2 * m)))          # hash table size (power of 2)
-        n = len(model.points)
-        self.neighbor_start = ti.field(ti.i32, n + 1)
-        self.neighbor_nodes = ti.field(ti.i32, len(model.neighbor_nodes))
-        self.neighbor_start.from_numpy(model.neighbor_start)
-        self.neighbor_nodes.from_numpy(model.neighbor_nodes)
-        self.cell_count = ti.field(ti.i32, self.table)
-        self.cell_start = ti.field(ti.i32, self.table + 1)
-        self.cell_items = ti.field(ti.i32, m)
-        self.element_slot = ti.field(ti.i32, m)
-        self.element_radius = ti.field(ti.f64, m)
-        # side memory (method.md 7.3): the element a node touched last step and on which side
-        # of its facet normal; a node that crossed the mid-surface within a step is pushed back
-        self.last_element = ti.field(ti.i32, n)
-        self.last_side = ti.field(ti.f64, n)
-        self.last_element.fill(-1)
+        self.n_elements = len(model.quads)
+        self.table = state.hash_count.shape[0]           # power of 2
+        self.capacity = state.candidate_elements.shape[0]
 
     @ti.func
     def hash(self, cell):
@@ -94,7 +89,7 @@ class SelfContact:
 
     @ti.func
     def cell_of(self, x):
-        return ti.floor(x / self.cell, ti.i32)
+        return ti.floor(x / self.s.hash_cell[None], ti.i32)
 
     @ti.func
     def centroid(self, e):
@@ -102,79 +97,139 @@ class SelfContact:
         return 0.25 * (self.s.position[c[0]] + self.s.position[c[1]] + self.s.position[c[2]] + self.s.position[c[3]])
 
     @ti.func
-    def build_hash(self):
-        """Counting sort of element centroids into hash slots."""
-        for h in range(self.table):
-            self.cell_count[h] = 0
-        for e in range(self.n_elements):
-            centre = self.centroid(e)
-            slot = self.hash(self.cell_of(centre))
-            self.element_slot[e] = slot
-            radius = 0.0
-            c = self.s.corners[e]
-            for a in ti.static(range(4)):
-                radius = ti.max(radius, (self.s.position[c[a]] - centre).norm())
-            self.element_radius[e] = radius
-            self.acc.add(self.cell_count, slot, 1)
-        self.cell_start[0] = 0
-        ti.loop_config(serialize=True)
-        for h in range(self.table):
-            self.cell_start[h + 1] = self.cell_start[h] + self.cell_count[h]
-            self.cell_count[h] = 0
-        for e in range(self.n_elements):
-            slot = self.element_slot[e]
-            k = 0
-            if ti.static(self.cfg.serial):
-                k = self.cell_count[slot]
-                self.cell_count[slot] = k + 1
-            else:
-                k = ti.atomic_add(self.cell_count[slot], 1)
-            self.cell_items[self.cell_start[slot] + k] = e
-
-    @ti.func
     def excluded(self, c, e):
         """True if element e touches the one-ring of node c (its own or adjacent elements)."""
         corners = self.s.corners[e]
         out = False
-        for i in range(self.neighbor_start[c], self.neighbor_start[c + 1]):
-            q = self.neighbor_nodes[i]
+        for i in range(self.s.neighbor_start[c], self.s.neighbor_start[c + 1]):
+            q = self.s.neighbor_nodes[i]
             for a in ti.static(range(4)):
                 if corners[a] == q:
                     out = True
         return out
 
     @ti.func
+    def check_skin(self):
+        """Ask for a rebuild once some node has moved more than skin/2 since the last one."""
+        for c in range(self.s.n_nodes):
+            if (self.s.position[c] - self.s.contact_build_position[c]).norm_sqr() > (0.5 * self.skin) ** 2:
+                self.s.contact_rebuild[None] = 1
+
+    @ti.func
+    def build_hash(self):
+        """Counting sort of element centroids into hash slots (when a rebuild is due); the
+        cell size, max R_e + t_c + skin, follows the current configuration."""
+        rebuild = self.s.contact_rebuild[None]
+        if rebuild:
+            self.s.hash_cell[None] = 0.0
+        for e in range(self.n_elements):
+            if rebuild:
+                centre = self.centroid(e)
+                radius = 0.0
+                c = self.s.corners[e]
+                for a in ti.static(range(4)):
+                    radius = ti.max(radius, (self.s.position[c[a]] - centre).norm())
+                self.s.element_radius[e] = radius
+                self.acc.maximum(self.s.hash_cell, radius)
+        if rebuild:
+            self.s.hash_cell[None] += self.t_c + self.skin
+        for h in range(self.table):
+            if rebuild:
+                self.s.hash_count[h] = 0
+        for e in range(self.n_elements):
+            if rebuild:
+                slot = self.hash(self.cell_of(self.centroid(e)))
+                self.s.element_slot[e] = slot
+                self.acc.add(self.s.hash_count, slot, 1)
+        ti.loop_config(serialize=True)
+        for h in range(self.table):          # hash_start[0] stays 0
+            if rebuild:
+                self.s.hash_start[h + 1] = self.s.hash_start[h] + self.s.hash_count[h]
+                self.s.hash_count[h] = 0
+        for e in range(self.n_elements):
+            if rebuild:
+                slot = self.s.element_slot[e]
+                k = 0
+                if ti.static(self.cfg.serial):
+                    k = self.s.hash_count[slot]
+                    self.s.hash_count[slot] = k + 1
+                else:
+                    k = ti.atomic_add(self.s.hash_count[slot], 1)
+                self.s.hash_elements[self.s.hash_start[slot] + k] = e
+
+    @ti.func
+    def scan_neighbours(self, c, store: ti.template()):
+        """Elements that may come within t_c of node c before the next rebuild; counted, or
+        written from candidate_start[c] on when `store`."""
+        x = self.s.position[c]
+        home = self.cell_of(x)
+        found = 0
+        for off in ti.grouped(ti.ndrange((-1, 2), (-1, 2), (-1, 2))):
+            slot = self.hash(home + off)
+            for i in range(self.s.hash_start[slot], self.s.hash_start[slot + 1]):
+                e = self.s.hash_elements[i]
+                if (x - self.centroid(e)).norm() <= self.s.element_radius[e] + self.t_c + self.skin:
+                    if not self.excluded(c, e):
+                        if ti.static(store):
+                            self.s.candidate_elements[self.s.candidate_start[c] + found] = e
+                        found += 1
+        return found
+
+    @ti.func
+    def build_candidates(self):
+        """Rebuild the candidate lists (when asked): hash, count, prefix sum, fill."""
+        self.build_hash()
+        rebuild = self.s.contact_rebuild[None]
+        for c in range(self.s.n_nodes):
+            if rebuild:
+                self.s.candidate_start[c + 1] = self.scan_neighbours(c, False)
+        ti.loop_config(serialize=True)
+        for c in range(self.s.n_nodes):      # candidate_start[0] stays 0
+            if rebuild:
+                self.s.candidate_start[c + 1] += self.s.candidate_start[c]
+        full = 0
+        if rebuild and self.s.candidate_start[self.s.n_nodes] > self.capacity:
+            full = 1
+            if self.s.status[None] == STATUS_OK:
+                self.s.status[None] = STATUS_CONTACT_FULL
+                self.s.status_index[None] = self.s.candidate_start[self.s.n_nodes]
+        for c in range(self.s.n_nodes):
+            if rebuild and not full:
+                self.scan_neighbours(c, True)
+                self.s.contact_build_position[c] = self.s.position[c]
+        if rebuild:
+            self.s.contact_builds[None] += 1
+        self.s.contact_rebuild[None] = 0
+
+    @ti.func
     def forces(self):
-        """S1: zero the contact forces, search, and apply the penalty forces at x^n."""
+        """S1: zero the contact forces, refresh the candidate lists when a node has used up
+        half the skin, and apply the penalty forces at x^n."""
         for c in range(self.s.n_nodes):
             self.s.force_contact[c] = ti.Vector([0.0, 0.0, 0.0])
-        self.build_hash()
+        self.check_skin()
+        self.build_candidates()
         dt = self.s.dt[None]
         for c in range(self.s.n_nodes):
             x = self.s.position[c]
-            home = self.cell_of(x)
             best_dist = self.t_c
             best_e = -1
             best_point = ti.Vector([0.0, 0.0, 0.0])
             best_w = ti.Vector([0.0, 0.0, 0.0, 0.0])
-            for off in ti.grouped(ti.ndrange((-1, 2), (-1, 2), (-1, 2))):
-                slot = self.hash(home + off)
-                for i in range(self.cell_start[slot], self.cell_start[slot + 1]):
-                    e = self.cell_items[i]
-                    if (x - self.centroid(e)).norm() <= self.element_radius[e] + self.t_c:
-                        if not self.excluded(c, e):
-                            corners = self.s.corners[e]
-                            p0, p1 = self.s.position[corners[0]], self.s.position[corners[1]]
-                            p2, p3 = self.s.position[corners[2]], self.s.position[corners[3]]
-                            qa, ba = closest_point_on_triangle(x, p0, p1, p2)
-                            qb, bb = closest_point_on_triangle(x, p0, p2, p3)
-                            da, db = (x - qa).norm(), (x - qb).norm()
-                            if da < best_dist:
-                                best_dist, best_e, best_point = da, e, qa
-                                best_w = ti.Vector([ba[0], ba[1], ba[2], 0.0])
-                            if db < best_dist:
-                                best_dist, best_e, best_point = db, e, qb
-                                best_w = ti.Vector([bb[0], 0.0, bb[1], bb[2]])
+            for i in range(self.s.candidate_start[c], self.s.candidate_start[c + 1]):
+                e = self.s.candidate_elements[i]
+                corners = self.s.corners[e]
+                p0, p1 = self.s.position[corners[0]], self.s.position[corners[1]]
+                p2, p3 = self.s.position[corners[2]], self.s.position[corners[3]]
+                qa, ba = closest_point_on_triangle(x, p0, p1, p2)
+                qb, bb = closest_point_on_triangle(x, p0, p2, p3)
+                da, db = (x - qa).norm(), (x - qb).norm()
+                if da < best_dist:
+                    best_dist, best_e, best_point = da, e, qa
+                    best_w = ti.Vector([ba[0], ba[1], ba[2], 0.0])
+                if db < best_dist:
+                    best_dist, best_e, best_point = db, e, qb
+                    best_w = ti.Vector([bb[0], 0.0, bb[1], bb[2]])
             if best_e >= 0 and best_dist > 0.0 and dt > 0.0:
                 corners = self.s.corners[best_e]
                 normal = (x - best_point) / best_dist
@@ -182,13 +237,13 @@ class SelfContact:
                 facet = (self.s.position[corners[2]] - self.s.position[corners[0]]).cross(
                     self.s.position[corners[3]] - self.s.position[corners[1]]).normalized()
                 side = 1.0 if normal.dot(facet) >= 0.0 else -1.0
-                if self.last_element[c] == best_e and side != self.last_side[c]:
+                if self.s.contact_last_element[c] == best_e and side != self.s.contact_last_side[c]:
                     # crossed the mid-surface since last step: push back to the side it came from
                     normal = -normal
                     gap = self.t_c + best_dist
                     side = -side
-                self.last_element[c] = best_e
-                self.last_side[c] = side
+                self.s.contact_last_element[c] = best_e
+                self.s.contact_last_side[c] = side
                 m_seg = 0.0
                 v_seg = ti.Vector([0.0, 0.0, 0.0])
                 for a in ti.static(range(4)):
@@ -212,4 +267,4 @@ class SelfContact:
                 self.acc.maximum(self.s.max_penetration, gap / self.t_c)
                 self.acc.total(self.s.contact_pairs, 1)
             else:
-                self.last_element[c] = -1
+                self.s.contact_last_element[c] = -1
