@@ -68,11 +68,15 @@ def write_text(path, text: str) -> None:
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENES = ROOT / "scenes"
-SCENE_FILES = {"cantilever": "cantilever.toml", "hemisphere": "hemisphere.toml", "tube": "square_tube.toml"}
+SCENE_FILES = {"cantilever": "cantilever.toml", "hemisphere": "hemisphere.toml", "tube": "square_tube.toml",
+               "scaling": "square_tube.toml"}
 CANTILEVER_NX = (5, 10, 20, 40)
 HEMISPHERE_N = (8, 16, 32)
 RATIOS = (1.0, 0.5)                 # grid cell / element size in mpm mode
 QUICK_LOAD_STEPS = 10               # hemisphere in --quick: every other Sze row
+SCALING_FLAT = (5, 10, 20, 40, 60)  # tube elements across a flat: 720 ... 103 680 elements
+SCALING_END_TIME = 0.1              # ms: the impact, yielding and the contact search, no folds yet
+WIDE_GRID = ("method.grid_min=[-200,-200,-10]", "method.grid_max=[200,200,310]")   # 16x the grid's area
 COMPONENT_LABEL = {"W_tip": "W_tip", "minus_U_tip": "-U_tip",
                    "radial_disp_outward_loaded_point": "d_out",
                    "radial_disp_inward_loaded_point_magnitude": "d_in"}
@@ -162,6 +166,24 @@ def tube_cases(end_time: float | None = None) -> list[Case]:
                   "method.cell_size=1.25") + end)]
 
 
+def scaling_cases(flats=SCALING_FLAT) -> list[Case]:
+    """Time per step against the number of elements: the tube (mpm, J2, contact) at n_flat
+    elements across a flat, n_flat / 5 around each fillet, 6 n_flat along, grid h = l/2, to
+    SCALING_END_TIME; plus the 2 880-element mesh in a grid of 16x the area (the empty grid
+    must cost nothing)."""
+    out = []
+    for n in flats:
+        ell = 50.0 / n
+        mesh = f"{n}/{max(1, round(n / 5))}/{6 * n}"
+        base = (f"mesh.n_flat={n}", f"mesh.n_corner={max(1, round(n / 5))}", f"mesh.n_length={6 * n}",
+                f"method.cell_size={ell / 2:g}", f"solve.end_time={SCALING_END_TIME:g}", "output.times=[]")
+        out.append(Case(f"scaling_{n}", "scaling", mesh, "mpm", 0.5, ell, base))
+        if n == 10:
+            out.append(Case(f"scaling_{n}_wide_grid", "scaling", mesh + " wide grid", "mpm", 0.5, ell,
+                            base + WIDE_GRID))
+    return out
+
+
 def peers_available() -> bool:
     try:
         from .peers import kratos
@@ -178,7 +200,7 @@ def plan(quick: bool, peers: bool) -> list[Case]:
         return (cantilever_cases((5,), ratios=(0.5,), fem=False, peers=peers)
                 + cantilever_cases((10,), ratios=(0.5,), peers=peers)
                 + hemisphere_cases((8,), ratios=(0.5,), peers=peers, load_steps=QUICK_LOAD_STEPS))
-    return cantilever_cases(peers=peers) + hemisphere_cases(peers=peers) + tube_cases()
+    return cantilever_cases(peers=peers) + hemisphere_cases(peers=peers) + tube_cases() + scaling_cases()
 
 
 # ------------------------------------------------------------------ machine
@@ -365,7 +387,7 @@ def observed_orders(rows: list[dict]) -> list[dict]:
     """Least-squares slope of log(mean error) vs log(element size), per scene/series/component."""
     groups: dict[tuple, list[dict]] = {}
     for r in rows:
-        if r.get("status") != "ok" or r["scene"] == "tube":
+        if r.get("status") != "ok" or r["scene"] not in ("cantilever", "hemisphere"):
             continue
         groups.setdefault((r["scene"], _group_key(r)), []).append(r)
     out = []
@@ -603,6 +625,24 @@ def plot_tube(rows: list[dict], out: Path, path: Path) -> Path | None:
     return draw(panels, path)
 
 
+def plot_scaling(rows: list[dict], path: Path) -> Path | None:
+    rs = sorted((r for r in rows if r["scene"] == "scaling" and r.get("status") == "ok"
+                 and "wide" not in r["case"]), key=lambda r: _num(r, "elements"))
+    if not rs:
+        return None
+    n = np.array([_num(r, "elements") for r in rs])
+    per_step = 1e3 * np.array([_num(r, "run_s") / _num(r, "steps") for r in rs])
+    series = [Series(n, per_step, "time per step", _color(0))]
+    if len(n) > 1:      # the line through the largest case, slope 1
+        series.append(Series(n, per_step[-1] * n / n[-1], "linear (through the largest)", "#7f7f7f",
+                             dashed=True, marker=""))
+    us = np.array([_num(r, "us_per_element_step") for r in rs])
+    panels = [Panel("tube (mpm, J2, contact): time per step vs elements", "elements", "ms per step", series),
+              Panel("µs per element-step vs elements", "elements", "µs / element-step",
+                    [Series(n, us, "µs / element-step", _color(1))], logy=False)]
+    return draw(panels, path)
+
+
 # ------------------------------------------------------------------ report
 def _pct(v: float) -> str:
     return "–" if not math.isfinite(v) else f"{100 * v:.2f}"
@@ -706,6 +746,23 @@ def write_report(path: Path, out: Path, rows: list[dict], planned: list[Case], c
               "Mean force over 20–200 mm of crush (Wierzbicki–Abramowicz 7.46 kN, Abramowicz–Jones 10.22 kN); "
               "energy balance error relative to the absorbed energy; half-wavelength expected ≈ 15.1 mm.", ""]
         L += _tube_table(tubes) + [""]
+    scaling = [r for r in rows if r["scene"] == "scaling"]
+    if scaling:
+        L += ["## Scaling: time per step against elements", "",
+              f"The tube (mpm, J2, self-contact, grid h = l/2) refined from 720 to 103 680 elements, each run "
+              f"to {SCALING_END_TIME:g} ms (impact and yielding; the contact search runs, no folds touch yet).  "
+              "Linear scaling = constant µs per element-step.  `scaling_10_wide_grid` is the 2 880-element "
+              "mesh in a grid of 16× the area: the empty grid nodes are never touched.  Launch: one "
+              "serial multi-step kernel up to 4 000 elements, parallel kernels above "
+              "(`simulation.BATCHED_MAX_ELEMENTS`).", "",
+              "| case | mesh | elements | steps | compile s | run s | ms / step | µs / element-step | peak MB | status |",
+              "|---|---|---|---|---|---|---|---|---|---|"]
+        for r in scaling:
+            per = 1e3 * _num(r, "run_s") / _num(r, "steps")
+            L.append(f"| {r['case']} | {r['mesh']} | {_fmt(_num(r, 'elements'))} | {_fmt(_num(r, 'steps'))} "
+                     f"| {_fmt(_num(r, 'compile_s'))} | {_fmt(_num(r, 'run_s'))} | {_fmt(per)} "
+                     f"| {_fmt(_num(r, 'us_per_element_step'))} | {_fmt(_num(r, 'peak_mem_MB'))} | {_status(r)} |")
+        L.append("")
     if not peers:
         L += ["Peer comparison: the optional extra `peers` (Kratos) is not installed here, so no implicit "
               "reference code ran (`pip install taichi_shell_mpm[peers]` adds the `*_kratos` cases).", ""]
@@ -744,9 +801,10 @@ def regenerate(out: Path, report: Path, planned: list[Case], command: str, info:
     plots: dict[str, Path | None] = {}
     for name, fn in (("error against run time", lambda p: plot_error_vs_time(rows, p)),
                      ("convergence", lambda p: plot_convergence(rows, orders, p)),
-                     ("square tube", lambda p: plot_tube(rows, out, p))):
+                     ("square tube", lambda p: plot_tube(rows, out, p)),
+                     ("scaling", lambda p: plot_scaling(rows, p))):
         target = out / {"error against run time": "error_vs_time.png", "convergence": "convergence.png",
-                        "square tube": "tube.png"}[name]
+                        "square tube": "tube.png", "scaling": "scaling.png"}[name]
         try:
             plots[name] = fn(target)
         except Exception as exc:          # a plot must not lose the measurements

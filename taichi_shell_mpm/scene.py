@@ -48,6 +48,24 @@ class SceneInfo:
 
 
 # ---------------------------------------------------------------- [mesh]
+MAX_GENERATED_ELEMENTS = 10_000_000     # a generated mesh larger than this is a typo, not a model
+GENERATED_COUNT_KEYS = {"plate": ("nx", "ny"), "hemisphere": ("n_around", "n_meridian"),
+                        "tube": ("n_flat", "n_corner", "n_length")}
+
+
+def _generated_elements(kind: str, v: dict) -> int | None:
+    """Element count of a generator's table once its count keys are valid, else None."""
+    keys = GENERATED_COUNT_KEYS.get(kind)
+    if keys is None or not all(isinstance(v.get(k), int) for k in keys):
+        return None
+    if kind == "tube":
+        return 4 * (v["n_flat"] + v["n_corner"]) * v["n_length"]
+    count = 1
+    for k in keys:
+        count *= v[k]
+    return count
+
+
 @dataclass(frozen=True)
 class PlateMesh:
     """Flat rectangle in the x-y plane, nx x ny quads, normals +z."""
@@ -264,6 +282,10 @@ class Solve:
     relaxation: Literal["fire", "kinetic"] = "fire"
     """Static solves: dynamic relaxation by FIRE (velocity mixing towards the force) or plain
     kinetic damping (method.md 6.2)."""
+    mass_scaling: Literal["auto", "uniform_dt", "none"] = "auto"
+    """Static solves: fictitious densities that give every element the same stable step
+    (``uniform_dt``, the default of ``auto`` in statics); ``none`` (and ``auto`` in dynamics)
+    keeps the physical masses.  The equilibrium does not depend on the masses."""
     progress_every: float = 2.0
     """Seconds of wall time between progress lines."""
 
@@ -619,7 +641,8 @@ _SOLVE = {"kind": _choice("static", "dynamic"), "load_steps": _int(1),
           "tolerance": _number(0, 0.1, lo_open=True), "max_steps_per_load_step": _int(1),
           "end_time": _non_negative, "dt_safety": _fraction,
           "dt_rule": _choice("both", "shell"), "rotary_inertia": _choice("scaled", "physical"),
-          "relaxation": _choice("fire", "kinetic"), "progress_every": _non_negative}
+          "relaxation": _choice("fire", "kinetic"), "mass_scaling": _choice("auto", "uniform_dt", "none"),
+          "progress_every": _non_negative}
 _OUTPUT = {"every_steps": _int(0), "times": _times, "load_steps": _bool, "history_interval": _non_negative}
 _PLAIN_TABLES: dict[str, tuple[type, dict[str, Validator]]] = {
     "scene": (SceneInfo, _INFO), "material": (Material, _MATERIAL),
@@ -854,6 +877,12 @@ class _SceneParser:
             spec = {"path": self.file, **spec}
         mark = len(self.messages)
         v = self.read("[mesh]", data, spec, cls, extra=("kind",))
+        count = _generated_elements(kind, v)
+        if count is not None and count > MAX_GENERATED_ELEMENTS:
+            keys = {"plate": "nx x ny", "hemisphere": "n_around x n_meridian",
+                    "tube": "4 (n_flat + n_corner) x n_length"}[kind]
+            self.error(f"[mesh].{max(GENERATED_COUNT_KEYS[kind], key=v.get)}",
+                       f"expected at most {MAX_GENERATED_ELEMENTS:,} elements ({keys}), got {count:,}")
         if kind == "tube":
             if {"width", "depth", "corner_radius"} <= v.keys():
                 limit = min(v["width"], v["depth"]) / 2
@@ -1009,6 +1038,9 @@ class _SceneParser:
                 self.error("[solve].end_time", "expected a number > 0 for a dynamic solve, got 0")
             else:
                 self.error("[solve].end_time", "missing required key (a dynamic solve needs end_time > 0)")
+        if v.get("kind") == "dynamic" and v.get("mass_scaling") == "uniform_dt":
+            self.error("[solve].mass_scaling", 'expected "auto" or "none" for a dynamic solve, got "uniform_dt" '
+                       "(fictitious masses change the dynamics; they are for static solves)")
         if v.get("kind") == "static" and not self.raw.get("load"):
             self.error("[[load]]", "a static solve needs at least one [[load]]")
         return self.build(mark, Solve, v)

@@ -413,6 +413,14 @@ def test_cross_checks(scene_dir):
     one({"solve.end_time": 0}, "[solve].end_time: expected a number > 0 for a dynamic solve, got 0",
         base=TUBE_SCENE)
     one({"mesh.hole_deg": 90}, "[mesh].hole_deg: expected a number in (0, 90), got 90", base=HEMISPHERE_SCENE)
+    # a typo that would generate billions of elements (found by the fuzz test: MemoryError)
+    one({"mesh.n_around": 1_000_000_000}, "[mesh].n_around: expected at most 10,000,000 elements "
+        "(n_around x n_meridian), got 3,000,000,000", base=HEMISPHERE_SCENE)
+    one({"mesh.n_length": 10**6}, "[mesh].n_length: expected at most 10,000,000 elements "
+        "(4 (n_flat + n_corner) x n_length), got 12,000,000", base=TUBE_SCENE)
+    one({"solve.mass_scaling": "uniform_dt"}, '[solve].mass_scaling: expected "auto" or "none" for a dynamic '
+        'solve, got "uniform_dt" (fictitious masses change the dynamics; they are for static solves)',
+        base=TUBE_SCENE)
     one({"mesh.path": "meshes/none.vtk"}, "[mesh].path: file not found: "
         f"{str(scene_dir / 'meshes/none.vtk')!r}", base=FILE_MESH)
     # a square tube without fillets needs no fillet elements
