@@ -214,12 +214,13 @@ class Simulation:
         return f"{level}t={s.time[None]:.6g}, step {s.step[None]}"
 
     def element_distortion(self, positions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Per element of the configuration `positions`: inside out (a corner angle >= 180 deg
-        about the diagonals' normal) and L_e = area / longest diagonal."""
+        """Per element of the configuration `positions`: inside out (two or more corner angles
+        >= 180 deg about the diagonals' normal: a bow-tie, stages/shell.tangled) and
+        L_e = area / longest diagonal."""
         x = positions[self.model.quads]
         normal = np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])
         corner = np.cross(np.roll(x, -1, axis=1) - x, np.roll(x, 1, axis=1) - x)
-        inside_out = ~(np.einsum("mai,mi->ma", corner, normal) > 0.0).all(axis=1)
+        inside_out = (np.einsum("mai,mi->ma", corner, normal) <= 0.0).sum(axis=1) >= 2
         longest = np.maximum(np.linalg.norm(x[:, 2] - x[:, 0], axis=1), np.linalg.norm(x[:, 3] - x[:, 1], axis=1))
         return inside_out, 0.5 * np.linalg.norm(normal, axis=1) / np.maximum(longest, 1e-300)
 
