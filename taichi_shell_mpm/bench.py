@@ -161,6 +161,7 @@ def tube_cases(end_time: float | None = None) -> list[Case]:
     end = () if end_time is None else (f"solve.end_time={end_time:g}",)
     tag = "" if end_time is None else f"_t{end_time:g}"
     return [Case(f"tube_5mm_mpm{tag}", "tube", "10/2/60", "mpm", 0.5, 5.0, ("method.kind=mpm",) + end),
+            Case(f"tube_5mm_fem{tag}", "tube", "10/2/60", "fem", None, 5.0, ("method.kind=fem",) + end),
             Case(f"tube_2.5mm_mpm{tag}", "tube", "20/4/120", "mpm", 0.5, 2.5,
                  ("method.kind=mpm", "mesh.n_flat=20", "mesh.n_corner=4", "mesh.n_length=120",
                   "method.cell_size=1.25") + end)]
