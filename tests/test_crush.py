@@ -63,3 +63,12 @@ def test_fold_geometry_reads_lobes_and_half_wavelength():
     print(f)
     assert f["lobes"] == f["folds"] == 8
     assert abs(f["half_wavelength"] - H) < 0.05 * H
+
+
+def test_contact_on_a_grid_as_coarse_as_the_elements_warns():
+    from .test_reliability import cli_run
+    tube = str(ROOT / "scenes" / "square_tube.toml")
+    coarse = cli_run("validate", tube, "--set", "method.cell_size=5")
+    assert coarse.code == 0 and "stick through the grid" in coarse.out + coarse.err
+    fine = cli_run("validate", tube)
+    assert fine.code == 0 and "stick" not in fine.out + fine.err
