@@ -122,8 +122,11 @@ def test_resume_and_case_selection(quick):
 def test_plan_names():
     full = bench.plan(quick=False, peers=False)
     names = [c.name for c in full]
-    assert len(names) == len(set(names)) == 4 * 3 + 3 * 3 + 2
-    assert {"cantilever_40x4_mpm_r1", "hemisphere_32x32_fem", "tube_2.5mm_mpm"} <= set(names)
+    assert len(names) == len(set(names)) == 4 * 3 + 3 * 3 + 3 + len(bench.SCALING_FLAT) + 1
+    assert {"cantilever_40x4_mpm_r1", "hemisphere_32x32_fem", "tube_2.5mm_mpm", "tube_5mm_fem", "scaling_60",
+            "scaling_10_wide_grid"} <= set(names)
+    wide = next(c for c in full if c.name == "scaling_10_wide_grid")
+    assert set(bench.WIDE_GRID) <= set(wide.overrides)
     quick = bench.plan(quick=True, peers=False)
     assert [c.name for c in quick] == QUICK_CASES
     with_peers = bench.plan(quick=False, peers=True)
