@@ -35,7 +35,7 @@ def batch_size(sim: Simulation, cap: int) -> int:
     """Steps per batch: `cap` for small scenes, fewer for large ones (deterministic)."""
     if not sim.stepper.batched:
         return min(cap, 200)
-    return int(max(100, min(cap, BATCH_ELEMENT_STEPS // max(1, len(sim.model.quads)))))
+    return int(max(10, min(cap, BATCH_ELEMENT_STEPS // max(1, len(sim.model.quads)))))
 
 
 def run_static(sim: Simulation, control: RunControl | None = None) -> dict:

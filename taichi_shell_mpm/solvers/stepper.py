@@ -3,11 +3,11 @@ compiles them into kernels.
 
 Two launch strategies, chosen at construction, share the same stage code:
 
-* ``batched`` (CPU, small scenes): one kernel runs many steps in a serial loop, so the
+* ``batched`` (CPU, every size): one kernel runs many steps in a serial loop, so the
   ~50-90 us Python launch cost is paid once per batch instead of per stage.  Measured
   here: one launch of a 2-loop kernel costs 88 us; the same work inside a batched loop
   0.4 us per step.
-* ``parallel`` (large scenes, GPU): one kernel per step; its stage loops are top-level and
+* ``parallel`` (GPU): one kernel per step; its stage loops are top-level and
   run in parallel.
 
 The dynamic-relaxation decisions (kinetic damping or FIRE, method.md 6.2) are made
