@@ -56,8 +56,9 @@ FAILURES = {
                          "hourglass control or too coarse a mesh"),
     STATUS_CONTACT_FULL: ("the contact candidate lists overflowed ({index} entries, room for "
                           f"{CANDIDATES_PER_NODE} per node)",
-                          "far more shell layers packed within one element size than a crush produces: "
-                          "the mesh is collapsing (see the frames); raise state.CANDIDATES_PER_NODE if it is real"),
+                          "a contact thickness ([contact].thickness or the shell's) far above the element "
+                          "size, or the mesh collapsing into a heap (see the frames); if the packing is real, "
+                          "raise state.CANDIDATES_PER_NODE"),
 }
 PARALLEL_ON_CPU = False     # tests: run the GPU launch path (one parallel kernel per step) on CPU
 RUNAWAY_SPEED = 10.0     # x the shell wave speed, as the in-kernel check (stages/constraints.py)

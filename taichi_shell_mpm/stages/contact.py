@@ -197,6 +197,8 @@ class SelfContact:
             if rebuild and not full:
                 self.scan_neighbours(c, True)
                 self.s.contact_build_position[c] = self.s.position[c]
+            if full:                         # empty lists: nothing past the capacity is read
+                self.s.candidate_start[c + 1] = 0
         if rebuild:
             self.s.contact_builds[None] += 1
         self.s.contact_rebuild[None] = 0
