@@ -18,7 +18,7 @@ def run(tmp_path, name: str) -> tuple[dict, np.ndarray]:
     args = ["run", str(ROOT / "scenes" / "square_tube.toml"), "--out", str(tmp_path / name), "--quiet"]
     for item in [*SHORT[:5], "solve.end_time=0.3", "output.times=[]", "output.history_interval=0.05"]:
         args += ["--set", item]
-    r = cli_run(*args)
+    r = cli_run(*args, timeout=600)       # compiles the tube kernels (twice: serial and parallel)
     assert r.code == 0, r.err
     summary = json.loads((tmp_path / name / "summary.json").read_text())
     energy = np.loadtxt(tmp_path / name / "energy.csv", delimiter=",", skiprows=1)

@@ -29,6 +29,7 @@ from .conftest import ROOT, write_scene
 from .test_reliability import cli_run
 
 TABLES = ("probes.csv", "energy.csv", "force.csv", "frames.pvd")
+COMPILE_TIMEOUT = 600     # a run that compiles the tube's kernels on a cold cache (CI) takes minutes
 
 CANTILEVER = [str(ROOT / "scenes" / "cantilever.toml"), "--set", "mesh.nx=4", "--set", "solve.load_steps=4"]
 
@@ -98,11 +99,12 @@ def position_of(out: Path) -> dict:
 def restart_roundtrip(tmp_path, monkeypatch, scene_args, stop_step, every, batch_element_steps):
     monkeypatch.setattr(static, "BATCH_ELEMENT_STEPS", batch_element_steps)
     a, b, d = tmp_path / "a", tmp_path / "b", tmp_path / "d"       # d: restarted in place
-    r = cli_run("run", *scene_args, "--out", str(a), "--quiet", "--checkpoint-every", str(every))
+    r = cli_run("run", *scene_args, "--out", str(a), "--quiet", "--checkpoint-every", str(every),
+                timeout=COMPILE_TIMEOUT)
     assert r.code == 0, r.err
     steps = json.loads((a / "summary.json").read_text())["steps"]
     monkeypatch.setattr(checkpoint, "stop_hook", lambda sim: sim.state.step[None] >= stop_step)
-    r = cli_run("run", *scene_args, "--out", str(b), "--quiet")
+    r = cli_run("run", *scene_args, "--out", str(b), "--quiet", timeout=COMPILE_TIMEOUT)
     monkeypatch.setattr(checkpoint, "stop_hook", None)
     assert r.code == 130, r.err
     assert r.err.startswith("error: interrupted at") and "--restart" in r.err, r.err
@@ -112,10 +114,10 @@ def restart_roundtrip(tmp_path, monkeypatch, scene_args, stop_step, every, batch
     shutil.copytree(a, d)
     periodic = position_of(d)
     c = tmp_path / "c"           # continue into another directory: the frames so far are copied
-    r = cli_run("run", *scene_args, "--restart", str(b), "--out", str(c), "--quiet")
+    r = cli_run("run", *scene_args, "--restart", str(b), "--out", str(c), "--quiet", timeout=COMPILE_TIMEOUT)
     assert r.code == 0, r.err
     assert_same_run(a, c)
-    r = cli_run("run", *scene_args, "--restart", str(d), "--quiet")
+    r = cli_run("run", *scene_args, "--restart", str(d), "--quiet", timeout=COMPILE_TIMEOUT)
     assert r.code == 0, r.err
     assert_same_run(a, d)
     print(f"\n{steps} steps; stopped at {stopped} and restarted, and restarted from the periodic "
