@@ -116,6 +116,18 @@ def _ratio_tag(r: float) -> str:
     return f"r{r:g}"
 
 
+def _mode_cases(scene: str, prefix: str, mesh: str, ell: float, base: tuple[str, ...], ratios, fem: bool,
+                peers: bool, tag: str = "") -> list[Case]:
+    """One mesh of a static refinement series: mpm at each grid ratio, fem, and the peer."""
+    out = [Case(f"{prefix}_mpm_{_ratio_tag(r)}{tag}", scene, mesh, "mpm", r, ell,
+                base + ("method.kind=mpm", f"method.cell_size={r * ell:g}")) for r in ratios]
+    if fem:
+        out.append(Case(f"{prefix}_fem{tag}", scene, mesh, "fem", None, ell, base + ("method.kind=fem",)))
+    if peers:
+        out.append(Case(f"{prefix}_kratos{tag}", scene, mesh, "kratos", None, ell, base))
+    return out
+
+
 def cantilever_cases(nxs=CANTILEVER_NX, ratios=RATIOS, fem=True, peers=False) -> list[Case]:
     out = []
     for nx in nxs:
@@ -124,14 +136,7 @@ def cantilever_cases(nxs=CANTILEVER_NX, ratios=RATIOS, fem=True, peers=False) ->
         mesh = f"{nx}x{ny}"
         base = (f"mesh.nx={nx}", f"mesh.ny={ny}",
                 f"solve.max_steps_per_load_step={int(400_000 * max(1.0, nx / 10))}")
-        for r in ratios:
-            out.append(Case(f"cantilever_{mesh}_mpm_{_ratio_tag(r)}", "cantilever", mesh, "mpm", r, ell,
-                            base + ("method.kind=mpm", f"method.cell_size={r * ell:g}")))
-        if fem:
-            out.append(Case(f"cantilever_{mesh}_fem", "cantilever", mesh, "fem", None, ell,
-                            base + ("method.kind=fem",)))
-        if peers:
-            out.append(Case(f"cantilever_{mesh}_kratos", "cantilever", mesh, "kratos", None, ell, base))
+        out += _mode_cases("cantilever", f"cantilever_{mesh}", mesh, ell, base, ratios, fem, peers)
     return out
 
 
@@ -146,14 +151,7 @@ def hemisphere_cases(ns=HEMISPHERE_N, ratios=RATIOS, fem=True, peers=False, load
         if load_steps:
             base += (f"solve.load_steps={load_steps}",)
             tag = f"_ls{load_steps}"
-        for r in ratios:
-            out.append(Case(f"hemisphere_{n}x{n}_mpm_{_ratio_tag(r)}{tag}", "hemisphere", mesh, "mpm", r, ell,
-                            base + ("method.kind=mpm", f"method.cell_size={r * ell:g}")))
-        if fem:
-            out.append(Case(f"hemisphere_{n}x{n}_fem{tag}", "hemisphere", mesh, "fem", None, ell,
-                            base + ("method.kind=fem",)))
-        if peers:
-            out.append(Case(f"hemisphere_{n}x{n}_kratos{tag}", "hemisphere", mesh, "kratos", None, ell, base))
+        out += _mode_cases("hemisphere", f"hemisphere_{n}x{n}", mesh, ell, base, ratios, fem, peers, tag)
     return out
 
 
@@ -541,7 +539,11 @@ def _static_rows(rows: list[dict], scene: str) -> dict[str, list[dict]]:
     return {k: sorted(v, key=lambda r: _num(r, "elements")) for k, v in sorted(groups.items())}
 
 
-def plot_error_vs_time(rows: list[dict], path: Path) -> Path | None:
+def _error_panels(rows: list[dict], x_key: str, x_label: str, title: str, mean_label=None,
+                  notes: bool = False) -> list[Panel]:
+    """One panel per static scene and reference component: mean (solid) and max (dashed)
+    error of each series against the column `x_key`; `mean_label(scene, series, k)` adds to
+    the mean curve's label, `notes` writes the mesh beside each mean point."""
     panels = []
     for scene in ("cantilever", "hemisphere"):
         groups = _static_rows(rows, scene)
@@ -551,38 +553,31 @@ def plot_error_vs_time(rows: list[dict], path: Path) -> Path | None:
         for k in (1, 2):
             series = []
             for i, (label, rs) in enumerate(groups.items()):
-                t = np.array([_num(r, "run_s") for r in rs])
+                x = np.array([_num(r, x_key) for r in rs])
+                extra = mean_label(scene, label, k) if mean_label else ""
                 for stat, dashed, filled in (("mean", False, True), ("max", True, False)):
                     e = 100 * np.array([_num(r, f"err{k}_{stat}") for r in rs])
-                    series.append(Series(t, e, f"{label} {stat}", _color(i), dashed, MARKERS[i % len(MARKERS)],
-                                         filled, tuple(r["mesh"] for r in rs) if stat == "mean" else ()))
-            panels.append(Panel(f"{scene}: {first.get(f'comp{k}', f'component {k}')} error vs run time "
-                                "(points: meshes, coarse to fine)", "run wall time (s)",
+                    mean = stat == "mean"
+                    series.append(Series(x, e, f"{label} {stat}" + (extra if mean else ""), _color(i), dashed,
+                                         MARKERS[i % len(MARKERS)], filled,
+                                         tuple(r["mesh"] for r in rs) if notes and mean else ()))
+            panels.append(Panel(f"{scene}: {first.get(f'comp{k}', f'component {k}')} {title}", x_label,
                                 "relative error (%)", series))
-    return draw(panels, path)
+    return panels
+
+
+def plot_error_vs_time(rows: list[dict], path: Path) -> Path | None:
+    return draw(_error_panels(rows, "run_s", "run wall time (s)",
+                              "error vs run time (points: meshes, coarse to fine)", notes=True), path)
 
 
 def plot_convergence(rows: list[dict], orders: list[dict], path: Path) -> Path | None:
     order_of = {(o["scene"], o["series"]): o for o in orders}
-    panels = []
-    for scene in ("cantilever", "hemisphere"):
-        groups = _static_rows(rows, scene)
-        if not groups:
-            continue
-        first = next(iter(groups.values()))[0]
-        for k in (1, 2):
-            series = []
-            for i, (label, rs) in enumerate(groups.items()):
-                ell = np.array([_num(r, "element_size") for r in rs])
-                o = order_of.get((scene, label), {}).get(f"order{k}", float("nan"))
-                p = f", p = {o:.2f}" if math.isfinite(o) else ""
-                for stat, dashed, filled in (("mean", False, True), ("max", True, False)):
-                    e = 100 * np.array([_num(r, f"err{k}_{stat}") for r in rs])
-                    series.append(Series(ell, e, f"{label} {stat}" + (p if stat == "mean" else ""), _color(i),
-                                         dashed, MARKERS[i % len(MARKERS)], filled))
-            panels.append(Panel(f"{scene}: {first.get(f'comp{k}', f'component {k}')} error vs element size",
-                                "element size l", "relative error (%)", series))
-    return draw(panels, path)
+
+    def slope(scene: str, series: str, k: int) -> str:
+        o = order_of.get((scene, series), {}).get(f"order{k}", float("nan"))
+        return f", p = {o:.2f}" if math.isfinite(o) else ""
+    return draw(_error_panels(rows, "element_size", "element size l", "error vs element size", slope), path)
 
 
 def _force_curve(run_dir: Path) -> tuple[np.ndarray, np.ndarray] | None:

@@ -15,6 +15,8 @@ from .assembly import Model
 (STATUS_OK, STATUS_CONVERGED, STATUS_INVERTED, STATUS_LEFT_GRID, STATUS_NONFINITE, STATUS_DT_COLLAPSE,
  STATUS_CONTACT_FULL) = range(7)
 CANDIDATES_PER_NODE = 64     # capacity of the contact candidate lists, on average per node
+
+
 @ti.data_oriented
 class State:
     """All fields of a run (SOA layout).  ``n_nodes``, ``n_elements``, ``n_points`` and the
@@ -100,7 +102,6 @@ class State:
             self.contact_build_position = ti.Vector.field(3, f64, n)  # x_c when the lists were built
             self.candidate_start = ti.field(ti.i32, n + 1)            # CSR into candidate_elements
             self.candidate_elements = ti.field(ti.i32, CANDIDATES_PER_NODE * n)
-            self.contact_builds = ti.field(ti.i32, ())                # rebuilds so far (diagnostics)
             # side memory (method.md 7.3): the element a node touched last step, and on which
             # side of its facet normal
             self.contact_last_element = ti.field(ti.i32, n)

@@ -58,6 +58,11 @@ class NodeUpdate:
         """Out-of-balance nodal moment mu_ext - mu_int without its drilling part (method.md 2.3),
         fixed components dropped."""
         normal, project = self.drill_normal(c)
+        return self.residual_torque_about(c, normal, project)
+
+    @ti.func
+    def residual_torque_about(self, c, normal, project):
+        """residual_torque with the node's drilling normal already at hand (finish has it)."""
         torque = self.s.load_factor[None] * self.s.load_moment[c] - self.s.moment_int[c]
         if project:
             torque -= torque.dot(normal) * normal
@@ -113,7 +118,8 @@ class NodeUpdate:
             w = ti.Vector([0.0, 0.0, 0.0])
         self.s.omega[c] = w
         self.rotate_orientation(c, dt * w)
-        self.acc.total(self.s.residual_sq, self.residual_torque(c).norm_sqr() / (self.cfg.length_ref ** 2))
+        self.acc.total(self.s.residual_sq,
+                       self.residual_torque_about(c, normal, project).norm_sqr() / (self.cfg.length_ref ** 2))
         self.acc.total(self.s.kinetic, 0.5 * (self.s.corner_mass[c] * vg.norm_sqr() + self.s.corner_inertia[c] * w.norm_sqr()))
         self.acc.total(self.s.external_work, dt * lam * (self.s.load_force[c].dot(vg) + self.s.load_moment[c].dot(w)))
         if ti.static(self.cfg.has_contact):

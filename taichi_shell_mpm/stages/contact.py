@@ -23,7 +23,7 @@ finds exactly the pairs the full search would.  s = SKIN_OVER_THICKNESS t_c.
 """
 import taichi as ti
 
-from ..state import CANDIDATES_PER_NODE, STATUS_CONTACT_FULL, STATUS_OK
+from ..state import STATUS_CONTACT_FULL, STATUS_OK
 from .accumulate import Accumulator
 
 SKIN_OVER_THICKNESS = 1.0
@@ -199,8 +199,6 @@ class SelfContact:
                 self.s.contact_build_position[c] = self.s.position[c]
             if full:                         # empty lists: nothing past the capacity is read
                 self.s.candidate_start[c + 1] = 0
-        if rebuild:
-            self.s.contact_builds[None] += 1
         self.s.contact_rebuild[None] = 0
 
     @ti.func
