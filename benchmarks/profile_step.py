@@ -4,7 +4,8 @@ switched at a time, in one sitting (each variant in its own process, one after t
     python benchmarks/profile_step.py [--steps 400] [--mesh N_FLAT]
 
 Prints µs per element-step of each variant and its difference to the scene (the table of
-docs/performance.md).  The scene is scenes/square_tube.toml (mpm, APIC, J2 with 5 Gauss
+docs/performance.md).  The scene runs on the ``threads`` launch (all cores); the
+"batched" variants on one core.  The scene is scenes/square_tube.toml (mpm, APIC, J2 with 5 Gauss
 points, self-contact); the step kernel is compiled (or loaded from the offline cache)
 before the clock starts.
 """
@@ -19,11 +20,13 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 VARIANTS = [
     ("mpm (scene)", []),
+    ("mpm, batched (1 core)", ["batched"]),
     ("without contact", ["no_contact"]),
     ("PIC instead of APIC", ["method.transfer=pic"]),
     ("elastic instead of J2", ["material.model=elastic"]),
     ("3 instead of 5 points", ["section.points=3"]),
     ("fem (no grid)", ["method.kind=fem"]),
+    ("fem, batched (1 core)", ["method.kind=fem", "batched"]),
 ]
 
 
@@ -35,9 +38,12 @@ def child(steps: int, overrides: list[str]) -> None:
 
     from taichi_shell_mpm.assembly import assemble
     from taichi_shell_mpm.cli import prepare
+    from taichi_shell_mpm import simulation
     from taichi_shell_mpm.simulation import Simulation, init_taichi
     no_contact = "no_contact" in overrides
-    overrides = [o for o in overrides if o != "no_contact"]
+    if "batched" in overrides:
+        simulation.PARALLEL_ON_CPU = False
+    overrides = [o for o in overrides if o not in ("no_contact", "batched")]
     scene, mesh, model = prepare(ROOT / "scenes" / "square_tube.toml", ["solve.end_time=5", *overrides])
     if no_contact:
         scene = dataclasses.replace(scene, contact=None)
@@ -52,7 +58,7 @@ def child(steps: int, overrides: list[str]) -> None:
     n = sim.stepper.advance(steps)
     ti.sync()
     seconds = time.perf_counter() - t0
-    print(json.dumps({"elements": len(model.quads), "steps": n,
+    print(json.dumps({"elements": len(model.quads), "steps": n, "launch": sim.cfg.launch,
                       "us": 1e6 * seconds / (n * len(model.quads)), "compile": sim.compile_seconds}))
 
 
@@ -79,7 +85,8 @@ def main() -> int:
         r = json.loads(lines[-1])
         base = r["us"] if base is None else base
         diff = "" if r["us"] == base else f"{r['us'] - base:+.3f}"
-        print(f"{name:24s} {r['us']:16.3f} {diff:>11s}  ({r['elements']} elements, compile {r['compile']:.1f} s)",
+        print(f"{name:24s} {r['us']:16.3f} {diff:>11s}  ({r['elements']} elements, {r['launch']} launch, "
+              f"compile {r['compile']:.1f} s)",
               flush=True)
     return 0
 

@@ -33,6 +33,11 @@ class GridGeometry:
     def n_nodes(self) -> int:
         return int(np.prod(self.dims))
 
+    @property
+    def slab_axis(self) -> int:
+        """The longest axis: P2G bins the shell nodes into grid slabs across it (stages/mapping.py)."""
+        return int(np.argmax(self.dims))
+
 
 @dataclass(frozen=True)
 class ProbeSpec:

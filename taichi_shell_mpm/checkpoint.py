@@ -3,9 +3,10 @@
 A checkpoint (``OUTDIR/checkpoint.npz``, written atomically) holds
 
 * every Taichi field of :class:`~taichi_shell_mpm.state.State` except the scratch fields
-  (:data:`TRANSIENT_FIELDS`): between two steps the grid mass, momentum, force and touched
-  flags are zero, and the grid velocities are rewritten on every touched node before they
-  are read; the contact hash is rebuilt before it is read; so a fresh State is equivalent;
+  (:data:`TRANSIENT_FIELDS`): between two steps the grid mass, momentum and force are
+  zero, and the P2G bins, gathered element loads and contact pair scratch are rewritten
+  before they are read; the contact hash is rebuilt before it is read; so a fresh State is
+  equivalent;
 * the recorded history rows (probes, energies, forces), the frames listed in
   ``frames.pvd``, the step counters, the warnings given so far;
 * the driver's position (static: load level and steps taken in it; dynamic: the next
@@ -42,8 +43,9 @@ from .scene import SceneError
 
 CHECKPOINT_NAME = "checkpoint.npz"
 FORMAT_VERSION = 1
-TRANSIENT_FIELDS = ("grid_mass", "grid_momentum", "grid_force", "grid_v_minus", "grid_v_plus", "grid_touched",
-                    "touched_list", "n_touched",      # background-grid scratch, see the module docstring
+TRANSIENT_FIELDS = ("grid_mass", "grid_momentum", "grid_force", "node_cell", "slab_start", "slab_fill",
+                    "slab_nodes", "corner_loads", "contact_pair_force", "contact_pair_weight",
+                    # step scratch, see the module docstring
                     "hash_cell", "hash_count", "hash_start", "hash_elements", "element_slot",
                     "element_radius")                  # contact hash: scratch of a candidate rebuild
 
@@ -106,7 +108,7 @@ def save_checkpoint(sim, position: dict, path: Path | None = None) -> Path:
         "version": FORMAT_VERSION,
         "scene_hash": scene_hash(sim.scene, sim.model.points, sim.model.quads),
         "scene": sim.scene.info.name, "arch": sim.arch,
-        "launch": "batched" if sim.stepper.batched else "parallel",
+        "launch": sim.cfg.launch,
         "position": position,
         "total_steps": int(sim.total_steps), "run_seconds": float(sim.run_seconds),
         "step": int(sim.state.step[None]),
@@ -200,7 +202,7 @@ def restore_checkpoint(sim, ckpt: Checkpoint) -> list[str]:
         for stale in frames_dir.glob("frame_*.vtu"):
             if stale.name not in keep:
                 stale.unlink()
-    launch = "batched" if sim.stepper.batched else "parallel"
+    launch = sim.cfg.launch
     if m["arch"] != sim.arch or m["launch"] != launch:
         warnings.append(f"checkpoint was written on {m['arch']} ({m['launch']} launch), continuing on "
                         f"{sim.arch} ({launch}): the result will not be bit-for-bit that of one run")

@@ -33,11 +33,24 @@ class StepConfig:
     grid_rule: bool             # include the paper's grid rule in dt (dt_rule = "both")
     length_ref: float           # L_ref for the rotational residual (mean edge)
     grid: GridGeometry | None
-    serial: bool = False        # batched serial launch: plain adds instead of atomics
+    launch: str = "batched"     # "batched" | "threads" | "gpu" (solvers/stepper.py)
     bodies: tuple = ()          # (total mass, added mass, unit direction, first slave, slave count)
     walls: tuple = ()           # (point, unit normal, rigid body index or -1)
     contact: object = None      # scene.Contact or None (no contact kernels compiled)
     contact_thickness: float = 0.0
+
+    @property
+    def serial(self) -> bool:
+        """One serial kernel for many steps: every scatter is a plain add."""
+        return self.launch == "batched"
+
+    @property
+    def atomic_scatter(self) -> bool:
+        """GPU: scatters to nodes and grid are atomic adds.  On the CPU they are arranged so
+        that no two threads write the same place (element loads gathered at the nodes, P2G
+        in grid slabs of alternating parity), because an f64 atomic add costs ~13 ns there
+        against ~1 ns for a plain one (measured: 36 000 scattered vector adds)."""
+        return self.launch == "gpu"
 
     @property
     def has_contact(self) -> bool:

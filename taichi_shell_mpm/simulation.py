@@ -7,6 +7,7 @@
 from __future__ import annotations
 
 import math
+import os
 import sys
 import time
 from dataclasses import dataclass, field, replace
@@ -60,10 +61,27 @@ FAILURES = {
                           "size, or the mesh collapsing into a heap (see the frames); if the packing is real, "
                           "raise state.CANDIDATES_PER_NODE"),
 }
-PARALLEL_ON_CPU = False     # tests: run the GPU launch path (one parallel kernel per step) on CPU
+PARALLEL_ON_CPU: bool | None = None    # tests: True/False forces the CPU launch; None chooses by size
+THREADS_MIN_ELEMENTS = 1000             # CPU: smaller meshes run the batched serial kernel (choose_launch)
 RUNAWAY_SPEED = 10.0     # x the shell wave speed, as the in-kernel check (stages/constraints.py)
 HOURGLASS_WARN, HOURGLASS_STOP = 0.10, 0.20     # E_hg / E_int
 HOURGLASS_ACTIVE = 1e-6     # ratio checked once max(E_int, E_hg) > this x max(W_ext, KE0)
+
+
+def choose_launch(arch: str, n_elements: int, static: bool) -> str:
+    """How the step kernels run (solvers/stepper.py): ``gpu`` on a GPU; on the CPU
+    ``threads`` (one parallel kernel per step) for a dynamic scene of at least
+    THREADS_MIN_ELEMENTS elements when there is more than one core, else ``batched`` (one
+    serial kernel for many steps, no launch cost per step).  Statics stay batched: their
+    relaxation decisions read energy sums, which threads add in a varying order, and a
+    static run should take the same steps every time.  Measured in the note of issue 4."""
+    if arch != "cpu":
+        return "gpu"
+    if PARALLEL_ON_CPU is not None:
+        return "threads" if PARALLEL_ON_CPU else "batched"
+    if static or (os.cpu_count() or 1) < 2 or n_elements < THREADS_MIN_ELEMENTS:
+        return "batched"
+    return "threads"
 
 
 def init_taichi(arch: str = "cpu") -> None:
@@ -89,15 +107,12 @@ class Simulation:
         self.out_dir = Path(out_dir) if out_dir is not None else Path("outputs") / scene.info.name
         self.mesh: Mesh = mesh if mesh is not None else build_mesh(scene.mesh)
         self.model: Model = model if model is not None else assemble(scene, self.mesh)
-        # CPU: always the serial multi-step kernel.  Measured on the 2-core CPU (tube, mpm, J2,
-        # contact; same machine state): 1.31 vs 1.85 us/element-step (parallel kernels) at
-        # 2 880 elements, 1.46 vs 2.50 at 11 520: the parallel loops' f64 atomics and
-        # per-loop synchronisation cost more than the second core gives.  GPU: parallel.
-        batched = arch == "cpu" and not PARALLEL_ON_CPU
-        self.cfg = replace(StepConfig.from_scene(scene, self.model), serial=batched)
+        launch = choose_launch(arch, len(self.model.quads), scene.solve.kind == "static")
+        self.cfg = replace(StepConfig.from_scene(scene, self.model), launch=launch)
         material = make_material(scene.material)
-        self.state = State(self.model, self.cfg.transfer, material.plastic, scene.contact is not None)
-        self.stepper = Stepper(self.state, self.cfg, material, self.model, batched)
+        self.state = State(self.model, self.cfg.transfer, material.plastic, scene.contact is not None,
+                           gather_loads=not self.cfg.serial)
+        self.stepper = Stepper(self.state, self.cfg, material, self.model)
         self._initial_geometry()
         t0 = time.perf_counter()
         self._compile()
@@ -223,6 +238,8 @@ class Simulation:
             from .checkpoint import state_fields
             fields = state_fields(self.state)
             saved = {name: f.to_numpy() for name, f in fields.items()}
+            if self.stepper.contact is not None:
+                self.stepper.rebuild_contact()
             self.stepper.advance_one()
             for name, f in fields.items():
                 f.from_numpy(saved[name])
@@ -348,7 +365,7 @@ class Simulation:
             "transfer": self.cfg.transfer if self.cfg.method == "mpm" else None,
             "cell_size": self.model.grid.h if self.model.grid else None,
             "elements": len(self.model.quads), "nodes": len(self.model.points), "arch": self.arch,
-            "launch": "batched" if self.stepper.batched else "parallel",
+            "launch": self.cfg.launch,
             "steps": self.total_steps, "compile_seconds": self.compile_seconds, "run_seconds": self.run_seconds,
             "us_per_element_step": 1e6 * self.run_seconds / max(1, self.total_steps * len(self.model.quads)),
             "energies": e, "mesh_warnings": list(self.mesh.warnings), "warnings": list(self.warnings),

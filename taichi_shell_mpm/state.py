@@ -19,10 +19,10 @@ CANDIDATES_PER_NODE = 64     # capacity of the contact candidate lists, on avera
 
 @ti.data_oriented
 class State:
-    """All fields of a run (SOA layout).  ``n_nodes``, ``n_elements``, ``n_points`` and the
+    """All fields of a run (SOA layout, except the grid: one node's data together).  ``n_nodes``, ``n_elements``, ``n_points`` and the
     grid dimensions are fixed at construction; sizes are compile-time constants of the kernels."""
 
-    def __init__(self, model: Model, transfer: str, plastic: bool, contact: bool):
+    def __init__(self, model: Model, transfer: str, plastic: bool, contact: bool, gather_loads: bool = False):
         n, m = len(model.points), len(model.quads)
         nk = len(model.zeta)
         self.n_nodes, self.n_elements, self.n_points = n, m, nk
@@ -89,6 +89,8 @@ class State:
         self.body_force = ti.field(f64, nb)               # force on the body from its slave nodes
         self.body_impulse = ti.field(f64, nb)             # wall impulse on the body this step
         self.slave_nodes = ti.field(ti.i32, max(1, sum(len(b.nodes) for b in model.rigid_bodies)))
+        if gather_loads:        # parallel launches: each node's wall impulse on each body
+            self.node_wall_impulse = ti.field(f64, (n, nb))
         # --- self-contact (method.md 7.3), only when the scene asks for it
         self.contact = contact
         if contact:
@@ -106,6 +108,10 @@ class State:
             # side of its facet normal
             self.contact_last_element = ti.field(ti.i32, n)
             self.contact_last_side = ti.field(f64, n)
+            # this step's pair of each node (element: contact_last_element): force on the
+            # node and barycentric weights of the segment point, scattered after the search
+            self.contact_pair_force = ti.Vector.field(3, f64, n)
+            self.contact_pair_weight = ti.Vector.field(4, f64, n)
             # exclusion ring (method.md 7.3), CSR: the nodes sharing an element with node c
             self.neighbor_start = ti.field(ti.i32, n + 1)
             self.neighbor_nodes = ti.field(ti.i32, len(model.neighbor_nodes))
@@ -117,24 +123,31 @@ class State:
             self.hash_elements = ti.field(ti.i32, m)
             self.element_slot = ti.field(ti.i32, m)
             self.element_radius = ti.field(f64, m)
-        # --- background grid (mpm only), flattened; only touched nodes are cleared
+        # --- element loads gathered at the nodes (parallel launches, stages/accumulate.py):
+        # each element writes its four corners' (force, moment, A e3, A) to its own slots
+        self.gather_loads = gather_loads
+        if gather_loads:
+            self.corner_loads = ti.Vector.field(10, f64, (m, 4))
+            self.node_slot_start = ti.field(ti.i32, n + 1)        # CSR node -> 4 e + a, e ascending
+            self.node_slots = ti.field(ti.i32, 4 * m)
+        # --- background grid (mpm only), flattened; only the nodes around shell nodes are
+        # written, read and cleared
         self.grid = model.grid
         if model.grid is not None:
             g = model.grid.n_nodes
             self.grid_mass = ti.field(f64)
             self.grid_momentum = ti.Vector.field(3, f64)
             self.grid_force = ti.Vector.field(3, f64)
-            self.grid_v_minus = ti.Vector.field(3, f64) if transfer == "flip" else None
-            self.grid_v_plus = ti.Vector.field(3, f64)
-            self.grid_touched = ti.field(ti.i32)
-            # array of structures: one grid node's data share cache lines (the grid is
-            # much larger than the cache and is touched at scattered places)
-            node = ti.root.dense(ti.i, g)
-            node.place(self.grid_mass, self.grid_momentum, self.grid_force, self.grid_v_plus, self.grid_touched)
-            if transfer == "flip":
-                node.place(self.grid_v_minus)
-            self.touched_list = ti.field(ti.i32, 8 * n)
-            self.n_touched = ti.field(ti.i32, ())
+            # array of structures: one grid node's data share a cache line (the grid is much
+            # larger than the cache and is touched at scattered places)
+            ti.root.dense(ti.i, g).place(self.grid_mass, self.grid_momentum, self.grid_force)
+            # P2G order (stages/mapping.py): the free nodes binned by the grid plane of their
+            # stencil's base across the slab axis (counting sort, rebuilt every step)
+            planes = model.grid.dims[model.grid.slab_axis] - 1
+            self.node_cell = ti.field(ti.i32, n)          # flat index of the stencil base, -1: not on the grid
+            self.slab_start = ti.field(ti.i32, planes + 1)
+            self.slab_fill = ti.field(ti.i32, planes)
+            self.slab_nodes = ti.field(ti.i32, n)
         self._load(model)
 
     def _load(self, model: Model) -> None:
@@ -156,6 +169,11 @@ class State:
         if model.rigid_bodies:
             self.body_velocity.from_numpy(np.array([b.velocity0 for b in model.rigid_bodies]))
             self.slave_nodes.from_numpy(np.concatenate([b.nodes for b in model.rigid_bodies]).astype(np.int32))
+        if self.gather_loads:
+            slots = np.argsort(model.quads.ravel(), kind="stable").astype(np.int32)
+            self.node_slots.from_numpy(slots)
+            counts = np.bincount(model.quads.ravel(), minlength=self.n_nodes)
+            self.node_slot_start.from_numpy(np.concatenate([[0], np.cumsum(counts)]).astype(np.int32))
         if self.contact:
             self.neighbor_start.from_numpy(model.neighbor_start)
             self.neighbor_nodes.from_numpy(model.neighbor_nodes)

@@ -1,10 +1,12 @@
-"""Scatter-add that is atomic only when it has to be.
+"""Scatter-adds that are atomic only when they have to be.
 
 In the batched launch (one serial loop of many steps, see
 :mod:`taichi_shell_mpm.solvers.stepper`) nothing runs concurrently, and Taichi's f64
 atomics (a compare-and-swap loop on x86) were measured to cost more than half of the
 step: hemisphere quarter 16x16 in mpm mode, 223 us/step with atomics.  The switch is
-compile-time.
+compile-time.  In parallel loops on the CPU, sums into 0-d fields (energies, norms) are
+cheap -- Taichi gives each thread its own partial sum -- but scattered adds are not, so
+the element loads go through :class:`CornerLoads`.
 """
 import taichi as ti
 
@@ -43,3 +45,43 @@ class Accumulator:
             field[None] = ti.max(field[None], value)
         else:
             ti.atomic_max(field[None], value)
+
+
+@ti.data_oriented
+class CornerLoads:
+    """Element -> node loads of the shell stage: resisting force, moment, and the A e3 and A
+    sums of the nodal normal (method.md 2.3).
+
+    Batched (serial) launch: plain adds into the node fields, which the node update zeroes
+    after use.  Parallel launches: each element writes its corners' loads to slots of its
+    own, and :meth:`gather` sums them at each node in ascending element order -- the order
+    of the serial adds, so both give the same bits, and no atomics are needed."""
+
+    def __init__(self, state, serial: bool):
+        self.s = state
+        self.serial = serial
+
+    @ti.func
+    def add(self, e, a, node, force, moment, normal, area):
+        if ti.static(self.serial):
+            self.s.force_int[node] = self.s.force_int[node] + force
+            self.s.moment_int[node] = self.s.moment_int[node] + moment
+            self.s.normal_sum[node] = self.s.normal_sum[node] + normal
+            self.s.area_sum[node] = self.s.area_sum[node] + area
+        else:
+            self.s.corner_loads[e, a] = ti.Vector([force[0], force[1], force[2], moment[0], moment[1], moment[2],
+                                                   normal[0], normal[1], normal[2], area])
+
+    @ti.func
+    def gather(self):
+        """Parallel launches: the node sums of the slots written by :meth:`add` (one loop)."""
+        if ti.static(not self.serial):
+            for c in range(self.s.n_nodes):
+                total = ti.Vector.zero(ti.f64, 10)
+                for i in range(self.s.node_slot_start[c], self.s.node_slot_start[c + 1]):
+                    slot = self.s.node_slots[i]
+                    total += self.s.corner_loads[slot // 4, slot % 4]
+                self.s.force_int[c] = ti.Vector([total[0], total[1], total[2]])
+                self.s.moment_int[c] = ti.Vector([total[3], total[4], total[5]])
+                self.s.normal_sum[c] = ti.Vector([total[6], total[7], total[8]])
+                self.s.area_sum[c] = total[9]

@@ -71,13 +71,22 @@ class RigidBodies:
                 m = self.s.corner_mass[c]
                 self.acc.total(self.s.wall_energy, 0.5 * m * (before - out.norm_sqr()))
                 if ti.static(w[2] >= 0):
-                    self.acc.add(self.s.body_impulse, w[2],
-                                 -m * dv * n.dot(ti.Vector(self.cfg.bodies[w[2]][2], dt=ti.f64)))
+                    impulse = -m * dv * n.dot(ti.Vector(self.cfg.bodies[w[2]][2], dt=ti.f64))
+                    if ti.static(self.cfg.serial):
+                        self.s.body_impulse[w[2]] += impulse
+                    else:       # summed in node order by apply_wall_impulses: no atomics, same bits
+                        self.s.node_wall_impulse[c, w[2]] += impulse
         return out
 
     @ti.func
     def apply_wall_impulses(self):
         """A moving wall pushes its rigid body back (end of step); its KE change is wall energy."""
+        if ti.static(not self.cfg.serial and len(self.cfg.walls) > 0):
+            ti.loop_config(serialize=True)
+            for c in range(self.s.n_nodes):
+                for b in ti.static(range(len(self.cfg.bodies))):
+                    self.s.body_impulse[b] += self.s.node_wall_impulse[c, b]
+                    self.s.node_wall_impulse[c, b] = 0.0
         for b, body in ti.static(enumerate(self.cfg.bodies)):
             dv = self.s.body_impulse[b] / body[0]
             v_old = self.s.body_velocity[b]

@@ -80,7 +80,7 @@ class NodeUpdate:
     def finish(self, c, v_grid):
         """Given the node's new grid velocity: apply BCs, move it, update omega
         (S5 with the drilling projection of method.md 2.3), accumulate KE, external work,
-        residual and max speed, and zero the per-step accumulators."""
+        residual and max speed, and (batched launch) zero the node sums of the element loads."""
         dt = self.s.dt[None]
         mask = self.s.fix_mask[c]
         lam = self.s.load_factor[None]
@@ -125,10 +125,11 @@ class NodeUpdate:
         if ti.static(self.cfg.has_contact):
             self.acc.total(self.s.contact_energy, -dt * self.s.force_contact[c].dot(vg))
         self.acc.maximum(self.s.max_speed, ti.max(ti.abs(vg[0]), ti.abs(vg[1]), ti.abs(vg[2])))
-        self.s.force_int[c] = ti.Vector([0.0, 0.0, 0.0])
-        self.s.moment_int[c] = ti.Vector([0.0, 0.0, 0.0])
-        self.s.normal_sum[c] = ti.Vector([0.0, 0.0, 0.0])
-        self.s.area_sum[c] = 0.0
+        if ti.static(self.cfg.serial):          # parallel launches overwrite them (CornerLoads.gather)
+            self.s.force_int[c] = ti.Vector([0.0, 0.0, 0.0])
+            self.s.moment_int[c] = ti.Vector([0.0, 0.0, 0.0])
+            self.s.normal_sum[c] = ti.Vector([0.0, 0.0, 0.0])
+            self.s.area_sum[c] = 0.0
 
     @ti.func
     def rotate_orientation(self, c, dtheta):

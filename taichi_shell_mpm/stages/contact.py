@@ -19,7 +19,11 @@ skin), found through a spatial hash of centroids (cell = max R_e + t_c + s, 27-c
 and with the one-ring excluded once, at build time.  While no node has moved more than
 s/2 since the build, no element outside a node's list can come within t_c of it (node and
 segment points each moved at most s/2), so the per-step test runs over the lists only and
-finds exactly the pairs the full search would.  s = SKIN_OVER_THICKNESS t_c.
+finds exactly the pairs the full search would.  s = SKIN_OVER_THICKNESS t_c.  The skin
+is checked at the end of each step (:meth:`SelfContact.check_skin`); the rebuild runs at
+the start of the next one, inside the step kernel in the batched launch and as a kernel
+of its own, launched only when due, in the parallel ones (solvers/stepper.py), whose
+every loop costs a thread-pool dispatch per step.
 """
 import taichi as ti
 
@@ -71,6 +75,7 @@ class SelfContact:
         self.s = state
         self.cfg = cfg
         self.acc = Accumulator(cfg.serial)
+        self.scatter_acc = Accumulator(not cfg.atomic_scatter)
         spec = cfg.contact
         self.t_c = cfg.contact_thickness
         self.skin = SKIN_OVER_THICKNESS * self.t_c
@@ -203,68 +208,85 @@ class SelfContact:
 
     @ti.func
     def forces(self):
-        """S1: zero the contact forces, refresh the candidate lists when a node has used up
-        half the skin, and apply the penalty forces at x^n."""
+        """S1: refresh the candidate lists when a node has used up half the skin (batched
+        launch; see the module docstring), find each node's pair and its penalty force at
+        x^n (parallel over nodes), then scatter the forces to the nodes and segment corners
+        in node order (serial: no atomics, and the same sums on any number of threads)."""
+        if ti.static(self.cfg.serial):
+            self.build_candidates()
         for c in range(self.s.n_nodes):
             self.s.force_contact[c] = ti.Vector([0.0, 0.0, 0.0])
-        self.check_skin()
-        self.build_candidates()
-        dt = self.s.dt[None]
+            self.pair(c)
+        if ti.static(not self.cfg.atomic_scatter):
+            ti.loop_config(serialize=True)
         for c in range(self.s.n_nodes):
-            x = self.s.position[c]
-            best_dist = self.t_c
-            best_e = -1
-            best_point = ti.Vector([0.0, 0.0, 0.0])
-            best_w = ti.Vector([0.0, 0.0, 0.0, 0.0])
-            for i in range(self.s.candidate_start[c], self.s.candidate_start[c + 1]):
-                e = self.s.candidate_elements[i]
+            e = self.s.contact_last_element[c]
+            if e >= 0:
                 corners = self.s.corners[e]
-                p0, p1 = self.s.position[corners[0]], self.s.position[corners[1]]
-                p2, p3 = self.s.position[corners[2]], self.s.position[corners[3]]
-                qa, ba = closest_point_on_triangle(x, p0, p1, p2)
-                qb, bb = closest_point_on_triangle(x, p0, p2, p3)
-                da, db = (x - qa).norm(), (x - qb).norm()
-                if da < best_dist:
-                    best_dist, best_e, best_point = da, e, qa
-                    best_w = ti.Vector([ba[0], ba[1], ba[2], 0.0])
-                if db < best_dist:
-                    best_dist, best_e, best_point = db, e, qb
-                    best_w = ti.Vector([bb[0], 0.0, bb[1], bb[2]])
-            if best_e >= 0 and best_dist > 0.0 and dt > 0.0:
-                corners = self.s.corners[best_e]
-                normal = (x - best_point) / best_dist
-                gap = self.t_c - best_dist
-                facet = (self.s.position[corners[2]] - self.s.position[corners[0]]).cross(
-                    self.s.position[corners[3]] - self.s.position[corners[1]]).normalized()
-                side = 1.0 if normal.dot(facet) >= 0.0 else -1.0
-                if self.s.contact_last_element[c] == best_e and side != self.s.contact_last_side[c]:
-                    # crossed the mid-surface since last step: push back to the side it came from
-                    normal = -normal
-                    gap = self.t_c + best_dist
-                    side = -side
-                self.s.contact_last_element[c] = best_e
-                self.s.contact_last_side[c] = side
-                m_seg = 0.0
-                v_seg = ti.Vector([0.0, 0.0, 0.0])
+                force = self.s.contact_pair_force[c]
+                w = self.s.contact_pair_weight[c]
+                self.scatter_acc.add(self.s.force_contact, c, force)
                 for a in ti.static(range(4)):
-                    m_seg += best_w[a] * self.s.corner_mass[corners[a]]
-                    v_seg += best_w[a] * self.s.grid_velocity[corners[a]]
-                m_node = self.s.corner_mass[c]
-                m_eff = m_node * m_seg / (m_node + m_seg)
-                # k from the stable step, not the current one: a step shortened to land on an
-                # output time would otherwise make the spring arbitrarily stiff
-                k = self.alpha * m_eff / (self.s.dt_stable[None] ** 2)
-                v_rel = self.s.grid_velocity[c] - v_seg
-                closing = -v_rel.dot(normal)
-                f_n = ti.max(0.0, k * gap + self.damping * 2.0 * ti.sqrt(k * m_eff) * closing)
-                force = f_n * normal
-                if ti.static(self.friction > 0.0):
-                    slip = v_rel - v_rel.dot(normal) * normal
-                    force -= (self.friction * f_n / ti.sqrt(slip.norm_sqr() + self.slip_eps ** 2)) * slip
-                self.acc.add(self.s.force_contact, c, force)
-                for a in ti.static(range(4)):
-                    self.acc.add(self.s.force_contact, corners[a], -best_w[a] * force)
-                self.acc.maximum(self.s.max_penetration, gap / self.t_c)
-                self.acc.total(self.s.contact_pairs, 1)
-            else:
-                self.s.contact_last_element[c] = -1
+                    self.scatter_acc.add(self.s.force_contact, corners[a], -w[a] * force)
+
+    @ti.func
+    def pair(self, c):
+        """Node c's closest segment within t_c among its candidates, and the penalty force
+        (method.md 7.3) in contact_pair_force; contact_last_element[c] = -1 when none."""
+        dt = self.s.dt[None]
+        x = self.s.position[c]
+        best_dist = self.t_c
+        best_e = -1
+        best_point = ti.Vector([0.0, 0.0, 0.0])
+        best_w = ti.Vector([0.0, 0.0, 0.0, 0.0])
+        for i in range(self.s.candidate_start[c], self.s.candidate_start[c + 1]):
+            e = self.s.candidate_elements[i]
+            corners = self.s.corners[e]
+            p0, p1 = self.s.position[corners[0]], self.s.position[corners[1]]
+            p2, p3 = self.s.position[corners[2]], self.s.position[corners[3]]
+            qa, ba = closest_point_on_triangle(x, p0, p1, p2)
+            qb, bb = closest_point_on_triangle(x, p0, p2, p3)
+            da, db = (x - qa).norm(), (x - qb).norm()
+            if da < best_dist:
+                best_dist, best_e, best_point = da, e, qa
+                best_w = ti.Vector([ba[0], ba[1], ba[2], 0.0])
+            if db < best_dist:
+                best_dist, best_e, best_point = db, e, qb
+                best_w = ti.Vector([bb[0], 0.0, bb[1], bb[2]])
+        if best_e >= 0 and best_dist > 0.0 and dt > 0.0:
+            corners = self.s.corners[best_e]
+            normal = (x - best_point) / best_dist
+            gap = self.t_c - best_dist
+            facet = (self.s.position[corners[2]] - self.s.position[corners[0]]).cross(
+                self.s.position[corners[3]] - self.s.position[corners[1]]).normalized()
+            side = 1.0 if normal.dot(facet) >= 0.0 else -1.0
+            if self.s.contact_last_element[c] == best_e and side != self.s.contact_last_side[c]:
+                # crossed the mid-surface since last step: push back to the side it came from
+                normal = -normal
+                gap = self.t_c + best_dist
+                side = -side
+            self.s.contact_last_element[c] = best_e
+            self.s.contact_last_side[c] = side
+            m_seg = 0.0
+            v_seg = ti.Vector([0.0, 0.0, 0.0])
+            for a in ti.static(range(4)):
+                m_seg += best_w[a] * self.s.corner_mass[corners[a]]
+                v_seg += best_w[a] * self.s.grid_velocity[corners[a]]
+            m_node = self.s.corner_mass[c]
+            m_eff = m_node * m_seg / (m_node + m_seg)
+            # k from the stable step, not the current one: a step shortened to land on an
+            # output time would otherwise make the spring arbitrarily stiff
+            k = self.alpha * m_eff / (self.s.dt_stable[None] ** 2)
+            v_rel = self.s.grid_velocity[c] - v_seg
+            closing = -v_rel.dot(normal)
+            f_n = ti.max(0.0, k * gap + self.damping * 2.0 * ti.sqrt(k * m_eff) * closing)
+            force = f_n * normal
+            if ti.static(self.friction > 0.0):
+                slip = v_rel - v_rel.dot(normal) * normal
+                force -= (self.friction * f_n / ti.sqrt(slip.norm_sqr() + self.slip_eps ** 2)) * slip
+            self.s.contact_pair_force[c] = force
+            self.s.contact_pair_weight[c] = best_w
+            self.acc.maximum(self.s.max_penetration, gap / self.t_c)
+            self.acc.total(self.s.contact_pairs, 1)
+        else:
+            self.s.contact_last_element[c] = -1

@@ -10,7 +10,7 @@ element time-step limit (section 5).
 import taichi as ti
 
 from ..state import STATUS_INVERTED, STATUS_OK, State
-from .accumulate import Accumulator
+from .accumulate import Accumulator, CornerLoads
 from .hourglass import Hourglass
 
 
@@ -84,6 +84,7 @@ class ShellElement:
         self.hourglass = Hourglass(self.cfg.E, self.cfg.shear_modulus, self.cfg.thickness, self.cfg.shear_factor, self.cfg.hourglass)
         self.points = tuple(zip(self.cfg.zeta, self.cfg.zeta_weight))
         self.acc = Accumulator(cfg.serial)
+        self.loads = CornerLoads(state, cfg.serial)
 
     @ti.func
     def gather(self, c):
@@ -102,6 +103,7 @@ class ShellElement:
     def element_pass(self):
         for e in range(self.s.n_elements):
             self.update(e)
+        self.loads.gather()
 
     @ti.func
     def update(self, e):
@@ -189,10 +191,8 @@ class ShellElement:
         mg = m @ rot
         e3 = ti.Vector([rot[2, 0], rot[2, 1], rot[2, 2]])
         for a in ti.static(range(4)):
-            self.acc.add(self.s.force_int, c[a], ti.Vector([fg[a, 0], fg[a, 1], fg[a, 2]]))
-            self.acc.add(self.s.moment_int, c[a], ti.Vector([mg[a, 0], mg[a, 1], mg[a, 2]]))
-            self.acc.add(self.s.normal_sum, c[a], area * e3)
-            self.acc.add(self.s.area_sum, c[a], area)
+            self.loads.add(e, a, c[a], ti.Vector([fg[a, 0], fg[a, 1], fg[a, 2]]), ti.Vector([mg[a, 0], mg[a, 1], mg[a, 2]]),
+                           area * e3, area)
         self.acc.total(self.s.internal_energy, dt * area_m * 0.5 * t * power)
         self.acc.total(self.s.hourglass_energy, dt * 0.5 * (q_old + q_new).dot(q_rate))
         if ti.static(self.material.plastic):
