@@ -42,7 +42,7 @@ def child(steps: int, overrides: list[str]) -> None:
     from taichi_shell_mpm.simulation import Simulation, init_taichi
     no_contact = "no_contact" in overrides
     if "batched" in overrides:
-        simulation.PARALLEL_ON_CPU = False
+        simulation.FORCE_LAUNCH = "batched"
     overrides = [o for o in overrides if o not in ("no_contact", "batched")]
     scene, mesh, model = prepare(ROOT / "scenes" / "square_tube.toml", ["solve.end_time=5", *overrides])
     if no_contact:

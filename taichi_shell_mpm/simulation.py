@@ -61,7 +61,7 @@ FAILURES = {
                           "size, or the mesh collapsing into a heap (see the frames); if the packing is real, "
                           "raise state.CANDIDATES_PER_NODE"),
 }
-PARALLEL_ON_CPU: bool | None = None    # tests: True/False forces the CPU launch; None chooses by size
+FORCE_LAUNCH: str | None = None         # tests and profiles: "batched" | "threads" | "gpu" on any arch
 THREADS_MIN_ELEMENTS = 1000             # CPU: smaller meshes run the batched serial kernel (choose_launch)
 RUNAWAY_SPEED = 10.0     # x the shell wave speed, as the in-kernel check (stages/constraints.py)
 HOURGLASS_WARN, HOURGLASS_STOP = 0.10, 0.20     # E_hg / E_int
@@ -75,10 +75,10 @@ def choose_launch(arch: str, n_elements: int, static: bool) -> str:
     serial kernel for many steps, no launch cost per step).  Statics stay batched: their
     relaxation decisions read energy sums, which threads add in a varying order, and a
     static run should take the same steps every time.  Measured in the note of issue 4."""
+    if FORCE_LAUNCH is not None:
+        return FORCE_LAUNCH
     if arch != "cpu":
         return "gpu"
-    if PARALLEL_ON_CPU is not None:
-        return "threads" if PARALLEL_ON_CPU else "batched"
     if static or (os.cpu_count() or 1) < 2 or n_elements < THREADS_MIN_ELEMENTS:
         return "batched"
     return "threads"
