@@ -1,7 +1,7 @@
 """The three launches give one answer, here on the CPU: the reduced tube of
 tests/test_crush.py (mpm, J2, self-contact search, rigid body, walls) for 0.3 ms.
-``threads`` (parallel loops, no atomics) must reproduce ``batched`` (one serial kernel)
-exactly; ``gpu`` (atomic scatters, run here on the CPU's threads) to round-off."""
+``threads`` (parallel loops, no atomics) must reproduce ``batched`` (one serial kernel):
+the same trajectory, energy sums to round-off; ``gpu`` (atomic scatters, run here on the CPU's threads) to round-off."""
 from __future__ import annotations
 
 import json
