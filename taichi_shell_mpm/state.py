@@ -19,10 +19,12 @@ CANDIDATES_PER_NODE = 64     # capacity of the contact candidate lists, on avera
 
 @ti.data_oriented
 class State:
-    """All fields of a run (SOA layout, except the grid: one node's data together).  ``n_nodes``, ``n_elements``, ``n_points`` and the
-    grid dimensions are fixed at construction; sizes are compile-time constants of the kernels."""
+    """All fields of a run (SOA layout, except the grid: one node's data together).
+    ``n_nodes``, ``n_elements``, ``n_points`` and the grid dimensions are fixed at
+    construction; sizes are compile-time constants of the kernels.  ``launch`` (config.py)
+    decides the scratch fields of the parallel launches."""
 
-    def __init__(self, model: Model, transfer: str, plastic: bool, contact: bool, gather_loads: bool = False):
+    def __init__(self, model: Model, transfer: str, plastic: bool, contact: bool, launch: str = "batched"):
         n, m = len(model.points), len(model.quads)
         nk = len(model.zeta)
         self.n_nodes, self.n_elements, self.n_points = n, m, nk
@@ -89,7 +91,8 @@ class State:
         self.body_force = ti.field(f64, nb)               # force on the body from its slave nodes
         self.body_impulse = ti.field(f64, nb)             # wall impulse on the body this step
         self.slave_nodes = ti.field(ti.i32, max(1, sum(len(b.nodes) for b in model.rigid_bodies)))
-        if gather_loads:        # parallel launches: each node's wall impulse on each body
+        if launch == "threads" and any(w.body >= 0 for w in model.walls):
+            # each node's impulse on each wall-carrying body, summed in node order (stages/bodies.py)
             self.node_wall_impulse = ti.field(f64, (n, nb))
         # --- self-contact (method.md 7.3), only when the scene asks for it
         self.contact = contact
@@ -125,8 +128,8 @@ class State:
             self.element_radius = ti.field(f64, m)
         # --- element loads gathered at the nodes (parallel launches, stages/accumulate.py):
         # each element writes its four corners' (force, moment, A e3, A) to its own slots
-        self.gather_loads = gather_loads
-        if gather_loads:
+        self.gather_loads = launch != "batched"
+        if self.gather_loads:
             self.corner_loads = ti.Vector.field(10, f64, (m, 4))
             self.node_slot_start = ti.field(ti.i32, n + 1)        # CSR node -> 4 e + a, e ascending
             self.node_slots = ti.field(ti.i32, 4 * m)

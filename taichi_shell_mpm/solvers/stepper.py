@@ -15,7 +15,8 @@ share the same stage code:
   trajectory does not depend on the number of threads; only the energy sums (reductions)
   vary in their last bits.  Each parallel loop costs a thread-pool dispatch (~20 us), so
   the contact rebuild is a kernel of its own, launched only when due.
-* ``gpu``: as ``threads``, with atomic adds for the node/grid scatters.
+* ``gpu``: as ``threads`` (element loads gathered), with atomic adds for the P2G, contact
+  and wall-impulse scatters, which a serial loop would stall there.
 
 The dynamic-relaxation decisions (kinetic damping or FIRE, method.md 6.2) are made
 in-kernel at the end of each step, so a batch stops exactly at convergence.

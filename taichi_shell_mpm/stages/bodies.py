@@ -19,6 +19,9 @@ class RigidBodies:
         self.cfg = cfg
         self.acc = Accumulator(cfg.serial)
         self.half_thickness = 0.5 * cfg.thickness
+        # threads launch: wall impulses summed in node order instead of by atomics (serial
+        # and gpu launches add them directly)
+        self.impulses_in_node_order = cfg.launch == "threads" and any(w[2] >= 0 for w in cfg.walls)
 
     @ti.func
     def update(self):
@@ -72,16 +75,16 @@ class RigidBodies:
                 self.acc.total(self.s.wall_energy, 0.5 * m * (before - out.norm_sqr()))
                 if ti.static(w[2] >= 0):
                     impulse = -m * dv * n.dot(ti.Vector(self.cfg.bodies[w[2]][2], dt=ti.f64))
-                    if ti.static(self.cfg.serial):
-                        self.s.body_impulse[w[2]] += impulse
-                    else:       # summed in node order by apply_wall_impulses: no atomics, same bits
+                    if ti.static(self.impulses_in_node_order):   # summed by apply_wall_impulses
                         self.s.node_wall_impulse[c, w[2]] += impulse
+                    else:
+                        self.acc.add(self.s.body_impulse, w[2], impulse)
         return out
 
     @ti.func
     def apply_wall_impulses(self):
         """A moving wall pushes its rigid body back (end of step); its KE change is wall energy."""
-        if ti.static(not self.cfg.serial and len(self.cfg.walls) > 0):
+        if ti.static(self.impulses_in_node_order):         # no atomics, the serial sum's bits
             ti.loop_config(serialize=True)
             for c in range(self.s.n_nodes):
                 for b in ti.static(range(len(self.cfg.bodies))):
