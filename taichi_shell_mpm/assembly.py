@@ -38,6 +38,19 @@ class GridGeometry:
     def n_nodes(self) -> int:
         return int(np.prod(self.dims))
 
+    @property
+    def strides(self) -> tuple[int, int, int]:
+        """Flat-index strides of the grid axes, the slab axis innermost [choice, measured in the
+        note of issue 4]: a shell's longest extent lies along its surface, so its grid nodes
+        then sit in long contiguous runs.  With the slab axis outermost the tube's grid nodes
+        spread over a plane of memory per slab and its P2G + G2P ran 1.8x slower."""
+        inner = [d for d in range(3) if d != self.slab_axis]
+        out = [0, 0, 0]
+        out[self.slab_axis] = 1
+        out[inner[1]] = self.dims[self.slab_axis]
+        out[inner[0]] = self.dims[self.slab_axis] * self.dims[inner[1]]
+        return (out[0], out[1], out[2])
+
 
 @dataclass(frozen=True)
 class ProbeSpec:

@@ -18,14 +18,14 @@ class GridUpdate:
     def __init__(self, state: State, cfg, mass_floor: float):
         self.s = state
         self.cfg = cfg
-        self.dims = cfg.grid.dims
+        self.strides = cfg.grid.strides
         self.lo = cfg.grid.lo
         self.planes = cfg.grid.planes
         self.mass_floor = mass_floor
 
     @ti.func
     def velocities(self, g, idx):
-        """(v-, v+, f, has mass) of grid node g at local index idx (method.md 2.4)."""
+        """(v-, v+, f, 1/m or 0 when massless) of grid node g at local index idx (method.md 2.4)."""
         m = self.s.grid_mass[g]
         p = self.s.grid_momentum[g]
         f = self.s.grid_force[g]
@@ -36,17 +36,18 @@ class GridUpdate:
                     f[axis] = 0.0
         v_minus = ti.Vector([0.0, 0.0, 0.0])
         v_plus = ti.Vector([0.0, 0.0, 0.0])
-        massive = m > self.mass_floor
-        if massive:
-            v_minus = p / m
-            v_plus = v_minus + (self.s.restart_factor[None] * self.s.dt[None] / m) * f
-        return v_minus, v_plus, f, massive
+        inv_mass = 0.0
+        if m > self.mass_floor:
+            inv_mass = 1.0 / m
+            v_minus = inv_mass * p
+            v_plus = v_minus + (self.s.restart_factor[None] * self.s.dt[None] * inv_mass) * f
+        return v_minus, v_plus, f, inv_mass
 
     @ti.func
     def clear(self, cell):
         """Zero the 8 grid nodes of the stencil whose base node has flat index `cell`."""
         for i, j, k in ti.static(ti.ndrange(2, 2, 2)):
-            g = cell + (i * self.dims[1] + j) * self.dims[2] + k
+            g = cell + i * self.strides[0] + j * self.strides[1] + k * self.strides[2]
             self.s.grid_mass[g] = 0.0
             self.s.grid_momentum[g] = ti.Vector([0.0, 0.0, 0.0])
             self.s.grid_force[g] = ti.Vector([0.0, 0.0, 0.0])

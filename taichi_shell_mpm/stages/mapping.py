@@ -7,8 +7,8 @@ velocity C_c, conserves angular momentum; default), ``pic``, or ``flip`` blended
 PIC by ``flip_blend``.
 
 P2G order [choice, measured in the note of issue 4]: on the CPU the free nodes are
-binned every step by the grid plane of their stencil's base across the grid's longest
-axis (a counting sort), and scattered plane by plane, first the even planes, then the
+binned every step by the grid plane of their stencil's base across the mesh's longest
+axis (a counting sort; that axis is outermost in the grid's memory, GridGeometry.strides), and scattered plane by plane, first the even planes, then the
 odd ones.  Two planes of the same parity share no grid node, so the planes of a pass
 run in parallel with plain adds (an f64 atomic add costs ~13 ns on the CPU against
 ~1 ns), and the sums do not depend on the number of threads.  On a GPU the nodes scatter
@@ -35,7 +35,9 @@ class Mapping:
         self.mass_floor = mass_floor
         g = cfg.grid
         self.h = g.h
+        self.inv_h = 1.0 / g.h
         self.lo = g.lo
+        self.strides = g.strides
         self.dims = g.dims
         self.axis = g.slab_axis
         self.n_planes = g.dims[g.slab_axis] - 1
@@ -43,7 +45,7 @@ class Mapping:
     @ti.func
     def stencil(self, x):
         """Base grid index (local), fractional position and validity for trilinear weights."""
-        r = x / self.h
+        r = x * self.inv_h
         base_abs = ti.floor(r, ti.i32)
         frac = r - base_abs
         base = base_abs - ti.Vector(self.lo, dt=ti.i32)
@@ -55,28 +57,21 @@ class Mapping:
 
     @ti.func
     def flat(self, idx):
-        return (idx[0] * self.dims[1] + idx[1]) * self.dims[2] + idx[2]
+        """Flat index of local grid index idx (slab axis innermost: GridGeometry.strides)."""
+        return idx[0] * self.strides[0] + idx[1] * self.strides[1] + idx[2] * self.strides[2]
 
     @ti.func
     def plane_of(self, cell):
         """Index across the slab axis of the flat grid index `cell`."""
-        out = 0
-        if ti.static(self.axis == 0):
-            out = cell // (self.dims[1] * self.dims[2])
-        elif ti.static(self.axis == 1):
-            out = (cell // self.dims[2]) % self.dims[1]
-        else:
-            out = cell % self.dims[2]
-        return out
+        return (cell // self.strides[self.axis]) % self.dims[self.axis]
 
     @ti.func
-    def weight(self, frac, off):
-        """N_I = prod_d N^(r_d) and its gradient for the cell-corner offset `off` in {0,1}^3."""
-        o = ti.cast(off, ti.f64)
-        w = o * frac + (1.0 - o) * (1.0 - frac)
-        dw = (2.0 * o - 1.0) / self.h
-        n = w[0] * w[1] * w[2]
-        grad = ti.Vector([dw[0] * w[1] * w[2], w[0] * dw[1] * w[2], w[0] * w[1] * dw[2]])
+    def weight(self, w, i: ti.template(), j: ti.template(), k: ti.template()):
+        """N_I = prod_d N^(r_d) and its gradient for the cell corner (i, j, k) in {0,1}^3, from
+        the per-axis weights w (row 0: 1 - r, row 1: r); the corner is a compile-time constant."""
+        n = w[i, 0] * w[j, 1] * w[k, 2]
+        grad = self.inv_h * ti.Vector([(2 * i - 1) * w[j, 1] * w[k, 2], (2 * j - 1) * w[i, 0] * w[k, 2],
+                                       (2 * k - 1) * w[i, 0] * w[j, 1]])
         return n, grad
 
     @ti.func
@@ -118,22 +113,33 @@ class Mapping:
 
     @ti.func
     def scatter(self, c):
-        """S2 for node c: m_I += N m_c, p_I += N m_c (v_c + C_c (X_I - x_c)), f_I += N (f_ext - f_int)_c."""
-        base, frac, _inside = self.stencil(self.s.position[c])
+        """S2 for node c: m_I += N m_c, p_I += N m_c (v_c + C_c (X_I - x_c)), f_I += N (f_ext - f_int)_c.
+        With APIC, v_c + C_c (X_I - x_c) = (v_c - h C_c r) + h C_c (i, j, k) for the cell
+        corner (i, j, k) and fractional position r: one product per node, additions per corner."""
+        _base, frac, _inside = self.stencil(self.s.position[c])
+        w = ti.Matrix.rows([1.0 - frac, frac])
+        cell = self.s.node_cell[c]
         mass = self.s.corner_mass[c]
         keep = self.s.velocity_keep[None]
         force = self.nodes.residual_force(c)
         vel = keep * self.s.velocity[c]
         if ti.static(self.cfg.fire):
             vel += (self.s.fire_mix[None] / mass) * force    # FIRE mixing (solvers/stepper.py)
-        for off in ti.grouped(ti.ndrange(2, 2, 2)):
-            n, _ = self.weight(frac, off)
-            g = self.flat(base + off)
+        affine_h = ti.Matrix.zero(ti.f64, 3, 3)
+        if ti.static(self.cfg.transfer == "apic"):
+            affine_h = (keep * self.h) * self.s.affine[c]
+            vel -= affine_h @ frac
+        for i, j, k in ti.static(ti.ndrange(2, 2, 2)):
+            n, _ = self.weight(w, i, j, k)
+            g = cell + i * self.strides[0] + j * self.strides[1] + k * self.strides[2]
             p = vel
             if ti.static(self.cfg.transfer == "apic"):
-                p += keep * (self.s.affine[c] @ ((ti.cast(off, ti.f64) - frac) * self.h))
-            self.grid_acc.add(self.s.grid_mass, g, n * mass)
-            self.grid_acc.add(self.s.grid_momentum, g, n * mass * p)
+                for d, on in ti.static(enumerate((i, j, k))):
+                    if ti.static(on):
+                        p += ti.Vector([affine_h[0, d], affine_h[1, d], affine_h[2, d]])
+            nm = n * mass
+            self.grid_acc.add(self.s.grid_mass, g, nm)
+            self.grid_acc.add(self.s.grid_momentum, g, nm * p)
             self.grid_acc.add(self.s.grid_force, g, n * force)
 
     @ti.func
@@ -161,20 +167,23 @@ class Mapping:
             v_grid = ti.Vector([0.0, 0.0, 0.0])
             if self.s.node_cell[c] >= 0:
                 base, frac, _inside = self.stencil(self.s.position[c])
+                w = ti.Matrix.rows([1.0 - frac, frac])
+                cell = self.s.node_cell[c]
                 mass = self.s.corner_mass[c]
                 v_delta = ti.Vector([0.0, 0.0, 0.0])
                 affine = ti.Matrix.zero(ti.f64, 3, 3)
                 massive_grad = ti.Vector([0.0, 0.0, 0.0])
-                for off in ti.grouped(ti.ndrange(2, 2, 2)):
-                    n, grad = self.weight(frac, off)
-                    g = self.flat(base + off)
-                    v_minus, v_plus, f, massive = self.grid.velocities(g, base + off)
+                for i, j, k in ti.static(ti.ndrange(2, 2, 2)):
+                    n, grad = self.weight(w, i, j, k)
+                    g = cell + i * self.strides[0] + j * self.strides[1] + k * self.strides[2]
+                    v_minus, v_plus, f, inv_mass = self.grid.velocities(g, base + ti.Vector([i, j, k]))
+                    massive = inv_mass > 0.0
                     v_grid += n * v_plus
                     if ti.static(self.cfg.static):
                         # grid residual sum_I |f_I|^2 (method.md 6.4), shared out by the node's
                         # mass share N m_c / m_I of each grid node
                         if massive:
-                            self.acc.total(self.s.residual_sq, (n * mass / self.s.grid_mass[g]) * f.norm_sqr())
+                            self.acc.total(self.s.residual_sq, (n * mass * inv_mass) * f.norm_sqr())
                     if ti.static(self.cfg.transfer == "flip"):
                         v_delta += n * (v_plus - v_minus)
                     if ti.static(self.cfg.transfer == "apic"):
