@@ -133,18 +133,15 @@ class NodeUpdate:
 
     @ti.func
     def rotate_orientation(self, c, dtheta):
-        """q <- exp(dtheta/2) q: orientation for output only (BT needs no nodal frame)."""
-        angle = dtheta.norm()
-        if angle > 0.0:
-            axis = dtheta / angle
-            hs, hc = ti.sin(0.5 * angle), ti.cos(0.5 * angle)
-            p = ti.Vector([hc, hs * axis[0], hs * axis[1], hs * axis[2]])
-            q = self.s.rotation[c]
-            self.s.rotation[c] = ti.Vector([
-                p[0] * q[0] - p[1] * q[1] - p[2] * q[2] - p[3] * q[3],
-                p[0] * q[1] + p[1] * q[0] + p[2] * q[3] - p[3] * q[2],
-                p[0] * q[2] - p[1] * q[3] + p[2] * q[0] + p[3] * q[1],
-                p[0] * q[3] + p[1] * q[2] - p[2] * q[1] + p[3] * q[0]])
+        """q <- normalize(q + 1/2 (0, dtheta) q): orientation for output only (BT needs no nodal frame)."""
+        q = self.s.rotation[c]
+        p = 0.5 * dtheta
+        r = ti.Vector([
+            q[0] - p[0] * q[1] - p[1] * q[2] - p[2] * q[3],
+            q[1] + p[0] * q[0] + p[1] * q[3] - p[2] * q[2],
+            q[2] - p[0] * q[3] + p[1] * q[0] + p[2] * q[1],
+            q[3] + p[0] * q[2] - p[1] * q[1] + p[2] * q[0]])
+        self.s.rotation[c] = r.normalized()
 
     @ti.func
     def explicit_fe(self):
