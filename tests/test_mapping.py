@@ -28,26 +28,38 @@ def test_partition_of_unity_and_linear_completeness(tmp_path):
     n = 200
     pts = ti.Vector.field(3, ti.f64, n)
     out = ti.Vector.field(4, ti.f64, n)
+    grad_out = ti.Matrix.field(4, 3, ti.f64, n)       # rows: sum grad N_I, sum x_I grad N_I^T
     pts.from_numpy(rng.uniform([-0.2, -0.2, -0.2], [1.2, 1.2, 0.2], (n, 3)))
 
     @ti.kernel
     def sums():
         for p in range(n):
             base, frac, inside = mapping.stencil(pts[p])
+            w_axis = ti.Matrix.rows([1.0 - frac, frac])
             total, first = 0.0, ti.Vector([0.0, 0.0, 0.0])
-            for off in ti.grouped(ti.ndrange(2, 2, 2)):
-                w, _ = mapping.weight(frac, off)
+            grad_sum, grad_first = ti.Vector([0.0, 0.0, 0.0]), ti.Matrix.zero(ti.f64, 3, 3)
+            for i, j, k in ti.static(ti.ndrange(2, 2, 2)):
+                w, grad = mapping.weight(w_axis, i, j, k)
                 total += w
-                node = (base + off + ti.Vector(mapping.lo)) * mapping.h
-                first += w * ti.cast(node, ti.f64)
+                node = ti.cast(base + ti.Vector([i, j, k]) + ti.Vector(mapping.lo), ti.f64) * mapping.h
+                first += w * node
+                grad_sum += grad
+                grad_first += node.outer_product(grad)
             out[p] = ti.Vector([total, first[0], first[1], first[2]])
+            for d in ti.static(range(3)):
+                grad_out[p][0, d] = grad_sum[d]
+                for e in ti.static(range(3)):
+                    grad_out[p][1 + e, d] = grad_first[e, d]
 
     sums()
     res = out.to_numpy()
+    grads = grad_out.to_numpy()
     err_unity = np.abs(res[:, 0] - 1).max()
     err_linear = np.abs(res[:, 1:] - pts.to_numpy()).max()
-    print(f"partition of unity error {err_unity:.1e}, linear completeness error {err_linear:.1e}")
-    assert err_unity < 1e-14 and err_linear < 1e-13
+    err_grad = max(np.abs(grads[:, 0]).max() * mapping.h, np.abs(grads[:, 1:] - np.eye(3)).max())
+    print(f"partition of unity error {err_unity:.1e}, linear completeness error {err_linear:.1e}, "
+          f"gradient (sum, linear) error {err_grad:.1e}")
+    assert err_unity < 1e-14 and err_linear < 1e-13 and err_grad < 1e-12
 
 
 def test_p2g_g2p_conserve_mass_and_momentum(tmp_path):
