@@ -53,6 +53,13 @@ class StepConfig:
         return self.launch == "gpu"
 
     @property
+    def grid_force(self) -> bool:
+        """Whether the grid keeps the nodal force apart from the momentum (stages/grid.py):
+        FLIP needs v- and v+ separately, statics the grid residual; APIC and PIC dynamics
+        scatter p + dt f in one field."""
+        return self.transfer == "flip" or self.static
+
+    @property
     def has_contact(self) -> bool:
         return self.contact is not None
 

@@ -110,7 +110,8 @@ class Simulation:
         launch = choose_launch(arch, len(self.model.quads), scene.solve.kind == "static")
         self.cfg = replace(StepConfig.from_scene(scene, self.model), launch=launch)
         material = make_material(scene.material)
-        self.state = State(self.model, self.cfg.transfer, material.plastic, scene.contact is not None, launch)
+        self.state = State(self.model, self.cfg.transfer, material.plastic, scene.contact is not None, launch,
+                           self.cfg.grid_force)
         self.stepper = Stepper(self.state, self.cfg, material, self.model)
         self._initial_geometry()
         t0 = time.perf_counter()

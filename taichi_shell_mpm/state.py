@@ -22,9 +22,11 @@ class State:
     """All fields of a run (SOA layout, except the grid: one node's data together).
     ``n_nodes``, ``n_elements``, ``n_points`` and the grid dimensions are fixed at
     construction; sizes are compile-time constants of the kernels.  ``launch`` (config.py)
-    decides the scratch fields of the parallel launches."""
+    decides the scratch fields of the parallel launches, ``grid_force``
+    (StepConfig.grid_force) whether the grid keeps its force apart from the momentum."""
 
-    def __init__(self, model: Model, transfer: str, plastic: bool, contact: bool, launch: str = "batched"):
+    def __init__(self, model: Model, transfer: str, plastic: bool, contact: bool, launch: str = "batched",
+                 grid_force: bool = True):
         n, m = len(model.points), len(model.quads)
         nk = len(model.zeta)
         self.n_nodes, self.n_elements, self.n_points = n, m, nk
@@ -139,11 +141,15 @@ class State:
         if model.grid is not None:
             g = model.grid.n_nodes
             self.grid_mass = ti.field(f64)
-            self.grid_momentum = ti.Vector.field(3, f64)
-            self.grid_force = ti.Vector.field(3, f64)
+            self.grid_momentum = ti.Vector.field(3, f64)   # without grid_force: p + dt f (stages/grid.py)
             # array of structures: one grid node's data share a cache line (the grid is much
             # larger than the cache and is touched at scattered places)
-            ti.root.dense(ti.i, g).place(self.grid_mass, self.grid_momentum, self.grid_force)
+            if grid_force:
+                self.grid_force = ti.Vector.field(3, f64)
+                ti.root.dense(ti.i, g).place(self.grid_mass, self.grid_momentum, self.grid_force)
+            else:
+                self.grid_force = None
+                ti.root.dense(ti.i, g).place(self.grid_mass, self.grid_momentum)
             # P2G order (stages/mapping.py): the free nodes binned by the grid plane of their
             # stencil's base across the slab axis (counting sort, rebuilt every step)
             planes = model.grid.dims[model.grid.slab_axis] - 1

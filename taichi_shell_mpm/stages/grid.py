@@ -6,6 +6,12 @@ than in a loop of its own over a list of touched nodes [choice, measured in the 
 issue 4]: it costs a division per read instead of a list, and lets P2G run in parallel
 without atomics.  Only the nodes around shell nodes are ever written, read or cleared,
 so the empty grid costs nothing.
+
+Without FLIP and outside statics (StepConfig.grid_force false) only v+ is read, so P2G
+scatters the momentum and the force impulse into one field, p~_I = sum N (m (v + C dx) +
+dt f), and v+ = p~/m [choice, measured in the note of issue 4]: 4 doubles per grid node
+instead of 7, the same v+ up to rounding; P2G + G2P + clear of the tube at 10.75 ms cost
+754-802 us per step instead of 883-1027 (two pairs of runs, benchmarks/stage_times.py).
 """
 
 import taichi as ti
@@ -25,10 +31,13 @@ class GridUpdate:
 
     @ti.func
     def velocities(self, g, idx):
-        """(v-, v+, f, 1/m or 0 when massless) of grid node g at local index idx (method.md 2.4)."""
+        """(v-, v+, f, 1/m or 0 when massless) of grid node g at local index idx (method.md 2.4).
+        Without a grid force field (see the module docstring) v- is v+ and f is zero."""
         m = self.s.grid_mass[g]
         p = self.s.grid_momentum[g]
-        f = self.s.grid_force[g]
+        f = ti.Vector([0.0, 0.0, 0.0])
+        if ti.static(self.cfg.grid_force):
+            f = self.s.grid_force[g]
         if ti.static(len(self.planes) > 0):
             for axis, plane in ti.static(self.planes):
                 if idx[axis] + self.lo[axis] == plane:
@@ -40,8 +49,15 @@ class GridUpdate:
         if m > self.mass_floor:
             inv_mass = 1.0 / m
             v_minus = inv_mass * p
-            v_plus = v_minus + (self.s.restart_factor[None] * self.s.dt[None] * inv_mass) * f
+            v_plus = v_minus
+            if ti.static(self.cfg.grid_force):
+                v_plus += (self.impulse_factor() * inv_mass) * f
         return v_minus, v_plus, f, inv_mass
+
+    @ti.func
+    def impulse_factor(self):
+        """dt of v+ = v- + dt f/m, halved on a central-difference restart from rest."""
+        return self.s.restart_factor[None] * self.s.dt[None]
 
     @ti.func
     def clear(self, cell):
@@ -50,4 +66,5 @@ class GridUpdate:
             g = cell + i * self.strides[0] + j * self.strides[1] + k * self.strides[2]
             self.s.grid_mass[g] = 0.0
             self.s.grid_momentum[g] = ti.Vector([0.0, 0.0, 0.0])
-            self.s.grid_force[g] = ti.Vector([0.0, 0.0, 0.0])
+            if ti.static(self.cfg.grid_force):
+                self.s.grid_force[g] = ti.Vector([0.0, 0.0, 0.0])

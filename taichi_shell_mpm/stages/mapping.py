@@ -113,7 +113,8 @@ class Mapping:
 
     @ti.func
     def scatter(self, c):
-        """S2 for node c: m_I += N m_c, p_I += N m_c (v_c + C_c (X_I - x_c)), f_I += N (f_ext - f_int)_c.
+        """S2 for node c: m_I += N m_c, p_I += N m_c (v_c + C_c (X_I - x_c)), f_I += N (f_ext - f_int)_c
+        (or p_I += N (m_c (v_c + C_c (X_I - x_c)) + dt f_c) without a grid force field).
         With APIC, v_c + C_c (X_I - x_c) = (v_c - h C_c r) + h C_c (i, j, k) for the cell
         corner (i, j, k) and fractional position r: one product per node, additions per corner."""
         _base, frac, _inside = self.stencil(self.s.position[c])
@@ -129,18 +130,22 @@ class Mapping:
         if ti.static(self.cfg.transfer == "apic"):
             affine_h = (keep * self.h) * self.s.affine[c]
             vel -= affine_h @ frac
+        momentum = mass * vel
+        if ti.static(not self.cfg.grid_force):
+            momentum += self.grid.impulse_factor() * force      # p + dt f (stages/grid.py)
+        affine_m = mass * affine_h
         for i, j, k in ti.static(ti.ndrange(2, 2, 2)):
             n, _ = self.weight(w, i, j, k)
             g = cell + i * self.strides[0] + j * self.strides[1] + k * self.strides[2]
-            p = vel
+            p = momentum
             if ti.static(self.cfg.transfer == "apic"):
                 for d, on in ti.static(enumerate((i, j, k))):
                     if ti.static(on):
-                        p += ti.Vector([affine_h[0, d], affine_h[1, d], affine_h[2, d]])
-            nm = n * mass
-            self.grid_acc.add(self.s.grid_mass, g, nm)
-            self.grid_acc.add(self.s.grid_momentum, g, nm * p)
-            self.grid_acc.add(self.s.grid_force, g, n * force)
+                        p += ti.Vector([affine_m[0, d], affine_m[1, d], affine_m[2, d]])
+            self.grid_acc.add(self.s.grid_mass, g, n * mass)
+            self.grid_acc.add(self.s.grid_momentum, g, n * p)
+            if ti.static(self.cfg.grid_force):
+                self.grid_acc.add(self.s.grid_force, g, n * force)
 
     @ti.func
     def particles_to_grid(self):
