@@ -8,11 +8,14 @@ PIC by ``flip_blend``.
 
 P2G order [choice, measured in the note of issue 4]: on the CPU the free nodes are
 binned every step by the grid plane of their stencil's base across the mesh's longest
-axis (a counting sort; that axis is outermost in the grid's memory, GridGeometry.strides), and scattered plane by plane, first the even planes, then the
+axis (a counting sort; that axis is innermost in the grid's memory,
+GridGeometry.strides), and scattered plane by plane, first the even planes, then the
 odd ones.  Two planes of the same parity share no grid node, so the planes of a pass
 run in parallel with plain adds (an f64 atomic add costs ~13 ns on the CPU against
 ~1 ns), and the sums do not depend on the number of threads.  On a GPU the nodes scatter
-in one parallel loop with atomic adds.
+in one parallel loop with atomic adds.  P2G, G2P and the clear are bound by loads and
+stores (the second core barely speeds them up here); balanced runs of consecutive planes
+instead of alternating single planes gained nothing (note of issue 4).
 """
 
 import taichi as ti
