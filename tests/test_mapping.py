@@ -35,7 +35,7 @@ def test_partition_of_unity_and_linear_completeness(tmp_path):
     def sums():
         for p in range(n):
             base, frac, inside = mapping.stencil(pts[p])
-            w_axis = ti.Matrix.rows([1.0 - frac, frac])
+            w_axis = mapping.axis_weights(frac)
             total, first = 0.0, ti.Vector([0.0, 0.0, 0.0])
             grad_sum, grad_first = ti.Vector([0.0, 0.0, 0.0]), ti.Matrix.zero(ti.f64, 3, 3)
             for i, j, k in ti.static(ti.ndrange(2, 2, 2)):

@@ -60,10 +60,16 @@ class GridUpdate:
         return self.s.restart_factor[None] * self.s.dt[None]
 
     @ti.func
+    def corner_node(self, cell, i: ti.template(), j: ti.template(), k: ti.template()):
+        """Flat index of the cell corner (i, j, k) in {0,1}^3 of the stencil whose base node
+        has flat index `cell` (GridGeometry.strides)."""
+        return cell + i * self.strides[0] + j * self.strides[1] + k * self.strides[2]
+
+    @ti.func
     def clear(self, cell):
         """Zero the 8 grid nodes of the stencil whose base node has flat index `cell`."""
         for i, j, k in ti.static(ti.ndrange(2, 2, 2)):
-            g = cell + i * self.strides[0] + j * self.strides[1] + k * self.strides[2]
+            g = self.corner_node(cell, i, j, k)
             self.s.grid_mass[g] = 0.0
             self.s.grid_momentum[g] = ti.Vector([0.0, 0.0, 0.0])
             if ti.static(self.cfg.grid_force):

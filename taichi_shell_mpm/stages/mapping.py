@@ -69,9 +69,14 @@ class Mapping:
         return (cell // self.strides[self.axis]) % self.dims[self.axis]
 
     @ti.func
+    def axis_weights(self, frac):
+        """Linear weights along each axis: row 0 is 1 - r (the base node), row 1 is r."""
+        return ti.Matrix.rows([1.0 - frac, frac])
+
+    @ti.func
     def weight(self, w, i: ti.template(), j: ti.template(), k: ti.template()):
         """N_I = prod_d N^(r_d) and its gradient for the cell corner (i, j, k) in {0,1}^3, from
-        the per-axis weights w (row 0: 1 - r, row 1: r); the corner is a compile-time constant."""
+        the per-axis weights w (:meth:`axis_weights`); the corner is a compile-time constant."""
         n = w[i, 0] * w[j, 1] * w[k, 2]
         grad = self.inv_h * ti.Vector([(2 * i - 1) * w[j, 1] * w[k, 2], (2 * j - 1) * w[i, 0] * w[k, 2],
                                        (2 * k - 1) * w[i, 0] * w[j, 1]])
@@ -121,7 +126,7 @@ class Mapping:
         With APIC, v_c + C_c (X_I - x_c) = (v_c - h C_c r) + h C_c (i, j, k) for the cell
         corner (i, j, k) and fractional position r: one product per node, additions per corner."""
         _base, frac, _inside = self.stencil(self.s.position[c])
-        w = ti.Matrix.rows([1.0 - frac, frac])
+        w = self.axis_weights(frac)
         cell = self.s.node_cell[c]
         mass = self.s.corner_mass[c]
         keep = self.s.velocity_keep[None]
@@ -139,7 +144,7 @@ class Mapping:
         affine_m = mass * affine_h
         for i, j, k in ti.static(ti.ndrange(2, 2, 2)):
             n, _ = self.weight(w, i, j, k)
-            g = cell + i * self.strides[0] + j * self.strides[1] + k * self.strides[2]
+            g = self.grid.corner_node(cell, i, j, k)
             p = momentum
             if ti.static(self.cfg.transfer == "apic"):
                 for d, on in ti.static(enumerate((i, j, k))):
@@ -175,7 +180,7 @@ class Mapping:
             v_grid = ti.Vector([0.0, 0.0, 0.0])
             if self.s.node_cell[c] >= 0:
                 base, frac, _inside = self.stencil(self.s.position[c])
-                w = ti.Matrix.rows([1.0 - frac, frac])
+                w = self.axis_weights(frac)
                 cell = self.s.node_cell[c]
                 mass = self.s.corner_mass[c]
                 v_delta = ti.Vector([0.0, 0.0, 0.0])
@@ -183,7 +188,7 @@ class Mapping:
                 massive_grad = ti.Vector([0.0, 0.0, 0.0])
                 for i, j, k in ti.static(ti.ndrange(2, 2, 2)):
                     n, grad = self.weight(w, i, j, k)
-                    g = cell + i * self.strides[0] + j * self.strides[1] + k * self.strides[2]
+                    g = self.grid.corner_node(cell, i, j, k)
                     v_minus, v_plus, f, inv_mass = self.grid.velocities(g, base + ti.Vector([i, j, k]))
                     massive = inv_mass > 0.0
                     v_grid += n * v_plus
