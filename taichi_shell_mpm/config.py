@@ -27,6 +27,7 @@ class StepConfig:
     zeta: tuple[float, ...]
     zeta_weight: tuple[float, ...]
     hourglass: float
+    kirchhoff_w_hourglass: bool  # stages/hourglass.py: w-mode rate less the Kirchhoff field's
     wave_speed: float           # plane-stress c_e = sqrt(E / (rho (1 - nu^2)))
     dilatational_speed: float   # c_dil = sqrt((K + 4G/3) / rho), paper eq 38-40
     dt_safety: float
@@ -74,7 +75,7 @@ class StepConfig:
             fire=scene.solve.kind == "static" and scene.solve.relaxation == "fire", E=mat.E, nu=mat.nu, shear_modulus=G,
             thickness=sec.thickness, shear_factor=sec.shear_factor,
             zeta=tuple(float(z) for z in model.zeta), zeta_weight=tuple(float(w) for w in model.zeta_weight),
-            hourglass=scene.element.hourglass,
+            hourglass=scene.element.hourglass, kirchhoff_w_hourglass=scene.element.w_hourglass == "kirchhoff",
             wave_speed=math.sqrt(mat.E / (mat.density * (1.0 - mat.nu ** 2))),
             dilatational_speed=math.sqrt((K + 4.0 * G / 3.0) / mat.density),
             dt_safety=scene.solve.dt_safety,

@@ -152,6 +152,11 @@ class Section:
 class ElementOptions:
     hourglass: float = 0.05
     """BT hourglass coefficient r (r_m = r_w = r_theta), method.md section 4."""
+    w_hourglass: Literal["kirchhoff", "bt"] = "kirchhoff"
+    """Rate of the transverse (w) hourglass mode: "bt" = sum gamma_a w_a (paper eq 30-36),
+    which also resists the bilinear part of a Kirchhoff twist or bending field on a
+    non-rectangular quad; "kirchhoff" subtracts the rate that the element's own curvature
+    rate implies [choice] (stages/hourglass.py)."""
 
 
 @dataclass(frozen=True)
@@ -633,7 +638,7 @@ _MATERIAL = {"E": _positive, "nu": _number(-1, 0.5, lo_open=True, hi_open=True),
              "hardening": _non_negative}
 _SECTION = {"thickness": _positive, "points": _int(1, 10),
             "rule": _choice("lobatto", "gauss"), "shear_factor": _fraction}
-_ELEMENT = {"hourglass": _unit_interval}
+_ELEMENT = {"hourglass": _unit_interval, "w_hourglass": _choice("kirchhoff", "bt")}
 _METHOD = {"kind": _choice("mpm", "fem"), "cell_size": _positive, "grid_min": _vec3,
            "grid_max": _vec3, "padding": _non_negative,
            "transfer": _choice("apic", "pic", "flip"), "flip_blend": _unit_interval}

@@ -159,6 +159,8 @@ density = 1.0
 [section]
 thickness = {t}
 {section}
+[element]
+{element}
 [method]
 kind = "fem"
 [solve]
@@ -168,15 +170,15 @@ end_time = 1.0
 
 
 def element_simulation(tmp_path: Path, corners, *, E: float, nu: float, t: float, material: str = "",
-                       section: str = "") -> Simulation:
+                       section: str = "", element: str = "") -> Simulation:
     """A Simulation of the single quad `corners` (4x3, explicit FE) for driving the element stage
-    (S7) alone; `material` and `section` are extra TOML lines of those tables.  The full step is
+    (S7) alone; `material`, `section` and `element` are extra TOML lines of those tables.  The full step is
     not compiled (Simulation.__init__ warms it up with advance(0), which the element tests never
     call and which would triple their cold time)."""
     meshio.write(tmp_path / "element.vtu", meshio.Mesh(np.asarray(corners, dtype=float),
                                                        [("quad", np.array([[0, 1, 2, 3]]))]))
     scene = load_scene(write_scene(tmp_path, ELEMENT.format(E=E, nu=nu, t=t, material=material,
-                                                            section=section)))
+                                                            section=section, element=element)))
     with mock.patch.object(Stepper, "advance", lambda self, max_steps: 0):
         return simulation(scene, tmp_path)
 

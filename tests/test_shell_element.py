@@ -93,3 +93,89 @@ def test_small_deflection_cantilever_matches_beam_theory(tmp_path):
     err = abs(uz - exact) / exact
     print(f"small-deflection tip {uz:.6e} vs beam theory {exact:.6e}: error {100 * err:.3f}%")
     assert err < 0.01
+
+
+def kirchhoff_rates(corners, coefficients):
+    """Nodal rates of the Kirchhoff field w' = a x^2 + b x y + c y^2 about the centre (flat
+    quad in z = 0): v = (0, 0, w'), omega = (dw'/dy, -dw'/dx, 0) (shell.py's signs)."""
+    a, b, c = coefficients
+    x, y = (corners - corners.mean(axis=0))[:, :2].T
+    velocity = np.zeros((4, 3))
+    omega = np.zeros((4, 3))
+    velocity[:, 2] = a * x * x + b * x * y + c * y * y
+    omega[:, 0] = b * x + 2 * c * y
+    omega[:, 1] = -(2 * a * x + b * y)
+    return velocity, omega
+
+
+@pytest.mark.parametrize("coefficients", [(0.0, 1.0, 0.0), (0.7, 0.0, 0.0), (0.3, -0.5, 0.9)],
+                         ids=["twist", "bending", "mixed"])
+def test_transverse_hourglass_leaves_kirchhoff_bending_and_twist_alone(tmp_path, coefficients):
+    """A quadratic Kirchhoff w-field on the distorted quad FLAT: its bilinear part is not an
+    hourglass mode.  The paper's w-rate (w_hourglass = "bt") resists it, the default
+    ("kirchhoff", stages/hourglass.py) leaves Q_W at round-off of the mid-step geometry;
+    bending stresses are the same.  The spurious mode (w = h, no rotation) is still resisted
+    alike by both."""
+    velocity, omega = kirchhoff_rates(FLAT, coefficients)
+    spurious = np.zeros((4, 3))
+    spurious[:, 2] = [1.0, -1.0, 1.0, -1.0]
+    results = {}
+    for option in ("kirchhoff", "bt"):
+        (tmp_path / option).mkdir()
+        sim = element_simulation(tmp_path / option, FLAT, E=E, nu=NU, t=T, element=f'w_hourglass = "{option}"')
+        bent = element_pass(sim, FLAT + DT * velocity, velocity, omega, DT)
+        hourglass = element_pass(sim, FLAT + DT * spurious, spurious, np.zeros((4, 3)), DT)
+        results[option] = (bent, hourglass)
+    (stress_k, _, _, q_k), (_, _, _, qh_k) = results["kirchhoff"]
+    (stress_b, _, _, q_b), (_, _, _, qh_b) = results["bt"]
+    print(f"\nQ_W of the Kirchhoff field: kirchhoff {q_k[2]:.3e}, bt {q_b[2]:.3e}; "
+          f"of the spurious mode: {qh_k[2]:.4e}, {qh_b[2]:.4e}")
+    assert abs(q_b[2]) > 1e-3 * abs(qh_b[2])               # bt does resist the smooth field
+    assert abs(q_k[2]) < 1e-6 * abs(q_b[2])
+    assert np.allclose(stress_k, stress_b, rtol=0, atol=1e-12 * np.abs(stress_b).max())
+    assert abs(qh_k[2] - qh_b[2]) < 1e-9 * abs(qh_b[2])
+
+
+@pytest.mark.parametrize("kirchhoff_w", [True, False], ids=["kirchhoff", "bt"])
+def test_hourglass_loads_are_the_transpose_of_the_rates(kirchhoff_w):
+    """Power identity of the hourglass part (method.md 3.6, 4): for any resultant Q and any
+    nodal rates, sum_a (f_a . v_a + m_a . theta_a) = Q . q, on a distorted, warped quad."""
+    import taichi as ti
+
+    from taichi_shell_mpm.simulation import init_taichi
+    from taichi_shell_mpm.stages.hourglass import Hourglass
+    from taichi_shell_mpm.stages.shell import gradient_operators
+    init_taichi("cpu")
+    hourglass = Hourglass(E, E / (2 * (1 + NU)), T, 5.0 / 6.0, 0.05, kirchhoff_w)
+    rng = np.random.default_rng(7)
+    xh, yh, zh = (WARPED - WARPED.mean(axis=0)).T
+    v, w, q = rng.normal(size=(4, 3)), rng.normal(size=(4, 3)), rng.normal(size=5)
+    out = ti.field(ti.f64, 2)
+    data = ti.field(ti.f64, 12 + 12 + 12 + 5)           # xh, yh, zh (4 each), v, w (4x3), q
+    data.from_numpy(np.concatenate([xh, yh, zh, v.ravel(), w.ravel(), q]))
+
+    @ti.kernel
+    def power():
+        xh = ti.Vector([data[a] for a in range(4)])
+        yh = ti.Vector([data[4 + a] for a in range(4)])
+        zh = ti.Vector([data[8 + a] for a in range(4)])
+        vx = ti.Vector([data[12 + 3 * a] for a in range(4)])
+        vy = ti.Vector([data[13 + 3 * a] for a in range(4)])
+        vz = ti.Vector([data[14 + 3 * a] for a in range(4)])
+        tx = ti.Vector([data[24 + 3 * a] for a in range(4)])
+        ty = ti.Vector([data[25 + 3 * a] for a in range(4)])
+        tz = ti.Vector([data[26 + 3 * a] for a in range(4)])
+        q = ti.Vector([data[36 + i] for i in range(5)])
+        area, b1, b2 = gradient_operators(xh, yh)
+        gam = hourglass.shape_vector(xh, yh, b1, b2)
+        zw = hourglass.warp_height(zh)
+        moments = hourglass.quadratic_moments(gam, xh, yh)
+        curvature_rate = ti.Vector([b1.dot(ty), -b2.dot(tx), b2.dot(ty) - b1.dot(tx)])
+        out[0] = q.dot(hourglass.rates(gam, zw, vx, vy, vz, tx, ty, moments, curvature_rate))
+        f, m = hourglass.nodal_loads(gam, zw, q, moments, b1, b2)
+        out[1] = (f[:, 0] * vx + f[:, 1] * vy + f[:, 2] * vz + m[:, 0] * tx + m[:, 1] * ty + m[:, 2] * tz).sum()
+
+    power()
+    rate_power, load_power = out.to_numpy()
+    print(f"\nQ.q {rate_power:.15e}, loads . rates {load_power:.15e}")
+    assert abs(rate_power - load_power) < 1e-12 * (abs(rate_power) + 1.0)

@@ -81,7 +81,8 @@ class ShellElement:
         self.s = state
         self.cfg = cfg
         self.material = material
-        self.hourglass = Hourglass(self.cfg.E, self.cfg.shear_modulus, self.cfg.thickness, self.cfg.shear_factor, self.cfg.hourglass)
+        self.hourglass = Hourglass(cfg.E, cfg.shear_modulus, cfg.thickness, cfg.shear_factor, cfg.hourglass,
+                                   cfg.kirchhoff_w_hourglass)
         self.points = tuple(zip(self.cfg.zeta, self.cfg.zeta_weight))
         self.acc = Accumulator(cfg.serial)
         self.loads = CornerLoads(state, cfg.serial)
@@ -124,10 +125,12 @@ class ShellElement:
         tx, ty = column(wl, 0), column(wl, 1)
         area_m, g1, g2 = gradient_operators(xm, ym)
         membrane_rate = ti.Vector([g1.dot(vx), g2.dot(vy), g2.dot(vx) + g1.dot(vy)])
+        spin = 0.5 * (g1.dot(vy) - g2.dot(vx))   # in-plane rotation rate about e3 (drilling, 2.3)
         curvature_rate = ti.Vector([g1.dot(ty), -g2.dot(tx), g2.dot(ty) - g1.dot(tx)])
         shear_rate = ti.Vector([g1.dot(vz) + 0.25 * ty.sum(), g2.dot(vz) - 0.25 * tx.sum()])
-        q_rate = self.hourglass.rates(self.hourglass.shape_vector(xm, ym, g1, g2), self.hourglass.warp_height(zm),
-                                      vx, vy, vz, tx, ty)
+        gam_m = self.hourglass.shape_vector(xm, ym, g1, g2)
+        q_rate = self.hourglass.rates(gam_m, self.hourglass.warp_height(zm), vx, vy, vz, tx, ty,
+                                      self.hourglass.quadratic_moments(gam_m, xm, ym), curvature_rate)
         # --- geometry at x^(n+1) for the forces
         rot, xh, yh, zh = local_geometry(x)
         area, b1, b2 = gradient_operators(xh, yh)
@@ -183,7 +186,7 @@ class ShellElement:
         q_old = self.s.hourglass_resultant[e]
         q_new = q_old + dt * self.hourglass.stiffness(area, beta) * q_rate
         self.s.hourglass_resultant[e] = q_new
-        fh, mh = self.hourglass.nodal_loads(gam, zw, q_new)
+        fh, mh = self.hourglass.nodal_loads(gam, zw, q_new, self.hourglass.quadratic_moments(gam, xh, yh), b1, b2)
         f += fh
         m += mh
         # --- to global (paper eq 37) and scatter
@@ -192,7 +195,7 @@ class ShellElement:
         e3 = ti.Vector([rot[2, 0], rot[2, 1], rot[2, 2]])
         for a in ti.static(range(4)):
             self.loads.add(e, a, c[a], ti.Vector([fg[a, 0], fg[a, 1], fg[a, 2]]), ti.Vector([mg[a, 0], mg[a, 1], mg[a, 2]]),
-                           area * e3, area)
+                           area * e3, area, area * spin)
         self.acc.total(self.s.internal_energy, dt * area_m * 0.5 * t * power)
         self.acc.total(self.s.hourglass_energy, dt * 0.5 * (q_old + q_new).dot(q_rate))
         if ti.static(self.material.plastic):
