@@ -135,8 +135,7 @@ class Simulation:
     # ------------------------------------------------------------------ set-up helpers
     def _initial_geometry(self) -> None:
         """State before the first step: nodal normals (sum A e3 for the drilling projection,
-        method.md 2.3), initial omega as given (a rigid rotation's, drilling part included:
-        the first node update replaces that part by the elements' spin), and the first stable dt."""
+        method.md 2.3), initial omega without its drilling part, and the first stable dt."""
         pts, quads = self.model.points, self.model.quads
         x = pts[quads]
         element_normal = 0.5 * np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])     # A e3
@@ -146,7 +145,9 @@ class Simulation:
         np.add.at(area, quads, np.repeat(np.linalg.norm(element_normal, axis=1)[:, None], 4, axis=1))
         self.state.normal_sum.from_numpy(normal)
         self.state.area_sum.from_numpy(area)
-        self.state.omega.from_numpy(self.model.omega0)
+        unit = normal / np.maximum(np.linalg.norm(normal, axis=1), 1e-300)[:, None]
+        w = self.model.omega0
+        self.state.omega.from_numpy(w - np.sum(w * unit, axis=1)[:, None] * unit)
         dt = initial_dt(pts, quads, self.model.velocity0, self.cfg)
         for f in (self.state.dt, self.state.dt_stable, self.state.dt_first):
             f[None] = dt

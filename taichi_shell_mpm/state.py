@@ -47,7 +47,6 @@ class State:
         self.fix_mask = ti.field(ti.i32, n)               # bits ux uy uz rx ry rz
         self.normal_sum = ti.Vector.field(3, f64, n)      # sum_e A_e e3 (nodal normal, method.md 2.3)
         self.area_sum = ti.field(f64, n)
-        self.spin_sum = ti.field(f64, n)                  # sum_e A_e Omega_e (in-plane spin: drilling rate, 2.3)
         self.node_body = ti.field(ti.i32, n)              # rigid body of the node, -1 = none
         self.affine = ti.Matrix.field(3, 3, f64, n) if transfer == "apic" else None   # C_c (method.md 2.2)
         # --- elements (= material points)
@@ -133,7 +132,7 @@ class State:
         # each element writes its four corners' (force, moment, A e3, A) to its own slots
         self.gather_loads = launch != "batched"
         if self.gather_loads:
-            self.corner_loads = ti.Vector.field(11, f64, (m, 4))
+            self.corner_loads = ti.Vector.field(10, f64, (m, 4))
             self.node_slot_start = ti.field(ti.i32, n + 1)        # CSR node -> 4 e + a, e ascending
             self.node_slots = ti.field(ti.i32, 4 * m)
         # --- background grid (mpm only), flattened; only the nodes around shell nodes are

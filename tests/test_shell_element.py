@@ -112,8 +112,8 @@ def kirchhoff_rates(corners, coefficients):
                          ids=["twist", "bending", "mixed"])
 def test_transverse_hourglass_leaves_kirchhoff_bending_and_twist_alone(tmp_path, coefficients):
     """A quadratic Kirchhoff w-field on the distorted quad FLAT: its bilinear part is not an
-    hourglass mode.  The paper's w-rate (w_hourglass = "bt") resists it, the default
-    ("kirchhoff", stages/hourglass.py) leaves Q_W at round-off of the mid-step geometry;
+    hourglass mode.  The paper's w-rate (w_hourglass = "bt", the default) resists it, the
+    "kirchhoff" option (stages/hourglass.py) leaves Q_W at round-off of the mid-step geometry;
     bending stresses are the same.  The spurious mode (w = h, no rotation) is still resisted
     alike by both."""
     velocity, omega = kirchhoff_rates(FLAT, coefficients)

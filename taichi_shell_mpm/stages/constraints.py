@@ -107,30 +107,21 @@ class NodeUpdate:
             # removed velocity back to the grid every step
             self.s.velocity[c] += vg - v_grid
         self.s.position[c] += dt * vg
-        # rotations: J w' = mu_ext - mu_int for the two bending rotations; the drilling
-        # component follows the in-plane spin of the node's elements (method.md 2.3 [choice],
-        # issue 4): sum A Omega / |sum A e3|, which is a.n exactly for a rigid rotation a.
-        # Set to zero instead, a rigid rotation about an axis off the surface gave curvature
-        # rates on a curved mesh (the tilt of the neighbouring normals): the hemisphere came
-        # out 2-3 % stiff at every refinement (tests/test_stability.py, spinning cap).
+        # rotations: J w' = mu_ext - mu_int, then remove the drilling component
         normal, project = self.drill_normal(c)
         torque = lam * self.s.load_moment[c] - self.s.moment_int[c]
         w = self.s.velocity_keep[None] * self.s.omega[c] + self.velocity_gain(self.s.corner_inertia[c]) * torque
-        bending = w
         if project:
-            bending = w - w.dot(normal) * normal
-            w = bending + (self.s.spin_sum[c] / self.s.normal_sum[c].norm()) * normal
+            w -= w.dot(normal) * normal
         w = drop_fixed(w, mask, 3)
-        bending = drop_fixed(bending, mask, 3)
         if rigid:
             w = ti.Vector([0.0, 0.0, 0.0])
-            bending = w
         self.s.omega[c] = w
         self.rotate_orientation(c, dt * w)
         self.acc.total(self.s.residual_sq,
                        self.residual_torque_about(c, normal, project).norm_sqr() / (self.cfg.length_ref ** 2))
-        self.acc.total(self.s.kinetic, 0.5 * (self.s.corner_mass[c] * vg.norm_sqr() + self.s.corner_inertia[c] * bending.norm_sqr()))
-        self.acc.total(self.s.external_work, dt * lam * (self.s.load_force[c].dot(vg) + self.s.load_moment[c].dot(bending)))
+        self.acc.total(self.s.kinetic, 0.5 * (self.s.corner_mass[c] * vg.norm_sqr() + self.s.corner_inertia[c] * w.norm_sqr()))
+        self.acc.total(self.s.external_work, dt * lam * (self.s.load_force[c].dot(vg) + self.s.load_moment[c].dot(w)))
         if ti.static(self.cfg.has_contact):
             self.acc.total(self.s.contact_energy, -dt * self.s.force_contact[c].dot(vg))
         self.acc.maximum(self.s.max_speed, ti.max(ti.abs(vg[0]), ti.abs(vg[1]), ti.abs(vg[2])))
@@ -139,7 +130,6 @@ class NodeUpdate:
             self.s.moment_int[c] = ti.Vector([0.0, 0.0, 0.0])
             self.s.normal_sum[c] = ti.Vector([0.0, 0.0, 0.0])
             self.s.area_sum[c] = 0.0
-            self.s.spin_sum[c] = 0.0
 
     @ti.func
     def rotate_orientation(self, c, dtheta):

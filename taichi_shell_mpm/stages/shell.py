@@ -125,7 +125,6 @@ class ShellElement:
         tx, ty = column(wl, 0), column(wl, 1)
         area_m, g1, g2 = gradient_operators(xm, ym)
         membrane_rate = ti.Vector([g1.dot(vx), g2.dot(vy), g2.dot(vx) + g1.dot(vy)])
-        spin = 0.5 * (g1.dot(vy) - g2.dot(vx))   # in-plane rotation rate about e3 (drilling, 2.3)
         curvature_rate = ti.Vector([g1.dot(ty), -g2.dot(tx), g2.dot(ty) - g1.dot(tx)])
         shear_rate = ti.Vector([g1.dot(vz) + 0.25 * ty.sum(), g2.dot(vz) - 0.25 * tx.sum()])
         gam_m = self.hourglass.shape_vector(xm, ym, g1, g2)
@@ -195,7 +194,7 @@ class ShellElement:
         e3 = ti.Vector([rot[2, 0], rot[2, 1], rot[2, 2]])
         for a in ti.static(range(4)):
             self.loads.add(e, a, c[a], ti.Vector([fg[a, 0], fg[a, 1], fg[a, 2]]), ti.Vector([mg[a, 0], mg[a, 1], mg[a, 2]]),
-                           area * e3, area, area * spin)
+                           area * e3, area)
         self.acc.total(self.s.internal_energy, dt * area_m * 0.5 * t * power)
         self.acc.total(self.s.hourglass_energy, dt * 0.5 * (q_old + q_new).dot(q_rate))
         if ti.static(self.material.plastic):
