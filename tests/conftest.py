@@ -136,6 +136,14 @@ def simulation(scene, tmp_path: Path) -> Simulation:
     return Simulation(scene, tmp_path / "out", quiet=True)
 
 
+def unwarmed_simulation(scene, tmp_path: Path) -> Simulation:
+    """A Simulation whose full step is not compiled (Simulation.__init__ warms it up with
+    advance(0), which tests driving one stage alone never call and which would triple their
+    cold time)."""
+    with mock.patch.object(Stepper, "advance", lambda self, max_steps: 0):
+        return simulation(scene, tmp_path)
+
+
 @pytest.fixture
 def make_simulation(tmp_path):
     def make(scene):
@@ -172,15 +180,13 @@ end_time = 1.0
 def element_simulation(tmp_path: Path, corners, *, E: float, nu: float, t: float, material: str = "",
                        section: str = "", element: str = "") -> Simulation:
     """A Simulation of the single quad `corners` (4x3, explicit FE) for driving the element stage
-    (S7) alone; `material`, `section` and `element` are extra TOML lines of those tables.  The full step is
-    not compiled (Simulation.__init__ warms it up with advance(0), which the element tests never
-    call and which would triple their cold time)."""
+    (S7) alone; `material`, `section` and `element` are extra TOML lines of those tables
+    (:func:`unwarmed_simulation`: the full step is not compiled)."""
     meshio.write(tmp_path / "element.vtu", meshio.Mesh(np.asarray(corners, dtype=float),
                                                        [("quad", np.array([[0, 1, 2, 3]]))]))
     scene = load_scene(write_scene(tmp_path, ELEMENT.format(E=E, nu=nu, t=t, material=material,
                                                             section=section, element=element)))
-    with mock.patch.object(Stepper, "advance", lambda self, max_steps: 0):
-        return simulation(scene, tmp_path)
+    return unwarmed_simulation(scene, tmp_path)
 
 
 def element_pass(sim: Simulation, end, velocity, omega, dt: float, steps: int = 1):

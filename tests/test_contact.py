@@ -3,16 +3,13 @@ a node grazing a segment's edge in the segment's plane, and a node that crossed 
 mid-surface within one step."""
 from __future__ import annotations
 
-from unittest import mock
-
 import meshio
 import numpy as np
 import taichi as ti
 
 from taichi_shell_mpm.scene import load_scene
-from taichi_shell_mpm.solvers.stepper import Stepper
 
-from .conftest import simulation, write_scene
+from .conftest import unwarmed_simulation, write_scene
 
 TWO_SHEETS = """
 [scene]
@@ -45,8 +42,7 @@ DT = 1e-3
 def contact_simulation(tmp_path):
     meshio.write(tmp_path / "sheets.vtu", meshio.Mesh(POINTS, [("quad", np.array([[0, 1, 2, 3], [4, 5, 6, 7]]))]))
     scene = load_scene(write_scene(tmp_path, TWO_SHEETS))
-    with mock.patch.object(Stepper, "advance", lambda self, max_steps: 0):
-        sim = simulation(scene, tmp_path)
+    sim = unwarmed_simulation(scene, tmp_path)
     s = sim.state
     s.dt[None] = s.dt_stable[None] = DT
 

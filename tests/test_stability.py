@@ -56,4 +56,3 @@ def test_pic_transfer_dissipates_the_spin(tmp_path):
     done, dke, dl, revs = spin(tmp_path, "mpm", "pic")
     print(f"mpm/pic: {done} steps, {revs:.2f} rev: KE change {100 * dke:.1f}%, L change {100 * dl:.1f}%")
     assert dke > 0.1
-

@@ -265,9 +265,10 @@ class SelfContact:
             gap = self.t_c - best_dist
             facet = (self.s.position[corners[2]] - self.s.position[corners[0]]).cross(
                 self.s.position[corners[3]] - self.s.position[corners[1]]).normalized()
-            side = 1.0 if normal.dot(facet) >= 0.0 else -1.0
+            cosine = normal.dot(facet)
+            side = 1.0 if cosine >= 0.0 else -1.0
             if self.s.contact_last_element[c] == best_e and side != self.s.contact_last_side[c] \
-                    and ti.abs(normal.dot(facet)) > CROSSING_COSINE:
+                    and ti.abs(cosine) > CROSSING_COSINE:
                 # crossed the mid-surface since last step: push back to the side it came from
                 normal = -normal
                 gap = self.t_c + best_dist
