@@ -152,11 +152,18 @@ class Section:
 class ElementOptions:
     hourglass: float = 0.05
     """BT hourglass coefficient r (r_m = r_w = r_theta), method.md section 4."""
-    w_hourglass: Literal["bt", "kirchhoff"] = "bt"
+    w_hourglass: Literal["bt", "kirchhoff"] = "kirchhoff"
     """Rate of the transverse (w) hourglass mode: "bt" = sum gamma_a w_a (paper eq 30-36),
     which also resists the bilinear part of a Kirchhoff twist or bending field on a
     non-rectangular quad; "kirchhoff" subtracts the rate that the element's own curvature
-    rate implies (stages/hourglass.py; default once the benchmark rows are regenerated)."""
+    rate implies (stages/hourglass.py)."""
+    drilling: Literal["projection", "penalty"] = "penalty"
+    """Rotation about the shell normal: "projection" removes it at every node (method.md 2.3,
+    the paper's; bends a curved mesh under rigid rotation); "penalty" keeps it as a degree
+    of freedom tied to each element's in-plane spin by a drilling spring (stages/drilling.py)."""
+    drilling_stiffness: float = 1.0
+    """alpha of the drilling spring k = alpha D A beta / 4: 1 = the bending stiffness one
+    corner rotation meets (stages/drilling.py)."""
 
 
 @dataclass(frozen=True)
@@ -638,7 +645,8 @@ _MATERIAL = {"E": _positive, "nu": _number(-1, 0.5, lo_open=True, hi_open=True),
              "hardening": _non_negative}
 _SECTION = {"thickness": _positive, "points": _int(1, 10),
             "rule": _choice("lobatto", "gauss"), "shear_factor": _fraction}
-_ELEMENT = {"hourglass": _unit_interval, "w_hourglass": _choice("kirchhoff", "bt")}
+_ELEMENT = {"hourglass": _unit_interval, "w_hourglass": _choice("kirchhoff", "bt"),
+            "drilling": _choice("projection", "penalty"), "drilling_stiffness": _positive}
 _METHOD = {"kind": _choice("mpm", "fem"), "cell_size": _positive, "grid_min": _vec3,
            "grid_max": _vec3, "padding": _non_negative,
            "transfer": _choice("apic", "pic", "flip"), "flip_blend": _unit_interval}

@@ -111,7 +111,7 @@ class Simulation:
         self.cfg = replace(StepConfig.from_scene(scene, self.model), launch=launch)
         material = make_material(scene.material)
         self.state = State(self.model, self.cfg.transfer, material.plastic, scene.contact is not None, launch,
-                           self.cfg.grid_force)
+                           self.cfg.grid_force, self.cfg.drilling_spring)
         self.stepper = Stepper(self.state, self.cfg, material, self.model)
         self._initial_geometry()
         t0 = time.perf_counter()
@@ -147,9 +147,11 @@ class Simulation:
         self.state.area_sum.from_numpy(area)
         unit = normal / np.maximum(np.linalg.norm(normal, axis=1), 1e-300)[:, None]
         w = self.model.omega0
-        self.state.omega.from_numpy(w - np.sum(w * unit, axis=1)[:, None] * unit)
+        if not self.cfg.drilling_spring:
+            w = w - np.sum(w * unit, axis=1)[:, None] * unit
+        self.state.omega.from_numpy(w)
         dt = initial_dt(pts, quads, self.model.velocity0, self.cfg)
-        for f in (self.state.dt, self.state.dt_stable, self.state.dt_first):
+        for f in (self.state.dt, self.state.dt_stable, self.state.dt_first, self.state.dt_previous):
             f[None] = dt
         self.state.dt_next[None] = DT_UNSET
 

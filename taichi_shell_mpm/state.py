@@ -26,7 +26,7 @@ class State:
     (StepConfig.grid_force) whether the grid keeps its force apart from the momentum."""
 
     def __init__(self, model: Model, transfer: str, plastic: bool, contact: bool, launch: str = "batched",
-                 grid_force: bool = True):
+                 grid_force: bool = True, drilling_spring: bool = False):
         n, m = len(model.points), len(model.quads)
         nk = len(model.zeta)
         self.n_nodes, self.n_elements, self.n_points = n, m, nk
@@ -54,11 +54,14 @@ class State:
         self.stress = ti.Vector.field(5, f64, (m, nk))    # local (sxx, syy, sxy, txz, tyz) per point
         self.hourglass_resultant = ti.Vector.field(5, f64, m)   # Q = (QMx, QMy, QW, QBx, QBy), local
         self.plastic_strain = ti.field(f64, (m, nk)) if plastic else None   # equivalent plastic strain
+        # corner moments M_a of the drilling spring about e3 (stages/shell.py), penalty drilling only
+        self.drilling_moment = ti.Vector.field(4, f64, m) if drilling_spring else None
         # --- scalar step state
         self.dt = ti.field(f64, ())
         self.dt_next = ti.field(f64, ())
         self.dt_first = ti.field(f64, ())
         self.dt_stable = ti.field(f64, ())               # last stable dt before clipping to time_limit
+        self.dt_previous = ti.field(f64, ())             # dt of the last step taken (timestep.impulse_time)
         self.time = ti.field(f64, ())
         self.step = ti.field(ti.i64, ())
         self.load_factor = ti.field(f64, ())

@@ -136,17 +136,20 @@ def test_transverse_hourglass_leaves_kirchhoff_bending_and_twist_alone(tmp_path,
     assert abs(qh_k[2] - qh_b[2]) < 1e-9 * abs(qh_b[2])
 
 
-@pytest.mark.parametrize("kirchhoff_w", [True, False], ids=["kirchhoff", "bt"])
-def test_hourglass_loads_are_the_transpose_of_the_rates(kirchhoff_w):
-    """Power identity of the hourglass part (method.md 3.6, 4): for any resultant Q and any
-    nodal rates, sum_a (f_a . v_a + m_a . theta_a) = Q . q, on a distorted, warped quad."""
+@pytest.mark.parametrize("part", ["kirchhoff", "bt", "drilling"])
+def test_artificial_loads_are_the_transpose_of_the_rates(part):
+    """Power identity of the hourglass part (method.md 3.6, 4; w_hourglass "kirchhoff" or "bt")
+    and of the drilling spring (stages/drilling.py): for any resultant Q and any nodal rates,
+    sum_a (f_a . v_a + m_a . theta_a) = Q . q, on a distorted, warped quad."""
     import taichi as ti
 
     from taichi_shell_mpm.simulation import init_taichi
+    from taichi_shell_mpm.stages.drilling import DrillingSpring
     from taichi_shell_mpm.stages.hourglass import Hourglass
     from taichi_shell_mpm.stages.shell import gradient_operators
     init_taichi("cpu")
-    hourglass = Hourglass(E, E / (2 * (1 + NU)), T, 5.0 / 6.0, 0.05, kirchhoff_w)
+    hourglass = Hourglass(E, E / (2 * (1 + NU)), T, 5.0 / 6.0, 0.05, part == "kirchhoff")
+    drilling = DrillingSpring(E, T, 1.0)
     rng = np.random.default_rng(7)
     xh, yh, zh = (WARPED - WARPED.mean(axis=0)).T
     v, w, q = rng.normal(size=(4, 3)), rng.normal(size=(4, 3)), rng.normal(size=5)
@@ -171,8 +174,15 @@ def test_hourglass_loads_are_the_transpose_of_the_rates(kirchhoff_w):
         zw = hourglass.warp_height(zh)
         moments = hourglass.quadratic_moments(gam, xh, yh)
         curvature_rate = ti.Vector([b1.dot(ty), -b2.dot(tx), b2.dot(ty) - b1.dot(tx)])
-        out[0] = q.dot(hourglass.rates(gam, zw, vx, vy, vz, tx, ty, moments, curvature_rate))
-        f, m = hourglass.nodal_loads(gam, zw, q, moments, b1, b2)
+        f = ti.Matrix.zero(ti.f64, 4, 3)
+        m = ti.Matrix.zero(ti.f64, 4, 3)
+        if ti.static(part == "drilling"):
+            corner_moments = ti.Vector([q[0], q[1], q[2], q[3]])
+            out[0] = corner_moments.dot(drilling.rates(b1, b2, vx, vy, tz))
+            f, m = drilling.nodal_loads(corner_moments, b1, b2)
+        else:
+            out[0] = q.dot(hourglass.rates(gam, zw, vx, vy, vz, tx, ty, moments, curvature_rate))
+            f, m = hourglass.nodal_loads(gam, zw, q, moments, b1, b2)
         out[1] = (f[:, 0] * vx + f[:, 1] * vy + f[:, 2] * vz + m[:, 0] * tx + m[:, 1] * ty + m[:, 2] * tz).sum()
 
     power()

@@ -11,6 +11,7 @@ import numpy as np
 from ..checkpoint import RunControl
 from ..progress import relative_balance
 from ..simulation import Simulation
+from ..stages.timestep import landing_step
 from .static import batch_size
 
 
@@ -46,7 +47,7 @@ def run_dynamic(sim: Simulation, control: RunControl | None = None) -> dict:
             target = events[i]
             if not started:
                 s.time_limit[None] = target
-                s.dt[None] = min(s.dt_stable[None], target - s.time[None])
+                s.dt[None] = landing_step(target - s.time[None], s.dt_stable[None])
                 started = True
             while s.dt[None] > 0.0:
                 sim.total_steps += stepper.advance(chunk)

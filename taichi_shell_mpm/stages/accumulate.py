@@ -57,17 +57,19 @@ class CornerLoads:
     own, and :meth:`gather` sums them at each node in ascending element order -- the order
     of the serial adds, so both give the same bits, and no atomics are needed."""
 
-    def __init__(self, state, serial: bool):
+    def __init__(self, state, serial: bool, normals: bool):
         self.s = state
         self.serial = serial
+        self.normals = normals          # the drilling projection needs the nodal normals
 
     @ti.func
     def add(self, e, a, node, force, moment, normal, area):
         if ti.static(self.serial):
             self.s.force_int[node] = self.s.force_int[node] + force
             self.s.moment_int[node] = self.s.moment_int[node] + moment
-            self.s.normal_sum[node] = self.s.normal_sum[node] + normal
-            self.s.area_sum[node] = self.s.area_sum[node] + area
+            if ti.static(self.normals):
+                self.s.normal_sum[node] = self.s.normal_sum[node] + normal
+                self.s.area_sum[node] = self.s.area_sum[node] + area
         else:
             self.s.corner_loads[e, a] = ti.Vector([force[0], force[1], force[2], moment[0], moment[1], moment[2],
                                                    normal[0], normal[1], normal[2], area])

@@ -10,6 +10,7 @@ booked as wall energy, and a moving wall's impulse goes back to its rigid body.
 import taichi as ti
 
 from .accumulate import Accumulator
+from .timestep import impulse_time
 
 
 @ti.data_oriented
@@ -37,7 +38,7 @@ class RigidBodies:
                 force += f.dot(d)
             self.s.body_force[b] = force
             self.s.body_velocity[b] = self.s.velocity_keep[None] * self.s.body_velocity[b] + \
-                self.s.restart_factor[None] * self.s.dt[None] * force / body[0]
+                impulse_time(self.s) * force / body[0]
             self.s.body_displacement[b] += self.s.dt[None] * self.s.body_velocity[b]
 
     @ti.func

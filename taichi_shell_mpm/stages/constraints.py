@@ -9,6 +9,7 @@ import taichi as ti
 
 from ..state import STATUS_NONFINITE, State
 from .accumulate import Accumulator
+from .timestep import impulse_time
 
 FIXED_TRANSLATION = 0b000111
 
@@ -40,10 +41,15 @@ class NodeUpdate:
 
     @ti.func
     def drill_normal(self, c):
-        """Unit nodal normal and whether the drilling projection applies (not at kinks)."""
-        n = self.s.normal_sum[c]
-        ok = n.norm() >= 0.5 * self.s.area_sum[c]
-        return n.normalized(1e-300), ok
+        """Unit nodal normal and whether the drilling projection applies (not at kinks; never
+        with the drilling spring of stages/drilling.py, which keeps the drilling rotation)."""
+        n = ti.Vector([0.0, 0.0, 1.0])
+        ok = False
+        if ti.static(not self.cfg.drilling_spring):
+            total = self.s.normal_sum[c]
+            ok = total.norm() >= 0.5 * self.s.area_sum[c]
+            n = total.normalized(1e-300)
+        return n, ok
 
     @ti.func
     def residual_force(self, c):
@@ -71,7 +77,7 @@ class NodeUpdate:
     @ti.func
     def velocity_gain(self, mass):
         """dv = gain * F: the central-difference dt/m, plus FIRE's mixing term in a static solve."""
-        gain = self.s.restart_factor[None] * self.s.dt[None] / mass
+        gain = impulse_time(self.s) / mass
         if ti.static(self.cfg.fire):
             gain += self.s.fire_mix[None] / mass
         return gain

@@ -17,6 +17,7 @@ instead of 7, the same v+ up to rounding; P2G + G2P + clear of the tube at 10.75
 import taichi as ti
 
 from ..state import State
+from .timestep import impulse_time
 
 
 @ti.data_oriented
@@ -57,7 +58,7 @@ class GridUpdate:
     @ti.func
     def impulse_factor(self):
         """dt of v+ = v- + dt f/m, halved on a central-difference restart from rest."""
-        return self.s.restart_factor[None] * self.s.dt[None]
+        return impulse_time(self.s)
 
     @ti.func
     def corner_node(self, cell, i: ti.template(), j: ti.template(), k: ti.template()):

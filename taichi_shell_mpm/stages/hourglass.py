@@ -3,7 +3,8 @@
 All quantities are in the element's corotational frame.  gamma uses the LS-DYNA/BLT
 normalisation (no 1/4) and the coefficients r scale the *elastic* E and G [choice].
 
-Transverse (w) mode, option ``[element].w_hourglass = "kirchhoff"`` (issue 4; default "bt").
+Transverse (w) mode, ``[element].w_hourglass = "kirchhoff"`` (issue 4; the default; "bt" is
+the paper's rate).
 The paper's rate q_W = sum gamma_a w_a is not zero for a smooth bending field: on a
 quad whose corners are not a rectangle's, the bilinear content of a quadratic w (a twist
 w_xy x y, or w_xx x^2 on a trapezoid) is seen as hourglassing, so the element resists
@@ -22,8 +23,8 @@ which is zero for any quadratic Kirchhoff field and unchanged for the spurious m
 0.0931 / 0.0942; the "bt" deficit stayed at 1 % from 16x16 to 32x32 and vanished as
 r_w -> 0 (r_m or r_theta -> 0 changed nothing); with "kirchhoff" 0.0932 / 0.0943.
 Nonlinear, 16x16 fem, mean / max error vs Sze: d_out 2.10 / 2.29 -> 1.83 / 2.06 %, d_in
-2.60 / 3.18 -> 2.19 / 2.98 %.  ``"bt"`` (the paper's rate) stays the default until the
-benchmark rows are regenerated with it.
+2.60 / 3.18 -> 2.19 / 2.98 % (both with the drilling projection; with the drilling spring
+of stages/drilling.py 0.43 / 0.69 -> 0.16 / 0.60 % and 0.73 / 0.84 -> 0.23 / 0.64 %).
 """
 
 import taichi as ti

@@ -2,8 +2,9 @@
 
 One-point in-plane integration in the corotational frame, through-thickness points for
 the stress, transverse shear with shear factor kappa on the resultants, hourglass
-control (:mod:`.hourglass`).  The same pass accumulates the element energies
-(method.md 8), the nodal normals used by the drilling projection (2.3) and the
+control (:mod:`.hourglass`) and the drilling spring (:mod:`.drilling`; or, with
+``drilling = "projection"``, the nodal normals of the paper's drilling projection,
+method.md 2.3).  The same pass accumulates the element energies (method.md 8) and the
 element time-step limit (section 5).
 """
 
@@ -11,6 +12,7 @@ import taichi as ti
 
 from ..state import STATUS_INVERTED, STATUS_OK, State
 from .accumulate import Accumulator, CornerLoads
+from .drilling import DrillingSpring
 from .hourglass import Hourglass
 
 
@@ -83,9 +85,10 @@ class ShellElement:
         self.material = material
         self.hourglass = Hourglass(cfg.E, cfg.shear_modulus, cfg.thickness, cfg.shear_factor, cfg.hourglass,
                                    cfg.kirchhoff_w_hourglass)
+        self.drilling = DrillingSpring(cfg.E, cfg.thickness, cfg.drilling_stiffness)
         self.points = tuple(zip(self.cfg.zeta, self.cfg.zeta_weight))
         self.acc = Accumulator(cfg.serial)
-        self.loads = CornerLoads(state, cfg.serial)
+        self.loads = CornerLoads(state, cfg.serial, normals=not cfg.drilling_spring)
 
     @ti.func
     def gather(self, c):
@@ -122,7 +125,7 @@ class ShellElement:
         vl = v @ rot_m.transpose()                # v^_a = R v~_a
         wl = w @ rot_m.transpose()                # theta^_a = R omega_a
         vx, vy, vz = column(vl, 0), column(vl, 1), column(vl, 2)
-        tx, ty = column(wl, 0), column(wl, 1)
+        tx, ty, tz = column(wl, 0), column(wl, 1), column(wl, 2)
         area_m, g1, g2 = gradient_operators(xm, ym)
         membrane_rate = ti.Vector([g1.dot(vx), g2.dot(vy), g2.dot(vx) + g1.dot(vy)])
         curvature_rate = ti.Vector([g1.dot(ty), -g2.dot(tx), g2.dot(ty) - g1.dot(tx)])
@@ -188,6 +191,16 @@ class ShellElement:
         fh, mh = self.hourglass.nodal_loads(gam, zw, q_new, self.hourglass.quadratic_moments(gam, xh, yh), b1, b2)
         f += fh
         m += mh
+        artificial_power = 0.5 * (q_old + q_new).dot(q_rate)
+        if ti.static(self.cfg.drilling_spring):      # stages/drilling.py
+            drill_rate = self.drilling.rates(g1, g2, vx, vy, tz)
+            drill_old = self.s.drilling_moment[e]
+            drill_new = drill_old + dt * self.drilling.stiffness(area, beta) * drill_rate
+            self.s.drilling_moment[e] = drill_new
+            fd, md = self.drilling.nodal_loads(drill_new, b1, b2)
+            f += fd
+            m += md
+            artificial_power += 0.5 * (drill_old + drill_new).dot(drill_rate)
         # --- to global (paper eq 37) and scatter
         fg = f @ rot
         mg = m @ rot
@@ -196,7 +209,7 @@ class ShellElement:
             self.loads.add(e, a, c[a], ti.Vector([fg[a, 0], fg[a, 1], fg[a, 2]]), ti.Vector([mg[a, 0], mg[a, 1], mg[a, 2]]),
                            area * e3, area)
         self.acc.total(self.s.internal_energy, dt * area_m * 0.5 * t * power)
-        self.acc.total(self.s.hourglass_energy, dt * 0.5 * (q_old + q_new).dot(q_rate))
+        self.acc.total(self.s.hourglass_energy, dt * artificial_power)
         if ti.static(self.material.plastic):
             self.acc.total(self.s.plastic_work, area_m * 0.5 * t * plastic_work)
         # --- element time-step limit (method.md 5): L_e = A / longest diagonal
