@@ -161,7 +161,7 @@ class ElementOptions:
     """Rotation about the shell normal: "projection" removes it at every node (method.md 2.3,
     the paper's; bends a curved mesh under rigid rotation); "penalty" keeps it as a degree
     of freedom tied to each element's in-plane spin by a drilling spring (stages/drilling.py)."""
-    drilling_stiffness: float = 1.0
+    drilling_stiffness: float = 0.1
     """alpha of the drilling spring k = alpha D A beta / 4: 1 = the bending stiffness one
     corner rotation meets (stages/drilling.py)."""
 
