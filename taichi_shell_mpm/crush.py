@@ -101,7 +101,7 @@ def crush_summary(sim) -> dict:
     mean, covered = mean_force(crush, np.abs(support))
     cols = ["key", *sim_energy_columns()]
     e = {name: energy[:, i] for i, name in enumerate(cols)}
-    absorbed = e["internal"] + e["hourglass"] + e["contact"] + e["wall"]
+    absorbed = e["internal"] + e["hourglass"] + e["drilling"] + e["contact"] + e["wall"]
     late = (energy[:, 0] >= 0.5) & (absorbed > 0)
     balance = np.abs(e["balance_error"][late]) / absorbed[late] if late.any() else np.array([np.nan])
     folds = fold_geometry(sim.model.points, sim.state.position.to_numpy(), sim.cfg.thickness)
@@ -116,6 +116,7 @@ def crush_summary(sim) -> dict:
         "half_wavelength_over_15.1mm": folds["half_wavelength"] / 15.1 if folds["half_wavelength"] else None,
         "energy_balance_error_max": float(balance.max()),
         "hourglass_over_internal": float(e["hourglass"][-1] / final_internal) if final_internal > 0 else None,
+        "drilling_over_internal": float(e["drilling"][-1] / final_internal) if final_internal > 0 else None,
         "absorbed_energy": float(absorbed[-1]),
         "max_penetration_over_thickness": float(s.max_penetration[None]) if s.contact else None,
         "ram_velocity_final": float(s.body_velocity[0]) if nb else None,

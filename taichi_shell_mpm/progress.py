@@ -47,7 +47,7 @@ def relative_balance(energies: dict, initial_kinetic: float) -> float:
     """|energy balance error| over the largest energy in play (external work, initial
     kinetic energy, stored energy)."""
     scale = max(abs(energies["external_work"]), initial_kinetic,
-                abs(energies["internal"]) + abs(energies["hourglass"]), 1e-300)
+                abs(energies["internal"]) + abs(energies["hourglass"]) + abs(energies.get("drilling", 0.0)), 1e-300)
     return abs(energies["balance_error"]) / scale
 
 
@@ -163,7 +163,8 @@ def summary_rows(summary: dict) -> list[tuple[str, str]]:
     rows.append(("us / element-step", _num(summary.get("us_per_element_step"), ".3f")))
     e = summary.get("energies") or {}
     for key, label in (("kinetic", "kinetic energy"), ("internal", "internal energy"),
-                       ("hourglass", "hourglass energy"), ("external_work", "external work"),
+                       ("hourglass", "hourglass energy"), ("drilling", "drilling energy"),
+                       ("external_work", "external work"),
                        ("damped", "damped energy"), ("balance_error", "balance error")):
         if key in e and (key not in ("damped",) or e[key]):
             rows.append((label, _num(e[key])))

@@ -34,7 +34,7 @@ ARCHS = {"cpu": "cpu", "cuda": "cuda", "vulkan": "vulkan"}
 
 
 ENERGY_COLUMNS = ("kinetic", "internal", "hourglass", "external_work", "damped", "wall", "contact",
-                  "plastic_work", "balance_error")
+                  "plastic_work", "drilling", "balance_error")
 
 
 class SimulationError(Exception):
@@ -169,8 +169,9 @@ class Simulation:
         e = {"kinetic": self.kinetic_energy(), "internal": s.internal_energy[None],
              "hourglass": s.hourglass_energy[None], "external_work": s.external_work[None],
              "damped": s.damped_energy[None], "plastic_work": s.plastic_work[None],
-             "wall": s.wall_energy[None], "contact": s.contact_energy[None] if s.contact else 0.0}
-        e["balance_error"] = (e["kinetic"] + e["internal"] + e["hourglass"] + e["damped"] + e["wall"]
+             "wall": s.wall_energy[None], "contact": s.contact_energy[None] if s.contact else 0.0,
+             "drilling": s.drilling_energy[None]}
+        e["balance_error"] = (e["kinetic"] + e["internal"] + e["hourglass"] + e["drilling"] + e["damped"] + e["wall"]
                               + e["contact"] - self.initial_kinetic - e["external_work"])
         return e
 

@@ -79,6 +79,7 @@ class State:
         self.kinetic_prev = ti.field(f64, ())
         self.internal_energy = ti.field(f64, ())
         self.hourglass_energy = ti.field(f64, ())
+        self.drilling_energy = ti.field(f64, ())         # stored in the drilling springs (stages/drilling.py)
         self.plastic_work = ti.field(f64, ())            # plastic dissipation (part of internal_energy)
         self.external_work = ti.field(f64, ())
         self.damped_energy = ti.field(f64, ())

@@ -191,7 +191,6 @@ class ShellElement:
         fh, mh = self.hourglass.nodal_loads(gam, zw, q_new, self.hourglass.quadratic_moments(gam, xh, yh), b1, b2)
         f += fh
         m += mh
-        artificial_power = 0.5 * (q_old + q_new).dot(q_rate)
         if ti.static(self.cfg.drilling_spring):      # stages/drilling.py
             drill_rate = self.drilling.rates(g1, g2, vx, vy, tz)
             drill_old = self.s.drilling_moment[e]
@@ -200,7 +199,7 @@ class ShellElement:
             fd, md = self.drilling.nodal_loads(drill_new, b1, b2)
             f += fd
             m += md
-            artificial_power += 0.5 * (drill_old + drill_new).dot(drill_rate)
+            self.acc.total(self.s.drilling_energy, dt * 0.5 * (drill_old + drill_new).dot(drill_rate))
         # --- to global (paper eq 37) and scatter
         fg = f @ rot
         mg = m @ rot
@@ -209,7 +208,7 @@ class ShellElement:
             self.loads.add(e, a, c[a], ti.Vector([fg[a, 0], fg[a, 1], fg[a, 2]]), ti.Vector([mg[a, 0], mg[a, 1], mg[a, 2]]),
                            area * e3, area)
         self.acc.total(self.s.internal_energy, dt * area_m * 0.5 * t * power)
-        self.acc.total(self.s.hourglass_energy, dt * artificial_power)
+        self.acc.total(self.s.hourglass_energy, dt * 0.5 * (q_old + q_new).dot(q_rate))
         if ti.static(self.material.plastic):
             self.acc.total(self.s.plastic_work, area_m * 0.5 * t * plastic_work)
         # --- element time-step limit (method.md 5): L_e = A / longest diagonal
