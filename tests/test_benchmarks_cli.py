@@ -19,7 +19,7 @@ import pytest
 
 from .conftest import ROOT
 
-BOUNDS = {"cantilever": (0.010, 0.020), "hemisphere": (0.030, 0.040)}    # mean, max
+BOUNDS = {"cantilever": (0.010, 0.020), "hemisphere": (0.005, 0.010)}    # mean, max (measured 16x16: 0.16-0.23 % / 0.61-0.65 %)
 RUNS = [(scene, method) for scene in ("hemisphere", "cantilever") for method in ("mpm", "fem")]
 KINETIC = ("cantilever", "fem", "kinetic")     # the default FIRE relaxation against plain kinetic damping
 
