@@ -151,7 +151,7 @@ class Simulation:
             w = w - np.sum(w * unit, axis=1)[:, None] * unit
         self.state.omega.from_numpy(w)
         dt = initial_dt(pts, quads, self.model.velocity0, self.cfg)
-        for f in (self.state.dt, self.state.dt_stable, self.state.dt_first, self.state.dt_previous):
+        for f in (self.state.dt, self.state.dt_stable, self.state.dt_first):
             f[None] = dt
         self.state.dt_next[None] = DT_UNSET
 

@@ -61,7 +61,6 @@ class State:
         self.dt_next = ti.field(f64, ())
         self.dt_first = ti.field(f64, ())
         self.dt_stable = ti.field(f64, ())               # last stable dt before clipping to time_limit
-        self.dt_previous = ti.field(f64, ())             # dt of the last step taken (timestep.impulse_time)
         self.time = ti.field(f64, ())
         self.step = ti.field(ti.i64, ())
         self.load_factor = ti.field(f64, ())

@@ -35,12 +35,13 @@ def landing_step(remaining: float, dt_stable: float) -> float:
 
 @ti.func
 def impulse_time(s):
-    """dt of the velocity kick v^(n+1/2) = v^(n-1/2) + dt a^n: the central difference's
-    (dt^(n-1/2) + dt^(n+1/2)) / 2 (Belytschko et al., Box 6.1), halved on a restart from rest.
-    [choice, issue 4] Was dt^(n+1/2) alone: every landing on an output time (the tube:
-    every 0.01 ms, 3/4 dt for two steps) then gave a non-symplectic kick that pumped a
-    shell's rotational modes (2.6 J per 0.1 ms in the 5 mm tube with the drilling spring)."""
-    return s.restart_factor[None] * 0.5 * (s.dt_previous[None] + s.dt[None])
+    """dt of the velocity kick v^(n+1/2) = v^(n-1/2) + dt a^n: dt^(n+1/2), halved on a
+    restart from rest.  The equal landing steps (next_step) keep dt constant between
+    outputs, so this equals the textbook (dt^(n-1/2) + dt^(n+1/2)) / 2 wherever outputs
+    are dense; that average was tried (issue 4) and dropped: where dt shrinks fast (an
+    element collapsing) its longer kick let a node run away before the time-step guard
+    fired (tests/test_reliability.py, dt_collapse)."""
+    return s.restart_factor[None] * s.dt[None]
 
 
 @ti.data_oriented
@@ -64,7 +65,6 @@ class TimeStep:
             self.s.status[None] = STATUS_DT_COLLAPSE
             self.s.status_index[None] = -1   # the limiting element is found on the host (Simulation.check_status)
         self.s.dt_stable[None] = dt
-        self.s.dt_previous[None] = self.s.dt[None]
         remaining = self.s.time_limit[None] - self.s.time[None]
         if remaining < LANDING_STEPS * dt:   # equal steps that land on the output time
             dt = remaining / ti.ceil(remaining / dt - 1e-9) if remaining > 1e-9 * dt else 0.0
