@@ -15,26 +15,30 @@ What.  Each node keeps its full angular velocity; each element ties its corners'
 rate about its own normal e3 to its in-plane spin Omega = 1/2 (dv_y/dx - dv_x/dy) by a
 rotational spring (Hughes & Brezzi 1989, penalty form), in the element's corotational frame:
 
-    M_a' = k (theta_z,a - Omega),      k = alpha D A beta / (4 (1 + beta t^2 / 12)),   D = E t^3 / 12,
+    M_a' = k (theta_z,a - Omega),   k = alpha D A beta / (4 (1 + beta t^2 / 12)),   D = E t^3 / 12,
 
 beta = B1.B1 + B2.B2, so that alpha = 1 is the bending stiffness one corner rotation meets
 [choice]: scaled to bending (not to G t A) the spring never sets the time step, with scaled
-or physical rotary inertia.  The factor 1 / (1 + beta t^2 / 12) (1.007 for the 5 mm tube)
-caps k at alpha E t A / 4 on an element crushed to a width ~ t: through Omega the spring
-also stiffens the corners' in-plane translations by ~ k beta, which grows like 1 / width^3
-against the membrane's 1 / width and made a collapsing element run away before the
-time-step guard could stop it (tests/test_reliability.py, dt_collapse).  alpha = 0.1 (``[element].drilling_stiffness``): the spring is
-artificial stiffness, and at alpha = 1 it held 8-10 % of the 5 mm tube's internal energy
-in the first folds (hourglass + spring 20 % of E_int at 1.3 ms, hourglass alone 11 % with
-the projection; alpha = 0.1: hourglass + spring 12 %); the hemisphere (16x16, fem, w_hourglass "bt") gave
-0.28 / 0.51 % mean error at alpha = 0.1, 0.43 / 0.73 % at 1, 0.55 / 0.91 % at 10.  Its conjugate loads are the corner moments M_a about e3 and
+or physical rotary inertia.  Its conjugate loads are the corner moments M_a about e3 and
 the in-plane forces -+ 1/2 B sum M (the transpose of Omega), so the element's power
 identity sum f.v + m.theta = sum M (theta_z - Omega) holds exactly; the spring's energy is
 reported on its own (``drilling`` in energy.csv and the summary), apart from the hourglass
-energy and its limits.  A rigid motion gives theta_z = Omega = q . e3
-at every corner of every element: zero rate, whatever the curvature; at a fold between
-elements the springs of both sides fix two components of the nodal rotation and leave the
-fold's own rotation free.
+energy and its limits.  A rigid motion gives theta_z = Omega = q . e3 at every corner of
+every element: zero rate, whatever the curvature; at a fold between elements the springs
+of both sides fix two components of the nodal rotation and leave the fold's own rotation
+free.
+
+The factor 1 / (1 + beta t^2 / 12) (1.007 for the 5 mm tube) caps k at alpha E t A / 4 on
+an element crushed to a width ~ t: through Omega the spring also stiffens the corners'
+in-plane translations by ~ k beta, which grows like 1 / width^3 against the membrane's
+1 / width and made a collapsing element run away before the time-step guard could stop it
+(tests/test_reliability.py, dt_collapse).
+
+alpha = 0.1 (``[element].drilling_stiffness``): the spring is artificial stiffness, and at
+alpha = 1 it held 8-10 % of the 5 mm tube's internal energy in the first folds (hourglass
++ spring 20 % of E_int at 1.3 ms, hourglass alone 11 % with the projection; alpha = 0.1:
+hourglass + spring 12 %); the hemisphere (16x16, fem, w_hourglass "bt") gave 0.28 / 0.51 %
+mean error at alpha = 0.1, 0.43 / 0.73 % at 1, 0.55 / 0.91 % at 10.
 """
 
 import taichi as ti

@@ -52,13 +52,8 @@ class GridUpdate:
             v_minus = inv_mass * p
             v_plus = v_minus
             if ti.static(self.cfg.grid_force):
-                v_plus += (self.impulse_factor() * inv_mass) * f
+                v_plus += (impulse_time(self.s) * inv_mass) * f
         return v_minus, v_plus, f, inv_mass
-
-    @ti.func
-    def impulse_factor(self):
-        """dt of v+ = v- + dt f/m, halved on a central-difference restart from rest."""
-        return impulse_time(self.s)
 
     @ti.func
     def corner_node(self, cell, i: ti.template(), j: ti.template(), k: ti.template()):

@@ -24,6 +24,7 @@ from ..state import STATUS_LEFT_GRID, State
 from .accumulate import Accumulator
 from .constraints import NodeUpdate
 from .grid import GridUpdate
+from .timestep import impulse_time
 
 
 @ti.data_oriented
@@ -140,7 +141,7 @@ class Mapping:
             vel -= affine_h @ frac
         momentum = mass * vel
         if ti.static(not self.cfg.grid_force):
-            momentum += self.grid.impulse_factor() * force      # p + dt f (stages/grid.py)
+            momentum += impulse_time(self.s) * force      # p + dt f (stages/timestep.py)
         affine_m = mass * affine_h
         for i, j, k in ti.static(ti.ndrange(2, 2, 2)):
             n, _ = self.weight(w, i, j, k)
