@@ -25,6 +25,8 @@ VARIANTS = [
     ("PIC instead of APIC", ["method.transfer=pic"]),
     ("elastic instead of J2", ["material.model=elastic"]),
     ("3 instead of 5 points", ["section.points=3"]),
+    ("drilling projection instead of spring", ["element.drilling=projection"]),
+    ("bt w-hourglass instead of kirchhoff", ["element.w_hourglass=bt"]),
     ("fem (no grid)", ["method.kind=fem"]),
     ("fem, batched (1 core)", ["method.kind=fem", "batched"]),
 ]
