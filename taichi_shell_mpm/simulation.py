@@ -134,20 +134,21 @@ class Simulation:
 
     # ------------------------------------------------------------------ set-up helpers
     def _initial_geometry(self) -> None:
-        """State before the first step: nodal normals (sum A e3 for the drilling projection,
-        method.md 2.3), initial omega without its drilling part, and the first stable dt."""
+        """State before the first step: for the drilling projection (method.md 2.3) the nodal
+        normals (sum A e3) and the initial omega without its drilling part; the first
+        stable dt."""
         pts, quads = self.model.points, self.model.quads
-        x = pts[quads]
-        element_normal = 0.5 * np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])     # A e3
-        normal = np.zeros_like(pts)
-        area = np.zeros(len(pts))
-        np.add.at(normal, quads, np.repeat(element_normal[:, None, :], 4, axis=1))
-        np.add.at(area, quads, np.repeat(np.linalg.norm(element_normal, axis=1)[:, None], 4, axis=1))
-        self.state.normal_sum.from_numpy(normal)
-        self.state.area_sum.from_numpy(area)
-        unit = normal / np.maximum(np.linalg.norm(normal, axis=1), 1e-300)[:, None]
         w = self.model.omega0
         if not self.cfg.drilling_spring:
+            x = pts[quads]
+            element_normal = 0.5 * np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])     # A e3
+            normal = np.zeros_like(pts)
+            area = np.zeros(len(pts))
+            np.add.at(normal, quads, np.repeat(element_normal[:, None, :], 4, axis=1))
+            np.add.at(area, quads, np.repeat(np.linalg.norm(element_normal, axis=1)[:, None], 4, axis=1))
+            self.state.normal_sum.from_numpy(normal)
+            self.state.area_sum.from_numpy(area)
+            unit = normal / np.maximum(np.linalg.norm(normal, axis=1), 1e-300)[:, None]
             w = w - np.sum(w * unit, axis=1)[:, None] * unit
         self.state.omega.from_numpy(w)
         dt = initial_dt(pts, quads, self.model.velocity0, self.cfg)

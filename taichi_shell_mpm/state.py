@@ -132,10 +132,11 @@ class State:
             self.element_slot = ti.field(ti.i32, m)
             self.element_radius = ti.field(f64, m)
         # --- element loads gathered at the nodes (parallel launches, stages/accumulate.py):
-        # each element writes its four corners' (force, moment, A e3, A) to its own slots
+        # each element writes its four corners' (force, moment[, A e3, A]) to its own slots;
+        # the normal sums only for the drilling projection (no drilling spring)
         self.gather_loads = launch != "batched"
         if self.gather_loads:
-            self.corner_loads = ti.Vector.field(10, f64, (m, 4))
+            self.corner_loads = ti.Vector.field(6 if drilling_spring else 10, f64, (m, 4))
             self.node_slot_start = ti.field(ti.i32, n + 1)        # CSR node -> 4 e + a, e ascending
             self.node_slots = ti.field(ti.i32, 4 * m)
         # --- background grid (mpm only), flattened; only the nodes around shell nodes are

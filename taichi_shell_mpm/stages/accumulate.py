@@ -49,8 +49,8 @@ class Accumulator:
 
 @ti.data_oriented
 class CornerLoads:
-    """Element -> node loads of the shell stage: resisting force, moment, and the A e3 and A
-    sums of the nodal normal (method.md 2.3).
+    """Element -> node loads of the shell stage: resisting force, moment, and (only for the
+    drilling projection, ``normals``) the A e3 and A sums of the nodal normal (method.md 2.3).
 
     Batched (serial) launch: plain adds into the node fields, which the node update zeroes
     after use.  Parallel launches: each element writes its corners' loads to slots of its
@@ -70,20 +70,23 @@ class CornerLoads:
             if ti.static(self.normals):
                 self.s.normal_sum[node] = self.s.normal_sum[node] + normal
                 self.s.area_sum[node] = self.s.area_sum[node] + area
-        else:
+        elif ti.static(self.normals):
             self.s.corner_loads[e, a] = ti.Vector([force[0], force[1], force[2], moment[0], moment[1], moment[2],
                                                    normal[0], normal[1], normal[2], area])
+        else:
+            self.s.corner_loads[e, a] = ti.Vector([force[0], force[1], force[2], moment[0], moment[1], moment[2]])
 
     @ti.func
     def gather(self):
         """Parallel launches: the node sums of the slots written by :meth:`add` (one loop)."""
         if ti.static(not self.serial):
             for c in range(self.s.n_nodes):
-                total = ti.Vector.zero(ti.f64, 10)
+                total = ti.Vector.zero(ti.f64, ti.static(10 if self.normals else 6))
                 for i in range(self.s.node_slot_start[c], self.s.node_slot_start[c + 1]):
                     slot = self.s.node_slots[i]
                     total += self.s.corner_loads[slot // 4, slot % 4]
                 self.s.force_int[c] = ti.Vector([total[0], total[1], total[2]])
                 self.s.moment_int[c] = ti.Vector([total[3], total[4], total[5]])
-                self.s.normal_sum[c] = ti.Vector([total[6], total[7], total[8]])
-                self.s.area_sum[c] = total[9]
+                if ti.static(self.normals):
+                    self.s.normal_sum[c] = ti.Vector([total[6], total[7], total[8]])
+                    self.s.area_sum[c] = total[9]

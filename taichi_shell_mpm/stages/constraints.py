@@ -134,8 +134,9 @@ class NodeUpdate:
         if ti.static(self.cfg.serial):          # parallel launches overwrite them (CornerLoads.gather)
             self.s.force_int[c] = ti.Vector([0.0, 0.0, 0.0])
             self.s.moment_int[c] = ti.Vector([0.0, 0.0, 0.0])
-            self.s.normal_sum[c] = ti.Vector([0.0, 0.0, 0.0])
-            self.s.area_sum[c] = 0.0
+            if ti.static(not self.cfg.drilling_spring):
+                self.s.normal_sum[c] = ti.Vector([0.0, 0.0, 0.0])
+                self.s.area_sum[c] = 0.0
 
     @ti.func
     def rotate_orientation(self, c, dtheta):
