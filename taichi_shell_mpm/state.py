@@ -85,7 +85,7 @@ class State:
         self.residual_sq = ti.field(f64, ())
         self.load_norm_sq = ti.field(f64, ())
         self.max_speed = ti.field(f64, ())
-        self.reaction = ti.Vector.field(3, f64, ())      # force the fixed supports exert on the shell
+        self.reaction = ti.Vector.field(3, f64, ())      # force the supports (clamped nodes, fixed walls) exert on the shell
         self.wall_energy = ti.field(f64, ())             # KE removed by (inelastic) rigid walls
         self.status = ti.field(ti.i32, ())
         self.status_index = ti.field(ti.i32, ())

@@ -5,7 +5,10 @@ A rigid body translates along one direction: its slave nodes are Lagrangian only
 M_tot V' = F (M_tot = added mass + slave node masses).  A wall keeps every free node's
 mid-surface at least half the shell thickness on the side its normal points to, by a
 velocity correction after G2P (frictionless, perfectly inelastic); the KE it removes is
-booked as wall energy, and a moving wall's impulse goes back to its rigid body.
+booked as wall energy, and a moving wall's impulse goes back to its rigid body.  A fixed
+wall is a support: the force of its correction over the step, m dv n / dt, is added to
+the support reaction (with the clamped nodes' f_int - f_ext - f_con, stages/constraints.py),
+so the crush force history sees a lobe that rests on the support plane.
 """
 import taichi as ti
 
@@ -80,6 +83,8 @@ class RigidBodies:
                         self.s.node_wall_impulse[c, w[2]] += impulse
                     else:
                         self.acc.add(self.s.body_impulse, w[2], impulse)
+                else:        # a fixed wall is a support: its force on the shell is reaction
+                    self.acc.total(self.s.reaction, (m * dv / dt) * n)
         return out
 
     @ti.func
