@@ -739,7 +739,8 @@ def write_report(path: Path, out: Path, rows: list[dict], planned: list[Case], c
     tubes = [r for r in rows if r["scene"] == "tube"]
     if tubes:
         L += ["## Square tube crush to 15 ms (a case name ending _tT: to T ms)", "",
-              "Mean force over 20–200 mm of crush (Wierzbicki–Abramowicz 7.46 kN, Abramowicz–Jones 10.22 kN); "
+              "Mean support force (clamped end and support plane) over 20–200 mm of crush "
+              "(Wierzbicki–Abramowicz 7.46 kN, Abramowicz–Jones 10.22 kN); "
               "energy balance error relative to the absorbed energy; half-wavelength expected ≈ 15.1 mm.", ""]
         L += _tube_table(tubes) + [""]
     scaling = [r for r in rows if r["scene"] == "scaling"]

@@ -4,7 +4,8 @@ half-wavelength, energy-balance and hourglass ratios, deepest contact penetratio
 Definitions (also in docs/crush.md):
 * crush distance delta(t) = minus the displacement of the first rigid body along its
   direction (the ram moves towards the support);
-* mean crush force = work of the support force over delta in [20, 200] mm / 180 mm
+* mean crush force = work of the support force (clamped nodes and fixed walls,
+  stages/bodies.py) over delta in [20, 200] mm / 180 mm
   (first peak excluded), trapezoidal in the recorded history;
 * folds: along the centre line of each flat face (reference coordinates), the lateral
   displacement w(Z) of the final state has alternating extrema (hysteresis: a new extremum
