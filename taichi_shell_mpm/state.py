@@ -45,8 +45,10 @@ class State:
         self.load_force = ti.Vector.field(3, f64, n)      # external force at load factor 1
         self.load_moment = ti.Vector.field(3, f64, n)
         self.fix_mask = ti.field(ti.i32, n)               # bits ux uy uz rx ry rz
-        self.normal_sum = ti.Vector.field(3, f64, n)      # sum_e A_e e3 (nodal normal, method.md 2.3)
-        self.area_sum = ti.field(f64, n)
+        # sum_e A_e e3 and sum_e A_e: the nodal normal of the drilling projection (method.md
+        # 2.3); nothing reads them with the drilling spring (stages/drilling.py)
+        self.normal_sum = ti.Vector.field(3, f64, n) if not drilling_spring else None
+        self.area_sum = ti.field(f64, n) if not drilling_spring else None
         self.node_body = ti.field(ti.i32, n)              # rigid body of the node, -1 = none
         self.affine = ti.Matrix.field(3, 3, f64, n) if transfer == "apic" else None   # C_c (method.md 2.2)
         # --- elements (= material points)
