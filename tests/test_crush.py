@@ -78,12 +78,12 @@ def test_contact_on_a_grid_as_coarse_as_the_elements_warns():
 
 
 def test_contact_candidate_overflow_stops_cleanly(tmp_path):
-    """A contact thickness of a third of the tube's width puts every element in every node's
+    """A contact thickness of half the tube's width puts every element in every node's
     candidate list (more than CANDIDATES_PER_NODE on average): the run stops at once with
     exit 3 and a message naming the lists, not with an out-of-bounds read."""
     from .test_reliability import cli_run
     args = ["run", str(ROOT / "scenes" / "square_tube.toml"), "--out", str(tmp_path / "out"), "--quiet"]
-    for item in [*SHORT[:5], "mesh.n_flat=2", "mesh.n_corner=1", "mesh.n_length=24", "contact.thickness=20",
+    for item in [*SHORT[:5], "mesh.n_flat=2", "mesh.n_corner=1", "mesh.n_length=24", "contact.thickness=30",
                  "solve.end_time=0.05", "output.times=[]"]:
         args += ["--set", item]
     r = cli_run(*args, timeout=600)       # one compile of its own
