@@ -122,11 +122,13 @@ def test_resume_and_case_selection(quick):
 def test_plan_names():
     full = bench.plan(quick=False, peers=False)
     names = [c.name for c in full]
-    assert len(names) == len(set(names)) == 4 * 3 + 3 * 3 + 3 + len(bench.SCALING_FLAT) + 1
+    assert len(names) == len(set(names)) == 4 * 3 + 3 * 3 + 3 + len(bench.SCALING_FLAT) + 2 * bench.EMPTY_GRID_PAIRS
     assert {"cantilever_40x4_mpm_r1", "hemisphere_32x32_fem", "tube_2.5mm_mpm", "tube_5mm_fem", "scaling_60",
-            "scaling_10_wide_grid"} <= set(names)
-    wide = next(c for c in full if c.name == "scaling_10_wide_grid")
-    assert set(bench.WIDE_GRID) <= set(wide.overrides)
+            "empty_grid_scene_1", "empty_grid_wide_3"} <= set(names)
+    grid = [c for c in full if c.scene == "empty_grid"]
+    assert [c.name.rsplit("_", 2)[1] for c in grid] == ["scene", "wide"] * bench.EMPTY_GRID_PAIRS   # interleaved
+    for scene, wide in zip(grid[::2], grid[1::2]):
+        assert set(wide.overrides) == set(scene.overrides) | set(bench.WIDE_GRID)
     quick = bench.plan(quick=True, peers=False)
     assert [c.name for c in quick] == QUICK_CASES
     with_peers = bench.plan(quick=False, peers=True)
@@ -183,3 +185,15 @@ def test_peer_case_row(tmp_path, monkeypatch):
     assert row["us_per_element_step"] == pytest.approx(1e6 * 0.5 / (100 * 5))
     assert (row["comp1"], row["comp2"]) == ("W_tip", "-U_tip") and row["rows_compared"] == 20
     assert 0.0 < row["err1_mean"] <= row["err1_max"]
+
+
+def test_empty_grid_ratios_pair_the_interleaved_runs():
+    rows = []
+    for k, (scene, wide) in enumerate([(1.0, 1.10), (2.0, 1.90), (1.5, 1.5)], start=1):
+        rows += [{"case": f"empty_grid_scene_{k}", "scene": "empty_grid", "mesh": "10/2/60", "status": "ok",
+                  "run_s": str(scene)},
+                 {"case": f"empty_grid_wide_{k}", "scene": "empty_grid", "mesh": "10/2/60 wide grid",
+                  "status": "ok" if k != 3 else "failed: x", "run_s": str(wide)}]
+    assert bench.empty_grid_ratios(rows) == pytest.approx([1.10, 0.95])      # the failed pair left out
+    text = "\n".join(bench._empty_grid_section(rows))
+    assert "1.100, 0.950; median 1.025" in text
