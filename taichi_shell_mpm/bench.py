@@ -825,9 +825,19 @@ def write_report(path: Path, out: Path, rows: list[dict], planned: list[Case], c
     write_text(path, "\n".join(L))
 
 
+def known_rows(rows: list[dict], quick: bool) -> list[dict]:
+    """The rows of cases some plan of this kind still has (with or without the peers):
+    rows of renamed or removed cases left in results.csv by an older sitting are dropped."""
+    known = {c.name for c in plan(quick, peers=True)}
+    return [r for r in rows if r["case"] in known]
+
+
 def regenerate(out: Path, report: Path, planned: list[Case], command: str, info: dict, arch: str,
                peers: bool, quick: bool) -> dict:
-    rows = read_results(out / "results.csv")
+    every = read_results(out / "results.csv")
+    rows = known_rows(every, quick)
+    if len(rows) != len(every):
+        write_results(out / "results.csv", rows)
     order = {c.name: i for i, c in enumerate(planned)}
     rows.sort(key=lambda r: (order.get(r["case"], len(order)), r["case"]))
     orders = observed_orders(rows)
@@ -925,7 +935,7 @@ def main(args: argparse.Namespace) -> int:
         for i, case in enumerate(todo, 1):
             print(f"[{i}/{len(todo)}] {case.name} ...", end=" ", flush=True)
             row = run_case(case, out, args.arch, tag)
-            rows = [r for r in read_results(results) if r["case"] != case.name] + [row]
+            rows = [r for r in known_rows(read_results(results), args.quick) if r["case"] != case.name] + [row]
             write_results(results, rows)
             ok = row["status"] == "ok"
             failures += not ok

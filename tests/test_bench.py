@@ -197,3 +197,11 @@ def test_empty_grid_ratios_pair_the_interleaved_runs():
     assert bench.empty_grid_ratios(rows) == pytest.approx([1.10, 0.95])      # the failed pair left out
     text = "\n".join(bench._empty_grid_section(rows))
     assert "1.100, 0.950; median 1.025" in text
+
+
+def test_rows_of_cases_no_plan_has_are_dropped():
+    """A case renamed or removed since an older sitting (scaling_10_wide_grid became the
+    empty_grid pairs) must not stay in the report beside the new rows."""
+    rows = [{"case": "scaling_10_wide_grid"}, {"case": "scaling_60"}, {"case": "hemisphere_16x16_kratos"}]
+    assert [r["case"] for r in bench.known_rows(rows, quick=False)] == ["scaling_60", "hemisphere_16x16_kratos"]
+    assert bench.known_rows(rows, quick=True) == []
