@@ -875,8 +875,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="directory of results.csv, plots and runs/ (default outputs/bench, "
                         "outputs/bench_quick with --quick)")
     p.add_argument("--report", type=Path, default=None,
-                   help="report file (default BENCHMARKS.md in the working directory; OUT/BENCHMARKS.md "
-                        "with --quick)")
+                   help="report file (default BENCHMARKS.md in the working directory for the study into "
+                        "the default folder or ./bench; OUT/BENCHMARKS.md with --quick or another --out)")
     p.add_argument("--resume", action="store_true", help="skip cases that already have an ok row in results.csv")
     p.add_argument("--cases", action="append", default=[], metavar="PATTERN",
                    help="run only the cases whose name matches this shell pattern (repeatable), "
@@ -902,11 +902,20 @@ def command_line(args: argparse.Namespace) -> str:
     return shlex.join(words)
 
 
+def default_report(out: Path | None, quick: bool) -> Path:
+    """The committed report (BENCHMARKS.md in the working directory) only for the full study
+    into the default folder or ./bench; anything else (--quick, a study into a scratch
+    folder) keeps its report beside its results, so it cannot overwrite the committed one."""
+    if not quick and (out is None or out.resolve() == Path("bench").resolve()):
+        return Path("BENCHMARKS.md")
+    return (out or Path("outputs") / "bench_quick") / "BENCHMARKS.md"
+
+
 def main(args: argparse.Namespace) -> int:
     peers = peers_available()
     planned = plan(args.quick, peers)
     out = args.out or Path("outputs") / ("bench_quick" if args.quick else "bench")
-    report = args.report or (out / "BENCHMARKS.md" if args.quick else Path("BENCHMARKS.md"))
+    report = args.report or default_report(args.out, args.quick)
     selected = [c for c in planned if not args.cases or any(fnmatch.fnmatchcase(c.name, pat) for pat in args.cases)]
     if args.list:
         for c in planned:
