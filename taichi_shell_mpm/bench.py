@@ -902,20 +902,24 @@ def command_line(args: argparse.Namespace) -> str:
     return shlex.join(words)
 
 
-def default_report(out: Path | None, quick: bool) -> Path:
+def default_out(quick: bool) -> Path:
+    return Path("outputs") / ("bench_quick" if quick else "bench")
+
+
+def default_report(out: Path, quick: bool) -> Path:
     """The committed report (BENCHMARKS.md in the working directory) only for the full study
     into the default folder or ./bench; anything else (--quick, a study into a scratch
     folder) keeps its report beside its results, so it cannot overwrite the committed one."""
-    if not quick and (out is None or out.resolve() == Path("bench").resolve()):
+    if not quick and out.resolve() in (default_out(False).resolve(), Path("bench").resolve()):
         return Path("BENCHMARKS.md")
-    return (out or Path("outputs") / "bench_quick") / "BENCHMARKS.md"
+    return out / "BENCHMARKS.md"
 
 
 def main(args: argparse.Namespace) -> int:
     peers = peers_available()
     planned = plan(args.quick, peers)
-    out = args.out or Path("outputs") / ("bench_quick" if args.quick else "bench")
-    report = args.report or default_report(args.out, args.quick)
+    out = args.out or default_out(args.quick)
+    report = args.report or default_report(out, args.quick)
     selected = [c for c in planned if not args.cases or any(fnmatch.fnmatchcase(c.name, pat) for pat in args.cases)]
     if args.list:
         for c in planned:
@@ -944,7 +948,7 @@ def main(args: argparse.Namespace) -> int:
         for i, case in enumerate(todo, 1):
             print(f"[{i}/{len(todo)}] {case.name} ...", end=" ", flush=True)
             row = run_case(case, out, args.arch, tag)
-            rows = [r for r in known_rows(read_results(results), args.quick) if r["case"] != case.name] + [row]
+            rows = [r for r in read_results(results) if r["case"] != case.name] + [row]
             write_results(results, rows)
             ok = row["status"] == "ok"
             failures += not ok

@@ -111,7 +111,7 @@ class State:
             # candidate (Verlet) lists, stages/contact.py: per node, the elements that can come
             # within t_c before any node moves skin/2 from where the lists were built
             self.contact_rebuild = ti.field(ti.i32, ())               # 1: rebuild at the next step
-            self.contact_skin = ti.field(f64, ())                     # s (contact.skin_width), a field: no recompile per mesh
+            self.contact_skin = ti.field(f64, ())                     # s (contact.skin_width); a field: one kernel for any s
             self.contact_build_position = ti.Vector.field(3, f64, n)  # x_c when the lists were built
             self.candidate_start = ti.field(ti.i32, n + 1)            # CSR into candidate_elements
             self.candidate_elements = ti.field(ti.i32, CANDIDATES_PER_NODE * n)

@@ -209,9 +209,9 @@ def test_rows_of_cases_no_plan_has_are_dropped():
 
 def test_only_the_study_into_its_folder_writes_the_committed_report(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    assert bench.default_report(None, quick=False) == Path("BENCHMARKS.md")
+    assert bench.default_report(bench.default_out(False), quick=False) == Path("BENCHMARKS.md")
     assert bench.default_report(Path("bench"), quick=False) == Path("BENCHMARKS.md")
     assert bench.default_report(tmp_path / "bench", quick=False) == Path("BENCHMARKS.md")
     assert bench.default_report(tmp_path / "scratch", quick=False) == tmp_path / "scratch" / "BENCHMARKS.md"
     assert bench.default_report(Path("x"), quick=True) == Path("x") / "BENCHMARKS.md"
-    assert bench.default_report(None, quick=True) == Path("outputs") / "bench_quick" / "BENCHMARKS.md"
+    assert bench.default_report(bench.default_out(True), quick=True) == Path("outputs") / "bench_quick" / "BENCHMARKS.md"

@@ -95,11 +95,9 @@ def test_skin_keeps_the_search_inside_the_excluded_ring():
     """s = 2 l_min - t_c within [0.25, 1] t_c (stages/contact.skin_width): the full t_c on
     coarse meshes, less where the elements are small against t_c."""
     from taichi_shell_mpm.stages.contact import skin_width
-    quad = np.array([[0, 1, 2, 3]])
     for edge, expected in [(5.0, 1.0), (0.8, 0.6), (0.5, 0.25), (0.1, 0.25)]:
-        points = edge * np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], dtype=float)
-        assert skin_width(1.0, points, quad) == pytest.approx(expected, rel=1e-12)
-        assert skin_width(2.0, 2.0 * points, quad) == pytest.approx(2.0 * expected, rel=1e-12)   # scales with t_c
+        assert skin_width(1.0, edge) == pytest.approx(expected, rel=1e-12)
+        assert skin_width(2.0, 2.0 * edge) == pytest.approx(2.0 * expected, rel=1e-12)   # scales with t_c
 
 
 def test_the_skin_changes_the_rebuilds_not_the_contacts(tmp_path, monkeypatch):

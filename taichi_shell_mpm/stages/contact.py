@@ -78,7 +78,7 @@ def closest_point_on_triangle(p, a, b, c):
     return bary[0] * a + bary[1] * b + bary[2] * c, bary
 
 
-def skin_width(t_c: float, points: np.ndarray, quads: np.ndarray) -> float:
+def skin_width(t_c: float, min_edge: float) -> float:
     """The candidate lists' skin s [choice, measured in the note of issue 4]: t_c, unless
     the elements are small against t_c.  A node's excluded one-ring reaches about two
     element lengths l across its own surface; while t_c + s stays inside it, the lists
@@ -89,10 +89,8 @@ def skin_width(t_c: float, points: np.ndarray, quads: np.ndarray) -> float:
     t_c) 0.61 and 0.344 us.  A small skin is no gain on coarse meshes: the 5 mm tube
     (the rule gives t_c) took 70.5 s to 15 ms with s = 0.4 t_c against 67.6 s with t_c
     (more rebuilds), with identical results."""
-    x = points[quads]
-    edges = np.linalg.norm(np.roll(x, -1, axis=1) - x, axis=2)
     low, high = SKIN_RANGE
-    return float(np.clip(2.0 * edges.min() - t_c, low * t_c, high * t_c))
+    return float(np.clip(2.0 * min_edge - t_c, low * t_c, high * t_c))
 
 
 @ti.data_oriented
@@ -104,7 +102,7 @@ class SelfContact:
         self.scatter_acc = Accumulator(not cfg.atomic_scatter)
         spec = cfg.contact
         self.t_c = cfg.contact_thickness
-        state.contact_skin[None] = skin_width(self.t_c, model.points, model.quads)
+        state.contact_skin[None] = skin_width(self.t_c, model.min_edge)
         self.alpha = spec.stiffness
         self.damping = spec.damping
         self.friction = spec.friction
@@ -140,6 +138,11 @@ class SelfContact:
         return out
 
     @ti.func
+    def reach(self):
+        """t_c + s: how close an element must be at a build to enter a node's list."""
+        return self.t_c + self.s.contact_skin[None]
+
+    @ti.func
     def check_skin(self):
         """Ask for a rebuild once some node has moved more than skin/2 since the last one."""
         for c in range(self.s.n_nodes):
@@ -164,7 +167,7 @@ class SelfContact:
                 self.s.element_radius[e] = radius
                 self.acc.maximum(self.s.hash_cell, radius)
         if rebuild:
-            self.s.hash_cell[None] += self.t_c + self.s.contact_skin[None]
+            self.s.hash_cell[None] += self.reach()
         for h in range(self.table):
             if rebuild:
                 self.s.hash_count[h] = 0
@@ -200,7 +203,7 @@ class SelfContact:
             slot = self.hash(home + off)
             for i in range(self.s.hash_start[slot], self.s.hash_start[slot + 1]):
                 e = self.s.hash_elements[i]
-                if (x - self.centroid(e)).norm() <= self.s.element_radius[e] + self.t_c + self.s.contact_skin[None]:
+                if (x - self.centroid(e)).norm() <= self.s.element_radius[e] + self.reach():
                     if not self.excluded(c, e):
                         if ti.static(store):
                             self.s.candidate_elements[self.s.candidate_start[c] + found] = e
