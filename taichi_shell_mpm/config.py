@@ -31,6 +31,7 @@ class StepConfig:
     drilling_stiffness: float   # > 0: drilling spring (stages/shell.py); 0: projection (method.md 2.3)
     wave_speed: float           # plane-stress c_e = sqrt(E / (rho (1 - nu^2)))
     dilatational_speed: float   # c_dil = sqrt((K + 4G/3) / rho), paper eq 38-40
+    rotational_frequency: float  # physical rotary inertia: sqrt(12 kappa G / rho) / t, else 0 (timestep.element_limit)
     dt_safety: float
     grid_rule: bool             # include the paper's grid rule in dt (dt_rule = "both")
     length_ref: float           # L_ref for the rotational residual (mean edge)
@@ -85,6 +86,8 @@ class StepConfig:
             drilling_stiffness=scene.element.drilling_stiffness if scene.element.drilling == "penalty" else 0.0,
             wave_speed=math.sqrt(mat.E / (mat.density * (1.0 - mat.nu ** 2))),
             dilatational_speed=math.sqrt((K + 4.0 * G / 3.0) / mat.density),
+            rotational_frequency=(math.sqrt(12.0 * sec.shear_factor * G / mat.density) / sec.thickness
+                                  if scene.solve.rotary_inertia == "physical" else 0.0),
             dt_safety=scene.solve.dt_safety,
             grid_rule=scene.solve.dt_rule == "both" and scene.method.kind == "mpm",
             length_ref=model.mean_edge, grid=model.grid,

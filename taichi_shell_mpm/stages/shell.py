@@ -14,6 +14,7 @@ from ..state import STATUS_INVERTED, STATUS_OK, State
 from .accumulate import Accumulator, CornerLoads
 from .drilling import DrillingSpring
 from .hourglass import Hourglass
+from .timestep import element_limit
 
 
 @ti.func
@@ -211,7 +212,7 @@ class ShellElement:
         self.acc.total(self.s.hourglass_energy, dt * 0.5 * (q_old + q_new).dot(q_rate))
         if ti.static(self.material.plastic):
             self.acc.total(self.s.plastic_work, area_m * 0.5 * t * plastic_work)
-        # --- element time-step limit (method.md 5): L_e = A / longest diagonal
+        # --- element time-step limit (method.md 5, stages/timestep.element_limit)
         d13 = ti.Vector([x[2, 0] - x[0, 0], x[2, 1] - x[0, 1], x[2, 2] - x[0, 2]]).norm()
         d24 = ti.Vector([x[3, 0] - x[1, 0], x[3, 1] - x[1, 1], x[3, 2] - x[1, 2]]).norm()
-        self.acc.minimum(self.s.dt_next, self.cfg.dt_safety * area / ti.max(d13, d24) / self.cfg.wave_speed)
+        self.acc.minimum(self.s.dt_next, element_limit(self.cfg, area, ti.max(d13, d24)))
