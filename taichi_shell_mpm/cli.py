@@ -59,8 +59,11 @@ def _parser() -> argparse.ArgumentParser:
                      help="continue the run whose checkpoint is DIR/checkpoint.npz (same scene and --set "
                           "options); the result is bit-for-bit that of an uninterrupted run")
     run.add_argument("--hourglass-limit", type=_fraction, default=None, metavar="R",
-                     help="stop when the hourglass energy exceeds R times the internal energy "
+                     help="stop when the hourglass and drilling energy exceeds R times the internal energy "
                           "(default 0.2; warning at R/2; 0 = never stop)")
+    run.add_argument("--energy-limit", type=_fraction, default=None, metavar="R",
+                     help="dynamic runs: stop when the energy balance error exceeds R times the energy "
+                          "absorbed (default 0.05; warning at R/5; 0 = never stop)")
     val = sub.add_parser("validate", help="check a scene and its mesh without running")
     val.add_argument("scene", type=Path)
     val.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
@@ -294,6 +297,8 @@ def _run(args) -> int:
         sim = Simulation(scene, out, args.arch, quiet=args.quiet, mesh=mesh, model=model)
         if args.hourglass_limit is not None:
             sim.hourglass_limit = args.hourglass_limit
+        if args.energy_limit is not None:
+            sim.energy_limit = args.energy_limit
         for w in (*sim.mesh.warnings, *setup_warnings(scene, model)):
             print(f"warning: {w}")
         if ckpt is not None:

@@ -1,45 +1,59 @@
-"""Crush post-processing (benchmarks.md 3.2, 3.4): peak and mean crush force, folds and fold
-half-wavelength, energy-balance and hourglass ratios, deepest contact penetration.
+"""Crush post-processing (benchmarks.md 3.2, 3.4), for scenes with a ``[crush]`` table
+(scene.Crush): crush distance, peak and mean crush force, folds and fold half-wavelength,
+energy-balance and hourglass ratios, deepest contact penetration.
 
-Definitions (also in docs/crush.md):
-* crush distance delta(t) = minus the displacement of the first rigid body along its
-  direction (the ram moves towards the support);
-* mean crush force = work of the support force (clamped nodes and fixed walls,
-  stages/bodies.py) over delta in [20, 200] mm / 180 mm
-  (first peak excluded), trapezoidal in the recorded history;
-* folds: along the centre line of each flat face (reference coordinates), the lateral
-  displacement w(Z) of the final state has alternating extrema (hysteresis: a new extremum
-  must differ from the last by more than 2t).  Each extremum is the outermost (or innermost)
-  hinge of one lobe: a lobe folds a wall length 2H (hinges at Z0, Z0 + H, Z0 + 2H, the
-  middle one displaced by about H), and in the symmetric mode consecutive lobes of a face
-  alternate outward / inward, so consecutive extrema are one lobe = 2H apart
-  (benchmarks.md 3.2: "each [lobe] consuming 2H of tube").  Lobes = folds = the number of
-  extrema (median over the four faces); H = half their mean spacing in Z.  (Until
-  2026-11-23 the code called each extremum a half-wave and reported the spacing itself as
-  H, twice the half-wavelength; the 15 ms profile, extrema +-12..17 mm about 35 mm apart,
-  shows one extremum per lobe.)
-* energy balance error = |E_kin + E_int + E_hg + E_contact + E_wall - E_kin0 - W_ext| /
-  (E_int + E_hg + E_contact + E_wall), the energy the tube absorbed (the 56 kJ of the
-  mass would hide errors), largest over the recorded history after 0.5 ms.
+Definitions (also in docs/crush.md), with e = ``[crush].axis`` (unit, the direction in which
+the crushing body moves) and the body ``[crush].body``:
+* crush distance delta(t) = the body's displacement along e;
+* crush force F = -R . e, R the support reaction on the shell (clamped nodes and fixed
+  walls, stages/bodies.py);
+* mean crush force = the work of F over delta in ``[crush].window`` / the window's length.
+  The work comes from the support impulse accumulated every step (``support_impulse_*`` in
+  force.csv): over each history interval, the impulse increment times the interval's mean
+  crush speed.  [issue 16: before, |R| sampled every 0.01 ms was integrated, which
+  rectified and aliased the force's oscillation.]
+* folds (``[crush].folds``): along the centre line of each flat face of a prismatic tube
+  along e (reference coordinates), the lateral displacement w(Z) of the final state has
+  alternating extrema (hysteresis: a new extremum must differ from the last by more than
+  2t).  Each extremum is the outermost (or innermost) hinge of one lobe: a lobe folds a
+  wall length 2H, and in the symmetric mode consecutive lobes of a face alternate outward /
+  inward, so consecutive extrema are one lobe = 2H apart (benchmarks.md 3.2).  Lobes =
+  folds = the number of extrema (median over the four faces); H = half their mean spacing.
+* energy balance error = |E_err| / (E_int + E_hg + E_drill + E_contact + E_wall), the
+  energy the shell absorbed (the kinetic energy of the mass would hide errors), largest
+  over the recorded history after the first 1/30 of the run.
+* the ratios to ``[crush].mean_force_reference`` and ``half_wavelength_reference``.
 """
 from __future__ import annotations
 
 import numpy as np
 
-WINDOW = (20.0, 200.0)
+from .energy import ENERGY_COLUMNS
+
+def crush_work(time: np.ndarray, crush: np.ndarray, impulse: np.ndarray) -> np.ndarray:
+    """Cumulative work of the crush force at each history row: sum over the intervals of the
+    impulse increment times the interval's mean crush speed (crush increment / duration)."""
+    d_time = np.diff(time)
+    speed = np.divide(np.diff(crush), d_time, out=np.zeros_like(d_time), where=d_time > 0)
+    return np.concatenate([[0.0], np.cumsum(np.diff(impulse) * speed)])
 
 
-def mean_force(crush: np.ndarray, force: np.ndarray, window=WINDOW) -> tuple[float, float]:
-    """Mean of `force` over crush distance in `window` (work / distance); the window is cut
-    to the distance actually reached. Returns (mean force, distance covered)."""
+def mean_force(crush: np.ndarray, work: np.ndarray, window: tuple[float, float]) -> tuple[float, float]:
+    """Mean crush force over the crush distances `window`: the work between the first times
+    the crush reaches its ends (linear in each interval) / the distance; the window is cut
+    to the distance reached.  Returns (mean force, distance covered)."""
     lo, hi = window
     hi = min(hi, float(crush.max()))
     if hi <= lo:
         return float("nan"), 0.0
-    grid = np.linspace(lo, hi, 2000)
-    order = np.argsort(crush)
-    f = np.interp(grid, crush[order], force[order])
-    return float(np.trapezoid(f, grid) / (hi - lo)), hi - lo
+
+    def work_at(distance):
+        k = int(np.argmax(crush >= distance))          # first row at or past it
+        if k == 0:
+            return float(work[0])
+        f = (distance - crush[k - 1]) / (crush[k] - crush[k - 1])
+        return float(work[k - 1] + f * (work[k] - work[k - 1]))
+    return (work_at(hi) - work_at(lo)) / (hi - lo), hi - lo
 
 
 def lobe_peaks(z_ref: np.ndarray, lateral: np.ndarray, threshold: float) -> np.ndarray:
@@ -64,21 +78,30 @@ def lobe_peaks(z_ref: np.ndarray, lateral: np.ndarray, threshold: float) -> np.n
     return z[extrema]
 
 
-def fold_geometry(points: np.ndarray, positions: np.ndarray, thickness: float) -> dict:
+def fold_geometry(points: np.ndarray, positions: np.ndarray, thickness: float,
+                  axis=(0.0, 0.0, -1.0)) -> dict:
     """Lobes and fold half-wavelength on the centre lines of the four flat faces of a tube
-    along z (module docstring)."""
+    crushed along `axis` (module docstring); Z runs from the support towards the ram."""
+    e3 = -np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+    e1 = np.cross(e3, [1.0, 0.0, 0.0] if abs(e3[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    if abs(e3[2]) > 0.9:                 # a tube along z keeps the x and y axes as its face normals
+        e1 = np.array([1.0, 0.0, 0.0]) - e3[0] * e3
+        e1 /= np.linalg.norm(e1)
+    frame = np.array([e1, np.cross(e3, e1), e3])
+    points, positions = points @ frame.T, positions @ frame.T
     centre = points[:, :2].mean(axis=0)
     rel = points[:, :2] - centre
     half_x, half_y = np.abs(rel[:, 0]).max(), np.abs(rel[:, 1]).max()
     tol = 1e-6 * max(half_x, half_y)
     spacings, counts = [], []
-    for axis, half in ((0, half_x), (1, half_y)):
-        other = 1 - axis
+    for ax, half in ((0, half_x), (1, half_y)):
+        other = 1 - ax
         for sign in (1.0, -1.0):
-            line = (np.abs(rel[:, other]) < tol) & (sign * rel[:, axis] > 0.8 * half)   # trigger moved some
+            line = (np.abs(rel[:, other]) < tol) & (sign * rel[:, ax] > 0.8 * half)   # trigger moved some
             if line.sum() < 4:
                 continue
-            lateral = sign * (positions[line, axis] - points[line, axis])
+            lateral = sign * (positions[line, ax] - points[line, ax])
             z = lobe_peaks(points[line, 2], lateral, 2.0 * thickness)
             counts.append(len(z))
             if len(z) > 1:
@@ -91,39 +114,44 @@ def fold_geometry(points: np.ndarray, positions: np.ndarray, thickness: float) -
 
 
 def crush_summary(sim) -> dict:
-    """The crush figures of a run with a rigid body (see the module docstring)."""
+    """The crush figures of a run with a [crush] table (see the module docstring)."""
+    spec = sim.scene.crush
+    names = [b.name for b in sim.model.rigid_bodies]
+    b = names.index(spec.body) if spec.body is not None else 0
+    body = sim.model.rigid_bodies[b]
+    axis = np.asarray(spec.axis, dtype=float) / np.linalg.norm(spec.axis)
     rows = np.array(sim.history.force_rows)
     energy = np.array(sim.history.energy_rows)
+    nb = len(names)
     t = rows[:, 0]
-    support = rows[:, 3]                               # support_z
-    nb = len(sim.model.rigid_bodies)
-    crush = -rows[:, 4]
-    ram_force = rows[:, 4 + nb]
-    mean, covered = mean_force(crush, np.abs(support))
-    cols = ["key", *sim_energy_columns()]
-    e = {name: energy[:, i] for i, name in enumerate(cols)}
+    support = -rows[:, 1:4] @ axis                    # crush force: the reaction against the motion
+    impulse = -rows[:, 4:7] @ axis
+    crush = rows[:, 7 + b] * float(np.dot(body.direction, axis))
+    body_force = rows[:, 7 + nb + b]
+    work = crush_work(t, crush, impulse)
+    mean, covered = mean_force(crush, work, spec.window)
+    e = {name: energy[:, i] for i, name in enumerate(["key", *ENERGY_COLUMNS])}
     absorbed = e["internal"] + e["hourglass"] + e["drilling"] + e["contact"] + e["wall"]
-    late = (energy[:, 0] >= 0.5) & (absorbed > 0)
+    late = (energy[:, 0] >= energy[-1, 0] / 30.0) & (absorbed > 0)
     balance = np.abs(e["balance_error"][late]) / absorbed[late] if late.any() else np.array([np.nan])
-    folds = fold_geometry(sim.model.points, sim.state.position.to_numpy(), sim.cfg.thickness)
     final_internal = e["internal"][-1]
     s = sim.state
-    return {"crush": {
+    out = {
         "crush_distance": float(crush[-1]), "peak_support_force": float(np.abs(support).max()),
-        "peak_ram_force": float(np.abs(ram_force).max()),
-        "mean_crush_force": mean, "mean_force_window": [WINDOW[0], WINDOW[0] + covered],
-        "mean_force_over_7.46kN": mean / 7.46, "mean_force_over_10.22kN": mean / 10.22,
-        **folds,
-        "half_wavelength_over_15.1mm": folds["half_wavelength"] / 15.1 if folds["half_wavelength"] else None,
+        "peak_ram_force": float(np.abs(body_force).max()),
+        "mean_crush_force": mean, "mean_force_window": [spec.window[0], spec.window[0] + covered],
+        "mean_force_over_reference": [mean / r for r in spec.mean_force_reference],
         "energy_balance_error_max": float(balance.max()),
         "hourglass_over_internal": float(e["hourglass"][-1] / final_internal) if final_internal > 0 else None,
         "drilling_over_internal": float(e["drilling"][-1] / final_internal) if final_internal > 0 else None,
         "absorbed_energy": float(absorbed[-1]),
         "max_penetration_over_thickness": float(s.max_penetration[None]) if s.contact else None,
-        "ram_velocity_final": float(s.body_velocity[0]) if nb else None,
-    }}
-
-
-def sim_energy_columns():
-    from .simulation import ENERGY_COLUMNS
-    return ENERGY_COLUMNS
+        "ram_velocity_final": float(s.body_velocity[b]),
+    }
+    if spec.folds:
+        folds = fold_geometry(sim.model.points, sim.state.position.to_numpy(), sim.cfg.thickness, axis)
+        out.update(folds)
+        if spec.half_wavelength_reference is not None:
+            out["half_wavelength_over_reference"] = (folds["half_wavelength"] / spec.half_wavelength_reference
+                                                     if folds["half_wavelength"] else None)
+    return {"crush": out}

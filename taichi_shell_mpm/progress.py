@@ -43,14 +43,6 @@ def format_rate(steps_per_second: float) -> str:
     return f"{steps_per_second:.0f}"
 
 
-def relative_balance(energies: dict, initial_kinetic: float) -> float:
-    """|energy balance error| over the largest energy in play (external work, initial
-    kinetic energy, stored energy)."""
-    scale = max(abs(energies["external_work"]), initial_kinetic,
-                abs(energies["internal"]) + abs(energies["hourglass"]) + abs(energies.get("drilling", 0.0)), 1e-300)
-    return abs(energies["balance_error"]) / scale
-
-
 class Progress:
     """Live progress line (terminal) or periodic plain lines (otherwise)."""
 

@@ -280,6 +280,26 @@ class Contact:
     """Fraction of critical damping of the contact spring."""
 
 
+@dataclass(frozen=True)
+class Crush:
+    """Crush post-processing of a dynamic run (crush.py, docs/crush.md); present table = on.
+    The crush distance is the displacement of `body` along `axis`; the crush force is the
+    support reaction (clamped nodes and fixed walls) against `axis`; its mean over the
+    crush-distance `window` is the work of the support impulse over that distance."""
+    axis: Vec3
+    """Direction in which the crushing body moves (e.g. [0, 0, -1])."""
+    window: tuple[float, float]
+    """Crush distances [from, to] of the mean force (the tube: [20, 200] mm, first peak left out)."""
+    body: str | None = None
+    """Name of the [[rigid_body]] whose motion is the crush (None = the first one)."""
+    folds: bool = False
+    """Count lobes and the fold half-wavelength on the flat faces of a prismatic tube along `axis`."""
+    mean_force_reference: tuple[float, ...] = ()
+    """Reference mean forces (e.g. closed-form estimates); the summary gives the ratio to each."""
+    half_wavelength_reference: float | None = None
+    """Reference fold half-wavelength (e.g. Wierzbicki-Abramowicz); the summary gives the ratio."""
+
+
 # ---------------------------------------------------------------- solve / output
 @dataclass(frozen=True)
 class Solve:
@@ -331,6 +351,7 @@ class Scene:
     rigid_bodies: tuple[RigidBody, ...] = ()
     walls: tuple[Wall, ...] = ()
     contact: Contact | None = None
+    crush: Crush | None = None
 
     def nodeset(self, name: str) -> NodeSet:
         for s in self.nodesets:
@@ -623,6 +644,20 @@ def _node_ids(value: Any) -> tuple[int, ...]:
     raise _Invalid(f"expected a non-empty list of node indices >= 0, got {_show(value)}")
 
 
+def _window(value: Any) -> tuple[float, float]:
+    """Two finite numbers [from, to] with 0 <= from < to."""
+    if isinstance(value, list) and len(value) == 2 and all(map(_is_number, value)) and 0 <= value[0] < value[1]:
+        return (float(value[0]), float(value[1]))
+    raise _Invalid(f"expected [from, to] with 0 <= from < to, got {_show(value)}")
+
+
+def _positive_list(value: Any) -> tuple[float, ...]:
+    """A non-empty list of numbers > 0."""
+    if isinstance(value, list) and value and all(_is_number(x) and x > 0 for x in value):
+        return tuple(float(x) for x in value)
+    raise _Invalid(f"expected a non-empty list of numbers > 0, got {_show(value)}")
+
+
 def _times(value: Any) -> tuple[float, ...]:
     """Increasing list of times >= 0."""
     if not (isinstance(value, list) and all(_is_number(t) and t >= 0 for t in value)):
@@ -635,7 +670,7 @@ def _times(value: Any) -> tuple[float, ...]:
 # ================================================================ table layout
 _TABLES = ("scene", "mesh", "material", "section", "element", "method", "nodesets",
            "boundary", "load", "initial", "probe", "reference", "solve", "output", "rigid_body", "wall",
-           "contact")
+           "contact", "crush")
 _REQUIRED_TABLES = ("scene", "mesh", "material", "section", "solve")
 _SELECTORS = ("all", "box", "plane", "nearest", "ids")
 
@@ -867,13 +902,14 @@ class _SceneParser:
         contact = self.table_object("[contact]", self.raw["contact"], Contact, {
             "thickness": _positive, "stiffness": _number(0, 1, lo_open=True), "friction": _non_negative,
             "damping": _unit_interval}) if "contact" in self.raw else None
+        crush = self.crush(self.raw["crush"], solve) if "crush" in self.raw else None
         if self.messages:
             raise SceneError(self.messages, mesh=mesh)
         return Scene(source=self.source, info=info, mesh=mesh, material=material, section=section,
                      element=element, method=method, solve=solve, output=output,
                      nodesets=tuple(nodesets), boundaries=tuple(boundaries), loads=tuple(loads),
                      initial=tuple(initial), probes=tuple(probes), reference=reference,
-                     rigid_bodies=tuple(bodies), walls=tuple(walls), contact=contact)
+                     rigid_bodies=tuple(bodies), walls=tuple(walls), contact=contact, crush=crush)
 
     def mesh(self, data: Any) -> MeshSpec | None:
         if not isinstance(data, dict):
@@ -1005,6 +1041,24 @@ class _SceneParser:
             self.error(f"{path}.moves_with", f"no [[rigid_body]] named {v['moves_with']!r}"
                        + _hint(v["moves_with"], bodies, "defined"))
         return self.build(mark, Wall, v)
+
+    def crush(self, data: Any, solve: Solve | None) -> Crush | None:
+        mark = len(self.messages)
+        v = self.read("[crush]", data, {"axis": _nonzero_vec3, "window": _window, "body": _identifier,
+                                        "folds": _bool, "mean_force_reference": _positive_list,
+                                        "half_wavelength_reference": _positive}, Crush)
+        if v is None:
+            return None
+        listed = self.raw.get("rigid_body", [])
+        bodies = [b["name"] for b in (listed if isinstance(listed, list) else [])
+                  if isinstance(b, dict) and isinstance(b.get("name"), str)]
+        if not bodies:
+            self.error("[crush]", "needs a [[rigid_body]] whose motion is the crush")
+        elif v.get("body") is not None and v["body"] not in bodies:
+            self.error("[crush].body", f"no [[rigid_body]] named {v['body']!r}" + _hint(v["body"], bodies, "defined"))
+        if solve is not None and solve.kind != "dynamic":
+            self.error("[crush]", "crush post-processing needs [solve].kind = \"dynamic\"")
+        return self.build(mark, Crush, v)
 
     def initial(self, path: str, data: Any) -> InitialVelocity | None:
         return self.table_object(path, data, InitialVelocity, {

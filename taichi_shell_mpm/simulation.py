@@ -27,14 +27,13 @@ from .scene import Scene
 from .solvers.stepper import Stepper
 from .stages.timestep import DT_UNSET, initial_dt
 from .stages.material import make_material
-from .state import (CANDIDATES_PER_NODE, STATUS_CONTACT_FULL, STATUS_DT_COLLAPSE, STATUS_INVERTED,
-                    STATUS_LEFT_GRID, STATUS_NONFINITE, State)
+from .state import (CANDIDATES_PER_NODE, STATUS_CONTACT_FULL, STATUS_DT_COLLAPSE, STATUS_ENERGY, STATUS_INVERTED,
+                    STATUS_LEFT_GRID, STATUS_NONFINITE, STATUS_RETURN_FAILED, State)
+from . import energy
+from .energy import ENERGY_COLUMNS
 
 ARCHS = {"cpu": "cpu", "cuda": "cuda", "vulkan": "vulkan"}
 
-
-ENERGY_COLUMNS = ("kinetic", "internal", "hourglass", "external_work", "damped", "wall", "contact",
-                  "plastic_work", "drilling", "balance_error")
 
 
 class SimulationError(Exception):
@@ -60,11 +59,19 @@ FAILURES = {
                           "a contact thickness ([contact].thickness or the shell's) far above the element "
                           "size, or the mesh collapsing into a heap (see the frames); if the packing is real, "
                           "raise state.CANDIDATES_PER_NODE"),
+    STATUS_RETURN_FAILED: ("the plastic return map did not converge at element {index}",
+                           "a strain increment far beyond yield in one step (an excessive load or velocity, "
+                           "or a time step too large: [solve].dt_safety) or a material table that is not "
+                           "physical"),
+    STATUS_ENERGY: ("the energy balance error reached {ratio} of the energy absorbed (energy was created)",
+                    "an instability that creates energy (time step too large: [solve].dt_safety; contact "
+                    "too stiff: [contact].stiffness) or a constraint that works on the shell; --energy-limit "
+                    "sets this limit"),
 }
 FORCE_LAUNCH: str | None = None         # tests and profiles: "batched" | "threads" | "gpu" on any arch
 THREADS_MIN_ELEMENTS = 1000             # CPU: smaller meshes run the batched serial kernel (choose_launch)
 RUNAWAY_SPEED = 10.0     # x the shell wave speed, as the in-kernel check (stages/constraints.py)
-HOURGLASS_WARN, HOURGLASS_STOP = 0.10, 0.20     # E_hg / E_int
+HOURGLASS_WARN, HOURGLASS_STOP = 0.10, 0.20     # (E_hg + E_drill) / E_int
 HOURGLASS_ACTIVE = 1e-6     # ratio checked once max(E_int, E_hg) > this x max(W_ext, KE0)
 
 
@@ -117,6 +124,7 @@ class Simulation:
         t0 = time.perf_counter()
         self._compile()
         self.initial_kinetic = self.kinetic_energy()
+        self.energy_limit = energy.BALANCE_STOP
         self._compile_readers()
         self.compile_seconds = time.perf_counter() - t0
         key = "load_factor" if scene.solve.kind == "static" else "time"
@@ -128,7 +136,8 @@ class Simulation:
         self.reporter = Progress(quiet, scene.solve.progress_every)
         self.warnings: list[str] = []
         self.hourglass_warned = False
-        self.hourglass_limit = HOURGLASS_STOP      # stop above this E_hg/E_int (0: never), warn above half
+        self.hourglass_limit = HOURGLASS_STOP      # stop above this (E_hg + E_drill)/E_int (0: never), warn above half
+        self.balance_warned = False
         self._last_geometry_check = 0.0
         self.driver_data: dict = {}          # driver counters kept in checkpoints
 
@@ -157,24 +166,30 @@ class Simulation:
         self.state.dt_next[None] = DT_UNSET
 
     # ------------------------------------------------------------------ measurements
+    @property
+    def initial_kinetic(self) -> float:
+        """KE_0 of the energy balance (a field: the in-kernel guard reads it)."""
+        return float(self.state.kinetic_initial[None])
+
+    @initial_kinetic.setter
+    def initial_kinetic(self, value: float) -> None:
+        self.state.kinetic_initial[None] = value
+
+    @property
+    def energy_limit(self) -> float:
+        """Balance guard: stop when |E_err| exceeds this x the absorbed energy (0: never;
+        energy.py); warn at energy.WARN_FRACTION of it."""
+        return float(self.state.energy_limit[None])
+
+    @energy_limit.setter
+    def energy_limit(self, value: float) -> None:
+        self.state.energy_limit[None] = value
+
     def kinetic_energy(self) -> float:
-        m, J = self.model.node_mass, self.model.node_inertia
-        v = self.state.grid_velocity.to_numpy()
-        w = self.state.omega.to_numpy()
-        bodies = sum(0.5 * b.added_mass * self.state.body_velocity[i] ** 2
-                     for i, b in enumerate(self.model.rigid_bodies))
-        return float(0.5 * np.sum(m * np.sum(v * v, axis=1)) + 0.5 * np.sum(J * np.sum(w * w, axis=1)) + bodies)
+        return energy.kinetic_energy(self.state, self.model)
 
     def energies(self) -> dict[str, float]:
-        s = self.state
-        e = {"kinetic": self.kinetic_energy(), "internal": s.internal_energy[None],
-             "hourglass": s.hourglass_energy[None], "external_work": s.external_work[None],
-             "damped": s.damped_energy[None], "plastic_work": s.plastic_work[None],
-             "wall": s.wall_energy[None], "contact": s.contact_energy[None] if s.contact else 0.0,
-             "drilling": s.drilling_energy[None]}
-        e["balance_error"] = (e["kinetic"] + e["internal"] + e["hourglass"] + e["drilling"] + e["damped"] + e["wall"]
-                              + e["contact"] - self.initial_kinetic - e["external_work"])
-        return e
+        return energy.totals(self.state, self.model, self.initial_kinetic)
 
     def displacements(self) -> tuple[np.ndarray, np.ndarray]:
         """Nodal displacement (n,3) and rotation vector (n,3) from the orientation quaternion."""
@@ -219,6 +234,7 @@ class Simulation:
         self.history.energy_rows.append([key] + [e[k] for k in ENERGY_COLUMNS])
         s = self.state
         self.history.force_rows.append([key] + s.reaction[None].to_numpy().tolist()
+                                       + s.reaction_impulse[None].to_numpy().tolist()
                                        + [s.body_displacement[i] for i in range(len(self.model.rigid_bodies))]
                                        + [s.body_force[i] for i in range(len(self.model.rigid_bodies))])
         if frame:
@@ -257,6 +273,7 @@ class Simulation:
         self.displacements()
         self.element_results()
         self.state.reaction[None].to_numpy()
+        self.state.reaction_impulse[None].to_numpy()
         self.state.grid_velocity.to_numpy()
         for i in range(len(self.model.rigid_bodies)):
             _ = self.state.body_displacement[i], self.state.body_force[i]
@@ -301,13 +318,30 @@ class Simulation:
                     index = int(np.argmin(length))
         if code in FAILURES:
             what, cause = FAILURES[code]
-            raise SimulationError(f"{what.format(index=index)} at {self.where()}: {cause}")
+            ratio = energy.balance_ratio(self.energies())
+            raise SimulationError(f"{what.format(index=index, ratio=f'{100 * ratio:.3g}%')} at {self.where()}: {cause}")
         self.check_hourglass()
+        self.check_balance()
+
+    def check_balance(self) -> None:
+        """Warn once when |E_err| exceeds energy.WARN_FRACTION x the limit of the absorbed
+        energy (the stop itself is in-kernel, energy.EnergyLedger.guard); dynamic runs only."""
+        if self.scene.solve.kind != "dynamic":
+            return
+        limit = self.energy_limit if self.energy_limit > 0.0 else energy.BALANCE_STOP
+        ratio = energy.balance_ratio(self.energies())
+        if ratio > energy.WARN_FRACTION * limit and not self.balance_warned:
+            self.balance_warned = True
+            stops = f"the run stops above {100 * self.energy_limit:.3g}%" if self.energy_limit > 0.0 else "no limit set"
+            self.warn(f"the energy balance error is {100 * ratio:.2g}% of the energy absorbed at {self.where()} "
+                      f"({stops})")
 
     def check_hourglass(self) -> None:
-        """Warn once when E_hg > 10% of E_int, stop when > 20%, once the energies are meaningful."""
+        """Warn once when the zero-energy-mode controls hold more than 10% of E_int (hourglass
+        and drilling-spring energy: both are artificial stiffness), stop when > 20%, once the
+        energies are meaningful."""
         s = self.state
-        e_int, e_hg = s.internal_energy[None], s.hourglass_energy[None]
+        e_int, e_hg = s.internal_energy[None], s.hourglass_energy[None] + s.drilling_energy[None]
         scale = max(abs(s.external_work[None]), self.initial_kinetic)
         if not (scale > 0.0 and max(e_int, e_hg) > HOURGLASS_ACTIVE * scale):
             return
@@ -317,14 +351,14 @@ class Simulation:
         limit = self.hourglass_limit
         if limit > 0.0 and ratio > limit:
             raise SimulationError(
-                f"hourglass energy is {share} of the {text} at {self.where()}: the elements deform in "
+                f"hourglass and drilling energy is {share} of the {text} at {self.where()}: the elements deform in "
                 "zero-energy modes; raise [element].hourglass, refine the mesh or spread point loads "
                 "(--hourglass-limit sets this limit)")
         warn = limit * HOURGLASS_WARN / HOURGLASS_STOP if limit > 0.0 else HOURGLASS_WARN
         if ratio > warn and not self.hourglass_warned:
             self.hourglass_warned = True
             stops = f"the run stops above {100 * limit:.0f}%" if limit > 0.0 else "no limit set"
-            self.warn(f"hourglass energy is {share} of the internal energy at {self.where()} ({stops})")
+            self.warn(f"hourglass and drilling energy is {share} of the internal energy at {self.where()} ({stops})")
 
     def warn(self, text: str) -> None:
         self.warnings.append(text)
@@ -357,7 +391,8 @@ class Simulation:
         key = self.history.probe_header[0]
         write_csv(out / "energy.csv", [key, *ENERGY_COLUMNS], self.history.energy_rows)
         names = [b.name for b in self.model.rigid_bodies]
-        write_csv(out / "force.csv", [key, "support_x", "support_y", "support_z"]
+        write_csv(out / "force.csv", [key, "support_x", "support_y", "support_z",
+                                      "support_impulse_x", "support_impulse_y", "support_impulse_z"]
                   + [f"{b}.displacement" for b in names] + [f"{b}.force" for b in names], self.history.force_rows)
 
     def write_results(self, extra: dict | None = None) -> dict:
@@ -376,9 +411,12 @@ class Simulation:
         }
         if extra:
             summary.update(extra)
+        if self.state.contact:
+            summary["contact"] = {"max_penetration_over_thickness": float(self.state.max_penetration[None]),
+                                  "pairs_last_step": int(self.state.contact_pairs[None])}
         failed = bool(extra and extra.get("error"))
         try:
-            if self.model.rigid_bodies and self.scene.solve.kind == "dynamic" and self.history.force_rows:
+            if self.scene.crush is not None and self.history.force_rows:
                 summary.update(crush_summary(self))
             if self.scene.reference is not None:
                 summary["reference"] = compare_with_reference(self.scene.reference, self.history.probe_header,

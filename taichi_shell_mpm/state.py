@@ -13,7 +13,7 @@ import taichi as ti
 from .assembly import Model
 
 (STATUS_OK, STATUS_CONVERGED, STATUS_INVERTED, STATUS_LEFT_GRID, STATUS_NONFINITE, STATUS_DT_COLLAPSE,
- STATUS_CONTACT_FULL) = range(7)
+ STATUS_CONTACT_FULL, STATUS_ENERGY, STATUS_RETURN_FAILED) = range(9)
 CANDIDATES_PER_NODE = 64     # capacity of the contact candidate lists, on average per node
 
 
@@ -76,24 +76,35 @@ class State:
         self.fire_force_sq = ti.field(f64, ())
         self.residual_target_sq = ti.field(f64, ())      # (tolerance * |F_ext|)^2 of the current load level
         self.time_limit = ti.field(f64, ())              # advance() stops here exactly (next output time)
-        self.kinetic = ti.field(f64, ())
+        # --- energy bookkeeping (energy.py): per-entity accumulators (what is reported) and
+        # the step's 0-d running totals (its in-kernel decisions)
+        self.element_energy = ti.Vector.field(5, f64, m)  # internal, plastic work, hourglass, drilling; stagger (this step)
+        self.node_energy = ti.Vector.field(3, f64, n)     # external work, contact, wall
+        self.kinetic = ti.field(f64, ())                 # KE of this step (half-step velocities)
         self.kinetic_prev = ti.field(f64, ())
+        self.kinetic_initial = ti.field(f64, ())         # KE_0 of the balance
+        self.energy_limit = ti.field(f64, ())            # balance guard: stop above this x absorbed (0: off)
         self.internal_energy = ti.field(f64, ())
         self.hourglass_energy = ti.field(f64, ())
         self.drilling_energy = ti.field(f64, ())         # stored in the drilling springs (stages/drilling.py)
         self.plastic_work = ti.field(f64, ())            # plastic dissipation (part of internal_energy)
         self.external_work = ti.field(f64, ())
         self.damped_energy = ti.field(f64, ())
+        self.stagger_energy = ti.field(f64, ())          # this step's stagger term (energy.py)
+        self.contact_energy = ti.field(f64, ())          # work done against contact forces
         self.residual_sq = ti.field(f64, ())
         self.load_norm_sq = ti.field(f64, ())
         self.max_speed = ti.field(f64, ())
         self.reaction = ti.Vector.field(3, f64, ())      # force the supports (clamped nodes, fixed walls) exert on the shell
-        self.wall_energy = ti.field(f64, ())             # KE removed by (inelastic) rigid walls
+        self.reaction_impulse = ti.Vector.field(3, f64, ())   # its time integral since the start
+        self.wall_energy = ti.field(f64, ())             # energy taken out by (inelastic) rigid walls
         self.status = ti.field(ti.i32, ())
         self.status_index = ti.field(ti.i32, ())
         # --- rigid bodies (method.md 2.5c): speed and displacement along their direction
         nb = max(1, len(model.rigid_bodies))
         self.body_velocity = ti.field(f64, nb)
+        self.body_velocity_start = ti.field(f64, nb)      # V^(n-1/2) of the current step
+        self.body_wall_energy = ti.field(f64, nb)         # work of the walls moving with the body, on it
         self.body_displacement = ti.field(f64, nb)
         self.body_force = ti.field(f64, nb)               # force on the body from its slave nodes
         self.body_impulse = ti.field(f64, nb)             # wall impulse on the body this step
@@ -105,9 +116,12 @@ class State:
         self.contact = contact
         if contact:
             self.force_contact = ti.Vector.field(3, f64, n)
-            self.contact_energy = ti.field(f64, ())      # work done against contact forces
             self.max_penetration = ti.field(f64, ())     # largest g / t_c seen
             self.contact_pairs = ti.field(ti.i32, ())
+            # per-axis largest and smallest nodal velocity of the step: their spread bounds the
+            # approach speed of any two nodes (the contact limit on dt, stages/timestep.py)
+            self.velocity_high = ti.Vector.field(3, f64, ())
+            self.velocity_low = ti.Vector.field(3, f64, ())
             # candidate (Verlet) lists, stages/contact.py: per node, the elements that can come
             # within t_c before any node moves skin/2 from where the lists were built
             self.contact_rebuild = ti.field(ti.i32, ())               # 1: rebuild at the next step

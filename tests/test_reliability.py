@@ -151,7 +151,7 @@ GUARDS = {
                   ["node", "left the background grid", "grid_min/grid_max"]),
     "hourglass": (dict(nx=1, solve="static", extra='[nodesets.a]\nids = [0, 3]\n[nodesets.b]\nids = [1, 2]\n'
                        '[[load]]\nnodes = "a"\nforce = [0, 0, 1e-3]\n[[load]]\nnodes = "b"\nforce = [0, 0, -1e-3]\n'),
-                  ["hourglass energy", "zero-energy modes", "[element].hourglass", "load factor"]),
+                  ["hourglass and drilling energy", "zero-energy modes", "[element].hourglass", "load factor"]),
 }
 
 
@@ -160,7 +160,10 @@ def test_guard_stops_cleanly(tmp_path, guard):
     kwargs, words = GUARDS[guard]
     scene = plate(tmp_path, guard, **kwargs)
     out = tmp_path / "out"
-    r = cli_run("run", str(scene), "--out", str(out), "--quiet")
+    # the collapsing element's energy balance fails (42 % at step 2) before its step collapses:
+    # this case is about the time-step guard, the balance guard has tests/test_energy.py
+    more = ("--energy-limit", "0") if guard == "dt_collapse" else ()
+    r = cli_run("run", str(scene), "--out", str(out), "--quiet", *more)
     print(f"\n{guard}: exit {r.code}: {r.err.strip()}")
     assert r.code == 3
     assert_clean_output(r)
@@ -192,6 +195,8 @@ def test_kernel_flags_the_guard_itself(tmp_path, guard, status):
     kwargs, _ = GUARDS[guard]
     init_taichi("cpu")
     sim = Simulation(load_scene(plate(tmp_path, guard, **kwargs)), tmp_path / "out", quiet=True)
+    if guard == "dt_collapse":
+        sim.energy_limit = 0          # its balance fails first (see test_guard_stops_cleanly)
     raw = []
     host_check = sim.check_status
 
@@ -227,11 +232,11 @@ def test_hourglass_warning_then_stop(tmp_path, capsys):
     sim.check_status()
     assert len(sim.warnings) == 1 and "15% of the internal energy" in sim.warnings[0]
     s.hourglass_energy[None] = 0.25
-    with pytest.raises(SimulationError, match="hourglass energy is 25% of the internal energy"):
+    with pytest.raises(SimulationError, match="hourglass and drilling energy is 25% of the internal energy"):
         sim.check_status()
     printed = capsys.readouterr().out
     print(printed)
-    assert printed.count("warning: hourglass energy") == 1
+    assert printed.count("warning: hourglass and drilling energy") == 1
 
 
 def test_ctrl_c_stops_cleanly(tmp_path, monkeypatch):

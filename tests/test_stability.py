@@ -24,6 +24,7 @@ def spin(tmp_path, method, transfer):
     s.velocity.from_numpy(sim.model.velocity0 * omega)
     s.grid_velocity.from_numpy(sim.model.velocity0 * omega)
     s.omega.from_numpy(sim.model.omega0 * omega)      # the nodes spin with the plate (drilling kept)
+    sim.initial_kinetic = sim.kinetic_energy()          # KE_0 of the balance guard
     m = sim.model.node_mass
 
     def invariants():

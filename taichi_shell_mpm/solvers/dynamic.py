@@ -9,7 +9,7 @@ fixed size, so a restarted run takes the same batches.
 import numpy as np
 
 from ..checkpoint import RunControl
-from ..progress import relative_balance
+from ..energy import balance_ratio
 from ..simulation import Simulation
 from ..stages.timestep import landing_step
 from .static import batch_size
@@ -56,7 +56,7 @@ def run_dynamic(sim: Simulation, control: RunControl | None = None) -> dict:
                     sim.record(s.time[None], frame=True)
                 if reporter.due():
                     reporter.show(f"t {s.time[None]:.5g}/{end:g}", int(s.step[None]), s.dt_stable[None],
-                                  relative_balance(sim.energies(), sim.initial_kinetic),
+                                  balance_ratio(sim.energies()),
                                   s.time[None] / end if end > 0 else None)
                 control.boundary(sim, {"event": i, "started": True})
             if every == 0:

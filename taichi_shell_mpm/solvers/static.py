@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..checkpoint import RunControl
-from ..progress import relative_balance
+from ..energy import balance_ratio
 from ..simulation import Simulation, SimulationError
 from ..state import STATUS_CONVERGED, STATUS_OK
 from .stepper import FIRE_ALPHA_START
@@ -79,7 +79,7 @@ def run_static(sim: Simulation, control: RunControl | None = None) -> dict:
                     target = max(s.residual_target_sq[None], 1e-300)
                     reporter.show(f"load step {j}/{n_levels} (residual/target "
                                   f"{np.sqrt(s.residual_sq[None] / target):.1e})", int(s.step[None]),
-                                  s.dt[None], relative_balance(sim.energies(), sim.initial_kinetic),
+                                  s.dt[None], balance_ratio(sim.energies()),
                                   (j - 1) / n_levels)
                 control.boundary(sim, {"level": j, "steps": steps, "started": True})
             sim.check_status()                       # hourglass energy of the converged level

@@ -24,6 +24,7 @@ in-kernel at the end of each step, so a batch stops exactly at convergence.
 
 import taichi as ti
 
+from ..energy import EnergyLedger
 from ..state import STATUS_CONVERGED, STATUS_OK, State
 from ..stages.accumulate import Accumulator
 from ..stages.bodies import RigidBodies
@@ -49,10 +50,11 @@ class Stepper:
         self.cfg = cfg
         self.batched = cfg.serial
         mass_ref = float(model.node_mass.mean())
-        self.bodies = RigidBodies(state, cfg)
-        self.nodes = NodeUpdate(state, cfg, self.bodies)
+        self.energy = EnergyLedger(state, cfg, material.plastic)
+        self.bodies = RigidBodies(state, cfg, self.energy)
+        self.nodes = NodeUpdate(state, cfg, self.bodies, self.energy)
         self.contact = SelfContact(state, cfg, model) if cfg.contact is not None else None
-        self.shell = ShellElement(state, cfg, material)
+        self.shell = ShellElement(state, cfg, material, self.energy)
         self.timestep = TimeStep(state, cfg)
         self.acc = Accumulator(cfg.serial)
         self.mpm = cfg.method == "mpm"
@@ -64,11 +66,14 @@ class Stepper:
     @ti.func
     def begin(self):
         self.s.kinetic[None] = 0.0
+        self.s.stagger_energy[None] = 0.0
         self.s.residual_sq[None] = 0.0
         self.s.max_speed[None] = 0.0
         self.s.reaction[None] = ti.Vector([0.0, 0.0, 0.0])
         if ti.static(self.cfg.has_contact):
             self.s.contact_pairs[None] = 0
+            self.s.velocity_high[None] = ti.Vector([-1e300, -1e300, -1e300])
+            self.s.velocity_low[None] = ti.Vector([1e300, 1e300, 1e300])
             self.contact.forces()
 
     @ti.func
@@ -89,9 +94,12 @@ class Stepper:
         the contact candidate lists are due for a rebuild."""
         if ti.static(self.cfg.has_contact):
             self.contact.check_skin()
+        shell_kinetic = self.s.kinetic[None]     # the nodes' (the bodies' is added below)
         if ti.static(len(self.cfg.bodies) > 0):
             self.bodies.apply_wall_impulses()
             self.s.kinetic[None] += self.bodies.kinetic_energy()
+        self.energy.guard(shell_kinetic)         # before a relaxation reset books the KE as damped
+        self.s.reaction_impulse[None] += self.s.dt[None] * self.s.reaction[None]
         self.s.time[None] += self.s.dt[None]
         self.s.step[None] += 1
         self.s.velocity_keep[None] = 1.0

@@ -40,6 +40,22 @@ class Accumulator:
             ti.atomic_min(field[None], value)
 
     @ti.func
+    def maximum_at(self, field: ti.template(), d: ti.template(), value):
+        """field[None][d] = max(field[None][d], value) for a 0-d vector field."""
+        if ti.static(self.serial):
+            field[None][d] = ti.max(field[None][d], value)
+        else:
+            ti.atomic_max(field[None][d], value)
+
+    @ti.func
+    def minimum_at(self, field: ti.template(), d: ti.template(), value):
+        """field[None][d] = min(field[None][d], value) for a 0-d vector field."""
+        if ti.static(self.serial):
+            field[None][d] = ti.min(field[None][d], value)
+        else:
+            ti.atomic_min(field[None][d], value)
+
+    @ti.func
     def maximum(self, field: ti.template(), value):
         if ti.static(self.serial):
             field[None] = ti.max(field[None], value)

@@ -4,8 +4,9 @@ A rigid body translates along one direction: its slave nodes are Lagrangian only
 (skipped by P2G/G2P), the force their elements exert is summed, and
 M_tot V' = F (M_tot = added mass + slave node masses).  A wall keeps every free node's
 mid-surface at least half the shell thickness on the side its normal points to, by a
-velocity correction after G2P (frictionless, perfectly inelastic); the KE it removes is
-booked as wall energy, and a moving wall's impulse goes back to its rigid body.  A fixed
+velocity correction after G2P (frictionless, perfectly inelastic); a moving wall's impulse
+goes back to its rigid body, and the energy the walls take out (their impulses times the
+time-centred velocities of nodes and bodies, energy.py) is booked as wall energy.  A fixed
 wall is a support: the force of its correction over the step, m dv n / dt, is added to
 the support reaction (with the clamped nodes' f_int - f_ext - f_con, stages/constraints.py),
 so the crush force history sees a lobe that rests on the support plane.
@@ -18,9 +19,10 @@ from .timestep import impulse_time
 
 @ti.data_oriented
 class RigidBodies:
-    def __init__(self, state, cfg):
+    def __init__(self, state, cfg, energy):
         self.s = state
         self.cfg = cfg
+        self.energy = energy            # energy.EnergyLedger
         self.acc = Accumulator(cfg.serial)
         self.half_thickness = 0.5 * cfg.thickness
         # threads launch: wall impulses summed in node order instead of by atomics (serial
@@ -40,6 +42,9 @@ class RigidBodies:
                     f += self.s.force_contact[c]
                 force += f.dot(d)
             self.s.body_force[b] = force
+            if ti.static(self.cfg.static):      # the body's own equilibrium (its slaves are not free nodes)
+                self.s.residual_sq[None] += force * force
+            self.s.body_velocity_start[b] = self.s.velocity_keep[None] * self.s.body_velocity[b]
             self.s.body_velocity[b] = self.s.velocity_keep[None] * self.s.body_velocity[b] + \
                 impulse_time(self.s) * force / body[0]
             self.s.body_displacement[b] += self.s.dt[None] * self.s.body_velocity[b]
@@ -73,10 +78,8 @@ class RigidBodies:
                 push = ti.min((self.s.position[c] - p).dot(n) + dt * wall_speed - self.half_thickness, 0.0)   # at t^n
                 target = wall_speed + ti.min(-push, 0.01 * self.half_thickness) / dt
                 dv = ti.max(0.0, target - out.dot(n))
-                before = out.norm_sqr()
                 out += dv * n
                 m = self.s.corner_mass[c]
-                self.acc.total(self.s.wall_energy, 0.5 * m * (before - out.norm_sqr()))
                 if ti.static(w[2] >= 0):
                     impulse = -m * dv * n.dot(ti.Vector(self.cfg.bodies[w[2]][2], dt=ti.f64))
                     if ti.static(self.impulses_in_node_order):   # summed by apply_wall_impulses
@@ -89,7 +92,10 @@ class RigidBodies:
 
     @ti.func
     def apply_wall_impulses(self):
-        """A moving wall pushes its rigid body back (end of step); its KE change is wall energy."""
+        """A moving wall pushes its rigid body back (end of step).  The impulse J's energy,
+        J V_mid with the body's time-centred velocity V_mid = (V^(n-1/2) + V^(n+1/2)) / 2, is
+        taken out as wall energy (energy.py: the walls' work on the nodes is booked the same
+        way, so a wall that only carries load books nothing)."""
         if ti.static(self.impulses_in_node_order):         # no atomics, the serial sum's bits
             ti.loop_config(serialize=True)
             for c in range(self.s.n_nodes):
@@ -97,16 +103,17 @@ class RigidBodies:
                     self.s.body_impulse[b] += self.s.node_wall_impulse[c, b]
                     self.s.node_wall_impulse[c, b] = 0.0
         for b, body in ti.static(enumerate(self.cfg.bodies)):
-            dv = self.s.body_impulse[b] / body[0]
-            v_old = self.s.body_velocity[b]
-            self.s.body_velocity[b] = v_old + dv
-            self.s.wall_energy[None] += 0.5 * body[0] * (v_old ** 2 - (v_old + dv) ** 2)
+            impulse = self.s.body_impulse[b]
+            self.s.body_velocity[b] += impulse / body[0]
+            v_mid = 0.5 * (self.s.body_velocity_start[b] + self.s.body_velocity[b])
+            self.energy.body(b, -impulse * v_mid)
             self.s.body_impulse[b] = 0.0
 
     @ti.func
     def kinetic_energy(self):
-        """KE of the added masses (the slave nodes' share is in the nodal KE)."""
+        """KE of the bodies, slave nodes and added mass together (1/2 M_tot V^2 with the
+        velocity after the wall impulses; the node update leaves the slaves out)."""
         ke = 0.0
         for b, body in ti.static(enumerate(self.cfg.bodies)):
-            ke += 0.5 * body[1] * self.s.body_velocity[b] ** 2
+            ke += 0.5 * body[0] * self.s.body_velocity[b] ** 2
         return ke

@@ -26,10 +26,11 @@ def drop_fixed(vec, mask, first_bit: ti.template()):
 
 @ti.data_oriented
 class NodeUpdate:
-    def __init__(self, state: State, cfg, bodies):
+    def __init__(self, state: State, cfg, bodies, energy):
         self.s = state
         self.cfg = cfg
         self.bodies = bodies
+        self.energy = energy            # energy.EnergyLedger
         self.runaway_speed = 10.0 * cfg.wave_speed
         self.acc = Accumulator(cfg.serial)
 
@@ -84,17 +85,22 @@ class NodeUpdate:
 
     @ti.func
     def finish(self, c, v_grid):
-        """Given the node's new grid velocity: apply BCs, move it, update omega
-        (S5 with the drilling projection of method.md 2.3), accumulate KE, external work,
-        residual and max speed, and (batched launch) zero the node sums of the element loads."""
+        """Given the node's new grid velocity: apply BCs and walls, move it, update omega
+        (S5 with the drilling projection of method.md 2.3), book KE, the node's energy
+        increments (energy.py: work with the time-centred velocity), residual and max speed,
+        and (batched launch) zero the node sums of the element loads."""
         dt = self.s.dt[None]
         mask = self.s.fix_mask[c]
         lam = self.s.load_factor[None]
+        keep = self.s.velocity_keep[None]
+        v_start = keep * self.s.grid_velocity[c]          # v^(n-1/2) (0 after a relaxation reset)
+        w_start = keep * self.s.omega[c]
         vg = drop_fixed(v_grid, mask, 0)
         rigid = self.s.node_body[c] >= 0
         if ti.static(len(self.cfg.bodies) > 0):
             if rigid:
                 vg = self.bodies.slave_velocity(c)
+        before_walls = vg
         if (mask & FIXED_TRANSLATION) == FIXED_TRANSLATION:
             # support reaction R = f_int - f_ext - f_con (method.md 2.5a)
             reaction = self.s.force_int[c] - lam * self.s.load_force[c]
@@ -116,7 +122,7 @@ class NodeUpdate:
         # rotations: J w' = mu_ext - mu_int, then remove the drilling component
         normal, project = self.drill_normal(c)
         torque = lam * self.s.load_moment[c] - self.s.moment_int[c]
-        w = self.s.velocity_keep[None] * self.s.omega[c] + self.velocity_gain(self.s.corner_inertia[c]) * torque
+        w = w_start + self.velocity_gain(self.s.corner_inertia[c]) * torque
         if project:
             w -= w.dot(normal) * normal
         w = drop_fixed(w, mask, 3)
@@ -124,13 +130,24 @@ class NodeUpdate:
             w = ti.Vector([0.0, 0.0, 0.0])
         self.s.omega[c] = w
         self.rotate_orientation(c, dt * w)
-        self.acc.total(self.s.residual_sq,
-                       self.residual_torque_about(c, normal, project).norm_sqr() / (self.cfg.length_ref ** 2))
-        self.acc.total(self.s.kinetic, 0.5 * (self.s.corner_mass[c] * vg.norm_sqr() + self.s.corner_inertia[c] * w.norm_sqr()))
-        self.acc.total(self.s.external_work, dt * lam * (self.s.load_force[c].dot(vg) + self.s.load_moment[c].dot(w)))
+        if not rigid:        # a slave's rotation is held and its translation is the body's (stages/bodies.py)
+            self.acc.total(self.s.residual_sq,
+                           self.residual_torque_about(c, normal, project).norm_sqr() / (self.cfg.length_ref ** 2))
+            self.acc.total(self.s.kinetic, 0.5 * (self.s.corner_mass[c] * vg.norm_sqr()
+                                                  + self.s.corner_inertia[c] * w.norm_sqr()))
+        v_mid, w_mid = 0.5 * (v_start + vg), 0.5 * (w_start + w)
+        kick = impulse_time(self.s)              # the duration of the velocity update (dt/2 from rest)
+        external = kick * lam * (self.s.load_force[c].dot(v_mid) + self.s.load_moment[c].dot(w_mid))
+        contact = 0.0
         if ti.static(self.cfg.has_contact):
-            self.acc.total(self.s.contact_energy, -dt * self.s.force_contact[c].dot(vg))
+            contact = -kick * self.s.force_contact[c].dot(v_mid)
+        wall = -self.s.corner_mass[c] * (vg - before_walls).dot(v_mid)     # minus the walls' impulse . v_mid
+        self.energy.node(c, external, contact, wall)
         self.acc.maximum(self.s.max_speed, ti.max(ti.abs(vg[0]), ti.abs(vg[1]), ti.abs(vg[2])))
+        if ti.static(self.cfg.has_contact):
+            for d in ti.static(range(3)):
+                self.acc.maximum_at(self.s.velocity_high, d, vg[d])
+                self.acc.minimum_at(self.s.velocity_low, d, vg[d])
         if ti.static(self.cfg.serial):          # parallel launches overwrite them (CornerLoads.gather)
             self.s.force_int[c] = ti.Vector([0.0, 0.0, 0.0])
             self.s.moment_int[c] = ti.Vector([0.0, 0.0, 0.0])

@@ -30,14 +30,15 @@ class PlaneStressElastic:
     @ti.func
     def update(self, stress, plastic_strain, d_strain, d_shear):
         """stress = (sxx, syy, sxy, txz, tyz); d_strain = (dexx, deyy, dgxy); d_shear = (dgxz, dgyz).
-        Returns (new stress, new equivalent plastic strain, plastic work per unit volume)."""
+        Returns (new stress, new equivalent plastic strain, plastic work per unit volume,
+        whether the update converged)."""
         new = stress + ti.Vector([
             self.c11 * d_strain[0] + self.c12 * d_strain[1],
             self.c12 * d_strain[0] + self.c11 * d_strain[1],
             self.c33 * d_strain[2],
             self.c33 * d_shear[0],
             self.c33 * d_shear[1]])
-        return new, plastic_strain, 0.0
+        return new, plastic_strain, 0.0, True
 
 
 @ti.data_oriented
@@ -84,10 +85,13 @@ class PlaneStressJ2(PlaneStressElastic):
     @ti.func
     def update(self, stress, plastic_strain, d_strain, d_shear):
         """stress = (sxx, syy, sxy, txz, tyz); d_strain = (dexx, deyy, dgxy); d_shear = (dgxz, dgyz).
-        Returns (new stress, new equivalent plastic strain, plastic work sigma_y(ebar_mid) d ebar)."""
-        new, _, _ = PlaneStressElastic.update(self, stress, plastic_strain, d_strain, d_shear)
+        Returns (new stress, new equivalent plastic strain, plastic work sigma_y(ebar_mid) d ebar,
+        converged): a return that does not meet |F| < 1e-12 sigma_y^2 within max_iterations is
+        reported (the shell stage stops the run naming the element), never accepted silently."""
+        new, _, _, _ = PlaneStressElastic.update(self, stress, plastic_strain, d_strain, d_shear)
         ebar = plastic_strain
         work = 0.0
+        converged = True
         s11, s22, s12 = new[0], new[1], new[2]
         q_trial = ti.sqrt(s11 * s11 - s11 * s22 + s22 * s22 + 3.0 * s12 * s12)
         sy_n = self.flow_stress(plastic_strain)
@@ -99,10 +103,12 @@ class PlaneStressJ2(PlaneStressElastic):
             # dlambda)^2 reaches 2 sy_n^2/3: the root lies in [lo, hi].  Newton from 0; a Newton
             # iterate outside the bracket is replaced by bisection.
             lo, hi, dlam, root = 0.0, (q_trial / sy_n - 1.0) / self.lambda_min, 0.0, 0.0
+            converged = False
             for _iteration in range(self.max_iterations):
                 f, df, ebar = self.consistency(a1, b, plastic_strain, dlam)
                 root = dlam                      # the dlambda that ebar belongs to
                 if ti.abs(f) < 1e-12 * self.flow_stress(ebar) ** 2:
+                    converged = True
                     break
                 if f > 0.0:
                     lo = dlam
@@ -117,4 +123,4 @@ class PlaneStressJ2(PlaneStressElastic):
             new[1] = 0.5 * (s_sum * u1 - s_diff * u2)
             new[2] = s12 * u2
             work = self.flow_stress(0.5 * (plastic_strain + ebar)) * (ebar - plastic_strain)
-        return new, ebar, work
+        return new, ebar, work, converged

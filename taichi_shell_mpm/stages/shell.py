@@ -10,7 +10,7 @@ element time-step limit (section 5).
 
 import taichi as ti
 
-from ..state import STATUS_INVERTED, STATUS_OK, State
+from ..state import STATUS_INVERTED, STATUS_OK, STATUS_RETURN_FAILED, State
 from .accumulate import Accumulator, CornerLoads
 from .drilling import DrillingSpring
 from .hourglass import Hourglass
@@ -80,10 +80,11 @@ def tangled(xh, yh):
 class ShellElement:
     """Element stage: strain rates -> stress at each point -> resultants -> nodal forces."""
 
-    def __init__(self, state: State, cfg, material):
+    def __init__(self, state: State, cfg, material, energy):
         self.s = state
         self.cfg = cfg
         self.material = material
+        self.energy = energy            # energy.EnergyLedger
         self.hourglass = Hourglass(cfg.E, cfg.shear_modulus, cfg.thickness, cfg.shear_factor, cfg.hourglass,
                                    cfg.kirchhoff_w_hourglass)
         self.drilling = DrillingSpring(cfg.E, cfg.thickness, cfg.drilling_stiffness)
@@ -155,13 +156,16 @@ class ShellElement:
             old = self.s.stress[e, k]
             new = old
             if ti.static(self.material.plastic):
-                updated, ep, work = self.material.update(old, self.s.plastic_strain[e, k], dt * d_inplane,
-                                                         dt * shear_rate)
+                updated, ep, work, converged = self.material.update(old, self.s.plastic_strain[e, k],
+                                                                    dt * d_inplane, dt * shear_rate)
                 new = updated
                 self.s.plastic_strain[e, k] = ep
                 plastic_work += weight * work
+                if not converged and self.s.status[None] == STATUS_OK:
+                    self.s.status[None] = STATUS_RETURN_FAILED
+                    self.s.status_index[None] = e
             else:
-                updated, _, _ = self.material.update(old, 0.0, dt * d_inplane, dt * shear_rate)
+                updated, _, _, _ = self.material.update(old, 0.0, dt * d_inplane, dt * shear_rate)
                 new = updated
             self.s.stress[e, k] = new
             mid = 0.5 * (old + new)
@@ -192,6 +196,7 @@ class ShellElement:
         fh, mh = self.hourglass.nodal_loads(gam, zw, q_new, self.hourglass.quadratic_moments(gam, xh, yh), b1, b2)
         f += fh
         m += mh
+        drill_energy = 0.0
         if ti.static(self.cfg.drilling_spring):      # stages/drilling.py
             drill_rate = self.drilling.rates(g1, g2, vx, vy, tz)
             drill_old = self.s.drilling_moment[e]
@@ -200,7 +205,7 @@ class ShellElement:
             fd, md = self.drilling.nodal_loads(drill_new, b1, b2)
             f += fd
             m += md
-            self.acc.total(self.s.drilling_energy, dt * 0.5 * (drill_old + drill_new).dot(drill_rate))
+            drill_energy = dt * 0.5 * (drill_old + drill_new).dot(drill_rate)
         # --- to global (paper eq 37) and scatter
         fg = f @ rot
         mg = m @ rot
@@ -208,10 +213,12 @@ class ShellElement:
         for a in ti.static(range(4)):
             self.loads.add(e, a, c[a], ti.Vector([fg[a, 0], fg[a, 1], fg[a, 2]]), ti.Vector([mg[a, 0], mg[a, 1], mg[a, 2]]),
                            area * e3, area)
-        self.acc.total(self.s.internal_energy, dt * area_m * 0.5 * t * power)
-        self.acc.total(self.s.hourglass_energy, dt * 0.5 * (q_old + q_new).dot(q_rate))
-        if ti.static(self.material.plastic):
-            self.acc.total(self.s.plastic_work, area_m * 0.5 * t * plastic_work)
+        # the element's power at x^(n+1) with the step's velocities: energy.py's stagger term
+        element_power = 0.0
+        for a, d in ti.static(ti.ndrange(4, 3)):
+            element_power += fg[a, d] * v[a, d] + mg[a, d] * w[a, d]
+        self.energy.element(e, dt * area_m * 0.5 * t * power, area_m * 0.5 * t * plastic_work,
+                            dt * 0.5 * (q_old + q_new).dot(q_rate), drill_energy, -0.5 * dt * element_power)
         # --- element time-step limit (method.md 5, stages/timestep.element_limit)
         d13 = ti.Vector([x[2, 0] - x[0, 0], x[2, 1] - x[0, 1], x[2, 2] - x[0, 2]]).norm()
         d24 = ti.Vector([x[3, 0] - x[1, 0], x[3, 1] - x[1, 1], x[3, 2] - x[1, 2]]).norm()

@@ -1,0 +1,181 @@
+"""Energy bookkeeping (method.md 8): what is booked where, the totals, the balance and its guards.
+
+Booking.  Each quantity is accumulated where it arises, per entity, so that its total is a
+sum in a fixed order (the same bits on any number of threads and across a restart):
+
+* per element (``element_energy``): internal (stress power, method.md 8), of which plastic
+  work, hourglass and drilling-spring energy, booked by the shell stage (:meth:`EnergyLedger.element`);
+* per node (``node_energy``): work of the external loads, work done against the contact
+  forces, energy taken out by rigid walls (:meth:`EnergyLedger.node`);
+* per rigid body (``body_wall_energy``): the work of the walls moving with it on the body;
+* damped energy (0-d): kinetic energy removed by dynamic relaxation (batched launch only).
+
+The step keeps 0-d running totals of the same increments for its in-kernel decisions
+(static convergence, the balance guard); what is reported and written comes from the
+per-entity sums (:func:`totals`).
+
+Time-centred work [choice, issue 16]: a node's kinetic energy is measured at half steps,
+1/2 m |v^(n+1/2)|^2, and a force f^n acting over the step changes it by exactly
+dt f^n . (v^(n-1/2) + v^(n+1/2)) / 2 (central difference: m (v^(n+1/2) - v^(n-1/2)) = dt f^n;
+dt/2 for the first update from rest, stages/timestep.impulse_time).
+So the work of loads, contact forces and wall impulses is booked with that mid velocity.
+Booked with v^(n+1/2) alone (as before), each step mis-books dt^2 |f|^2 / (2 m) per node:
+bounded for smooth forces, but it accumulates where a constraint holds the node's velocity
+(a wall pushing a plate: the wall column held the spurious term, and the balance read 27-30 %
+on a box beam), and at stiff contact (two sheets meeting at 10 t_c per step lost a third of
+their kinetic energy from the balance).  Internal forces need no such term: the stress power
+booked over the step differs from their time-centred work by bounded, oscillating amounts
+(the central difference's shadow energy), which do not accumulate.
+
+Stagger [choice, issue 16].  The kinetic energy lives at half steps and the stored energy
+at full steps.  For a linear elastic system the central difference conserves exactly
+1/2 v^(n+1/2) M v^(n+1/2) + 1/2 x^n K x^(n+1), and 1/2 x^n K x^(n+1) = U(x^(n+1)) -
+dt/2 v^(n+1/2) . f_int(x^(n+1)).  So the balance adds the stagger term
+S = -dt/2 sum_e P_e, P_e = sum_a f_a . v_a + m_a . omega_a the element's power with its
+forces at the end of the step (hourglass and drilling included); without it the balance
+swings by (omega dt / 2)^2 of the energy in the highest modes: 100 % of the absorbed energy
+in the first step of a suddenly loaded flap, a factor 1-2.4 in a plate spinning at random
+(tests/test_safety.py).  With it the balance is exact to round-off for linear elastic
+motion; what remains is nonlinearity, plasticity's dissipation booking, the double
+mapping's transfer loss and real errors.
+
+Balance.  E_err = KE + E_int + E_hg + E_drill + S + E_damped + E_wall + E_contact - KE_0 - W_ext
+(E_int includes the plastic work).  The guard (:meth:`EnergyLedger.guard`, checked every step
+in the kernel of a dynamic run) stops a run once E_err (energy created) exceeds ``limit``
+times the energy the shell has absorbed, A = E_int + E_hg + E_drill + E_contact + E_wall +
+E_damped, or KINETIC_SHARE x the shell's own kinetic energy (the nodes', without rigid
+bodies' added masses) where that is larger; the host warns once |E_err| exceeds
+WARN_FRACTION x limit of the same scale either way (:func:`balance_ratio`).  The kinetic
+floor [choice, measured]: the double mapping's transfer changes the kinetic energy of a
+shell moving through the grid by itself (a free plate spinning through the cells, APIC:
++-1.7 % over 1.5 revolutions, nothing absorbed), which is no instability; an instability
+grows exponentially past any such floor within a few steps.  The tube's nodes carry
+~64 J against the 1.8 kJ it absorbs, so its guard is 5 % of the absorbed energy from the
+first millimetres of crush on.
+"""
+from __future__ import annotations
+
+import numpy as np
+import taichi as ti
+
+from .stages.accumulate import Accumulator
+from .state import STATUS_ENERGY, STATUS_OK
+
+ENERGY_COLUMNS = ("kinetic", "internal", "hourglass", "external_work", "damped", "wall", "contact",
+                  "plastic_work", "drilling", "stagger", "balance_error")
+ELEMENT_PARTS = ("internal", "plastic_work", "hourglass", "drilling", "stagger")   # element_energy components
+NODE_PARTS = ("external_work", "contact", "wall")                        # node_energy components
+
+BALANCE_STOP = 0.05          # default limit: |E_err| / absorbed (method.md 8: stop above 5 %)
+WARN_FRACTION = 0.2          # warn at 0.2 x the limit (1 % by default)
+KINETIC_SHARE = 0.5          # the balance scale is at least this x the shell's kinetic energy
+
+
+@ti.data_oriented
+class EnergyLedger:
+    """In-kernel booking of the energy increments and the balance guard (module docstring)."""
+
+    def __init__(self, state, cfg, plastic: bool):
+        self.s = state
+        self.cfg = cfg
+        self.plastic = plastic
+        self.acc = Accumulator(cfg.serial)
+
+    @ti.func
+    def element(self, e, internal, plastic, hourglass, drilling, stagger):
+        """Element e's increments of the step (stages/shell.py), and its stagger term (not
+        accumulated: this step's value)."""
+        old = self.s.element_energy[e]
+        self.s.element_energy[e] = ti.Vector([old[0] + internal, old[1] + plastic, old[2] + hourglass,
+                                              old[3] + drilling, stagger])
+        self.acc.total(self.s.stagger_energy, stagger)
+        self.acc.total(self.s.internal_energy, internal)
+        self.acc.total(self.s.hourglass_energy, hourglass)
+        if ti.static(self.cfg.drilling_spring):
+            self.acc.total(self.s.drilling_energy, drilling)
+        if ti.static(self.plastic):
+            self.acc.total(self.s.plastic_work, plastic)
+
+    @ti.func
+    def node(self, c, external, contact, wall):
+        """Node c's increments of the step (stages/constraints.py): external work, work done
+        against the contact forces, energy taken out by walls."""
+        self.s.node_energy[c] += ti.Vector([external, contact, wall])
+        self.acc.total(self.s.external_work, external)
+        if ti.static(self.cfg.has_contact):
+            self.acc.total(self.s.contact_energy, contact)
+        if ti.static(len(self.cfg.walls) > 0):
+            self.acc.total(self.s.wall_energy, wall)
+
+    @ti.func
+    def body(self, b, wall):
+        """Energy taken out of rigid body b by the walls moving with it (stages/bodies.py);
+        serial (end of step)."""
+        self.s.body_wall_energy[b] += wall
+        self.s.wall_energy[None] += wall
+
+    @ti.func
+    def guard(self, shell_kinetic):
+        """Stop (STATUS_ENERGY) when E_err > limit x max(absorbed, floor) (module docstring);
+        a limit of 0 turns it off.  Only energy created stops a run: that is what an
+        instability does; energy lost (the double mapping's transfer loss, PIC's dissipation of
+        a spin) is warned of by the host (Simulation.check_balance).  Reads the 0-d running totals at the end of a step.
+        Dynamic runs only: dynamic relaxation's FIRE mixing turns the velocity towards the
+        force, which no work term books, so a static run's balance is reported, not guarded."""
+        s = self.s
+        limit = s.energy_limit[None]
+        if ti.static(not self.cfg.static) and limit > 0.0 and s.status[None] == STATUS_OK:
+            absorbed = (s.internal_energy[None] + s.hourglass_energy[None] + s.drilling_energy[None]
+                        + s.contact_energy[None] + s.wall_energy[None] + s.damped_energy[None])
+            error = (s.kinetic[None] + absorbed + s.stagger_energy[None] - s.kinetic_initial[None]
+                     - s.external_work[None])
+            scale = ti.max(absorbed, KINETIC_SHARE * shell_kinetic)
+            if not (error <= limit * scale) and scale > 0.0:      # also catches NaN
+                s.status[None] = STATUS_ENERGY
+                s.status_index[None] = -1
+
+
+def bodies_kinetic_energy(state, model) -> float:
+    """1/2 M_tot V^2 summed over the rigid bodies (slave nodes and added mass)."""
+    return float(sum(0.5 * b.total_mass * state.body_velocity[i] ** 2 for i, b in enumerate(model.rigid_bodies)))
+
+
+def kinetic_energy(state, model) -> float:
+    """KE = 1/2 sum m |v~|^2 + 1/2 sum J |omega|^2 over the nodes that are not rigid-body
+    slaves, + 1/2 M_tot V^2 of each rigid body (its slaves and added mass move with V)."""
+    m, inertia = model.node_mass, model.node_inertia
+    free = model.node_body < 0 if model.node_body is not None else np.ones(len(m), bool)
+    v = state.grid_velocity.to_numpy()[free]
+    w = state.omega.to_numpy()[free]
+    return float(0.5 * np.sum(m[free] * np.sum(v * v, axis=1)) + 0.5 * np.sum(inertia[free] * np.sum(w * w, axis=1))
+                 + bodies_kinetic_energy(state, model))
+
+
+def totals(state, model, initial_kinetic: float) -> dict[str, float]:
+    """Every column of ENERGY_COLUMNS from the per-entity accumulators (a fixed summation
+    order: restart-exact and independent of the number of threads)."""
+    element = state.element_energy.to_numpy().sum(axis=0)
+    node = state.node_energy.to_numpy().sum(axis=0)
+    e = {name: float(element[i]) for i, name in enumerate(ELEMENT_PARTS)}
+    e.update({name: float(node[i]) for i, name in enumerate(NODE_PARTS)})
+    if model.rigid_bodies:
+        e["wall"] += float(state.body_wall_energy.to_numpy()[:len(model.rigid_bodies)].sum())
+    e["kinetic"] = kinetic_energy(state, model)
+    e["kinetic_bodies"] = bodies_kinetic_energy(state, model)      # (not a column: the guard's scale)
+    e["damped"] = float(state.damped_energy[None])
+    e["balance_error"] = (e["kinetic"] + absorbed(e) + e["stagger"] - initial_kinetic - e["external_work"])
+    return e
+
+
+def absorbed(e: dict) -> float:
+    """Energy taken up by the shell and its constraints: internal (incl. plastic), hourglass,
+    drilling, contact, walls and dynamic-relaxation damping."""
+    return e["internal"] + e["hourglass"] + e["drilling"] + e["contact"] + e["wall"] + e["damped"]
+
+
+def balance_ratio(e: dict) -> float:
+    """|E_err| / max(absorbed, KINETIC_SHARE x the shell's kinetic energy): the guard's ratio
+    (host twin of :meth:`EnergyLedger.guard`)."""
+    scale = max(absorbed(e), KINETIC_SHARE * (e["kinetic"] - e["kinetic_bodies"]))
+    return abs(e["balance_error"]) / scale if scale > 0.0 else 0.0
+
