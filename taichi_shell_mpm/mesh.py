@@ -376,6 +376,14 @@ def _coincident_pairs(points: np.ndarray, ids: np.ndarray, tol: float) -> np.nda
     return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
 
 
+def coincident_pairs(points: np.ndarray) -> np.ndarray:
+    """Pairs (k, 2) of nodes of `points` that coincide (within DUPLICATE_RTOL x the
+    bounding-box diagonal), as check_mesh finds them."""
+    points = np.asarray(points, dtype=np.float64)
+    tol = DUPLICATE_RTOL * np.linalg.norm(np.ptp(points, axis=0))
+    return _coincident_pairs(points, np.arange(len(points)), tol)
+
+
 def _orientation_warnings(quads: np.ndarray, source: str) -> list[str]:
     """Lines for neighbouring elements with opposite normals: an edge a->b that two elements
     both run in the same direction (a consistently oriented surface runs it a->b and b->a)."""

@@ -352,8 +352,9 @@ class Simulation:
                                                                  s.stress))
 
     def final_frame(self) -> bool:
-        """After a failure or an interrupt: write the current state as the last frame if it is
-        finite (never a frame with NaN) and not already the last one.  Returns True if written."""
+        """After an interrupt: write the current state as the last frame if it is finite (never
+        a frame with NaN) and not already the last one.  Returns True if written.  Not after a
+        failure: the failing state is no result (cli._finish)."""
         key = self.state.load_factor[None] if self.scene.solve.kind == "static" else self.state.time[None]
         if self.frames is not None and self.frames.entries and self.frames.entries[-1][0] == float(key):
             return False

@@ -313,6 +313,9 @@ def test_merge_nodes_key_through_validate(tmp_path):
     print(r.out, r.err)
     assert r.code == 0
     assert "warning: " + str(tmp_path / "slit.vtu") + ": 2 pairs of coincident nodes kept distinct" in r.out
-    assert "(8 nodes, 2 elements" in r.out
+    assert "(8 nodes, 2 elements" in r.out and "coincident nodes move together" not in r.out      # fem
+    r = cli_run("validate", str(scene), "--set", "nodesets.tip.plane.point=[2,0,0]", "--set", "method.kind=mpm")
+    assert r.code == 0 and ('warning: slit.toml: [method].kind = "mpm": the 2 pairs of coincident nodes move '
+                            "together") in r.out
     r = cli_run("validate", str(scene), "--set", "nodesets.tip.plane.point=[2,0,0]", "--set", "mesh.merge_nodes=true")
     assert r.code == 0 and "merged 2 coincident nodes" in r.out and "(6 nodes, 2 elements" in r.out
