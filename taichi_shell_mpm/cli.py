@@ -210,9 +210,9 @@ def setup_warnings(scene, model) -> list[str]:
         from .mesh import coincident_pairs
         pairs = len(coincident_pairs(model.points))
         if pairs:
-            lines.append(f"{scene.source.name}: [method].kind = \"mpm\": the {pairs} pair{'s' if pairs != 1 else ''} of "
-                         "coincident nodes move together (every node moves with the grid velocity at its position), so a slit or "
-                         "crack there does not open; use kind = \"fem\" to let it open")
+            lines.append(f"{scene.source.name}: [method].kind = \"mpm\": the {pairs} pair{'s' if pairs != 1 else ''} "
+                         "of coincident nodes move together (every node moves with the grid velocity at its "
+                         "position), so a slit or crack there does not open; use kind = \"fem\" to let it open")
     if scene.contact is not None and model.grid is not None and model.grid.h > STICKING_CELL_RATIO * model.max_edge:
         lines.append(f"{scene.source.name}: [method].cell_size: {model.grid.h:g} is more than "
                      f"{STICKING_CELL_RATIO:g} x the longest element edge ({model.max_edge:.3g}); with [contact], "
