@@ -182,16 +182,19 @@ def at_end(ckpt: Checkpoint, scene) -> bool:
     return int(pos.get("event", 0)) >= len(event_times(scene)[0])
 
 
-def finished_run(directory: Path, ckpt: Checkpoint, scene) -> bool:
-    """The run in `directory` is finished: its checkpoint is at the end and its summary.json
-    records no error."""
-    if not at_end(ckpt, scene):
-        return False
+def summary_is_final(directory: Path) -> bool:
+    """`directory` holds the summary.json of a run that ended without error."""
     try:
         summary = json.loads((Path(directory) / "summary.json").read_text())
     except (OSError, ValueError):
         return False
     return isinstance(summary, dict) and not summary.get("error")
+
+
+def finished_run(directory: Path, ckpt: Checkpoint, scene) -> bool:
+    """The run in `directory` is finished: its checkpoint is at the end and its summary.json
+    records no error."""
+    return at_end(ckpt, scene) and summary_is_final(directory)
 
 
 def check_compatible(ckpt: Checkpoint, scene, points, quads) -> None:

@@ -357,7 +357,7 @@ def _finish(sim, message: str, interrupted: bool = False) -> str | None:
 
 def _run(args) -> int:
     from .checkpoint import (CheckpointError, RunControl, check_compatible, finished_run, load_checkpoint,
-                             restore_checkpoint)
+                             restore_checkpoint, summary_is_final)
     from .output import OutputError, clear_run_files
     from .progress import format_summary
     from .scene import SceneError
@@ -374,6 +374,9 @@ def _run(args) -> int:
               "summary.json records no error); its results are there.  Run without --restart to compute it "
               "again", flush=True)
         return 0
+    if ckpt is not None and summary_is_final(ckpt.path.parent) and not args.quiet:
+        print(f"{ckpt.path.parent}: this run had finished; its checkpoint is at step {ckpt.meta.get('step')}, "
+              "so the steps after it are computed again (bit-for-bit the same)", flush=True)
     out = args.out if args.out is not None else (args.restart if args.restart is not None
                                                   else Path("outputs") / scene.info.name)
     problem = _check_out_dir(out)

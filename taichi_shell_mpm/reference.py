@@ -103,3 +103,21 @@ def compare_with_reference(ref: Reference, header: list[str], rows: list[list[fl
             "max_rel_error": float(err.max()) if len(err) else None,
             "simulated": sim.tolist(), "reference": table[comp.column].tolist()}
     return result
+
+
+def reference_summary(scene, header: list[str], rows: list[list[float]]) -> tuple[dict | None, str | None]:
+    """summary.json's ``reference`` entry for a run of `scene` that recorded `rows`, and a
+    warning line if any: skipped for a dynamic run (the table is keyed by load level), noted
+    when no row matched (a run stopped before its first reference level)."""
+    ref = scene.reference
+    if ref is None:
+        return None, None
+    name = scene.source.name
+    reason = skip_reason(ref, scene.solve.kind)
+    if reason is not None:
+        return {"file": str(ref.file), "skipped": reason}, f"{name}: {reason}"
+    result = compare_with_reference(ref, header, rows)
+    if result["matched"] == 0:
+        return result, (f"{name}: [reference] ({ref.file.name}): none of its {result['rows']} load levels was "
+                        "reached by a converged load step: no errors computed")
+    return result, None

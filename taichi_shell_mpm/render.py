@@ -75,8 +75,8 @@ PALETTE = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e
            "#7f7f7f", "#bcbd22", "#17becf")
 PROBE_TIMEOUT_S = 120
 RUNAWAY_EXTENT = 1e3
-"""A frame whose shell (bounding-box diagonal) is this many times larger than in the median
-frame read is a runaway state: not drawn (it would shrink every other frame to a dot)."""
+"""A frame whose shell (bounding-box diagonal) is this many times larger than in the first
+drawable frame is a runaway state: not drawn (it would shrink every other frame to a dot)."""
 
 _PROBE = """
 from vtkmodules.vtkRenderingCore import vtkRenderWindow, vtkRenderer
@@ -385,10 +385,10 @@ def sequence_stats(run: Run, indices: list[int], fld: Field) -> Stats:
             read[i] = (mesh, p, float(np.linalg.norm(np.ptp(p, axis=0))))
     if not read:
         raise _nothing_to_draw(run)
-    typical = float(np.median([d for _, _, d in read.values()]))
+    first = read[min(read)][2]            # the sample always holds frame 0: the start of the run
     for i, (mesh, p, diagonal) in read.items():
-        if diagonal > RUNAWAY_EXTENT * typical:
-            run.undrawable[i] = f"a runaway state ({diagonal / typical:.3g} times the size of the median frame)"
+        if diagonal > RUNAWAY_EXTENT * first:
+            run.undrawable[i] = f"a runaway state ({diagonal / first:.3g} times the size of the first frame)"
             run.warnings.append(f"{run.files[i]}: not drawn: {run.undrawable[i]}")
             continue
         lo, hi = np.minimum(lo, p.min(axis=0)), np.maximum(hi, p.max(axis=0))

@@ -22,7 +22,7 @@ from .mesh import Mesh, build_mesh
 from .crush import crush_summary
 from .output import FrameWriter, OutputError, write_csv, write_json
 from .progress import Progress
-from .reference import compare_with_reference, skip_reason
+from .reference import reference_summary
 from .scene import Scene
 from .solvers.stepper import Stepper
 from .stages.timestep import DT_UNSET, initial_dt
@@ -383,22 +383,6 @@ class Simulation:
         if failed is not None:
             raise failed
 
-    def reference_summary(self) -> tuple[dict | None, str | None]:
-        """The comparison with the scene's reference table and a warning line, if any: skipped
-        for a dynamic run (the table is keyed by load level), noted when no row matched."""
-        ref = self.scene.reference
-        if ref is None:
-            return None, None
-        name = self.scene.source.name
-        reason = skip_reason(ref, self.scene.solve.kind)
-        if reason is not None:
-            return {"file": str(ref.file), "skipped": reason}, f"{name}: {reason}"
-        result = compare_with_reference(ref, self.history.probe_header, self.history.probe_rows)
-        if result["matched"] == 0:
-            return result, (f"{name}: [reference] ({ref.file.name}): none of its {result['rows']} load levels was "
-                            "reached by a converged load step: no errors computed")
-        return result, None
-
     def write_results(self, extra: dict | None = None) -> dict:
         """Tables and summary.json (both attempted even if one cannot be written; then the
         first OutputError is raised); returns the summary."""
@@ -426,7 +410,7 @@ class Simulation:
         try:
             if self.model.rigid_bodies and self.scene.solve.kind == "dynamic" and self.history.force_rows:
                 summary.update(crush_summary(self))
-            reference, note = self.reference_summary()
+            reference, note = reference_summary(self.scene, self.history.probe_header, self.history.probe_rows)
             if reference is not None:
                 summary["reference"] = reference
             if note is not None and note not in self.warnings:

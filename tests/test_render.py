@@ -248,12 +248,15 @@ def test_render_skips_a_runaway_frame(tmp_path):
     from taichi_shell_mpm.render import Run, choose_field, frame_mesh, sequence_stats
     points = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], dtype=float)
     files = []
-    for i, scale in enumerate((1.0, 1.1, 1e24)):
+    for i, scale in enumerate((1.0, 1.1, 1e24)):          # (the runaway frame of a dynamic run is its last)
         files.append(tmp_path / f"frame_{i:05d}.vtu")
         meshio.write(files[-1], meshio.Mesh(points * scale, [("quad", np.array([[0, 1, 2, 3]]))],
                                             point_data={"displacement": points * (scale - 1.0)}))
     run = Run(out_dir=tmp_path, name="x", key="time", keys=np.array([0.0, 1.0, 2.0]), files=files)
     fld = choose_field(frame_mesh(run, 0), None)
     stats = sequence_stats(run, [0, 1, 2], fld)
-    assert list(run.undrawable) == [2] and "runaway state" in run.warnings[0]
+    assert list(run.undrawable) == [2] and "runaway state (1e+24 times the size of the first frame)" in run.warnings[0]
     assert stats.bounds[1] == pytest.approx(1.1)
+    two = Run(out_dir=tmp_path, name="x", key="time", keys=np.array([0.0, 2.0]), files=[files[0], files[2]])
+    sequence_stats(two, [0, 1], fld)
+    assert list(two.undrawable) == [1]
