@@ -3,8 +3,9 @@
 Exit codes: 0 success, 1 internal error (a bug: one line; set TAICHI_SHELL_MPM_TRACEBACK=1
 for the traceback), 2 scene/mesh/checkpoint error (user mistake, one line per problem,
 all problems at once; for render: a bad output directory or option), 3 run-time failure
-(instability, non-convergence, too much hourglass energy; the last good frame, frames.pvd
-and the results so far are written; for render: nothing could be drawn), 130 interrupted
+(instability, non-convergence, too much hourglass energy, a result file that cannot be
+written; the last good frame stays the last one, frames.pvd and the results so far are
+written; for render: nothing could be drawn), 130 interrupted
 (Ctrl-C: the run stops at the next batch boundary, writes a checkpoint, the last frame and
 the results so far).
 """
