@@ -141,8 +141,15 @@ def load_checkpoint(directory: Path) -> Checkpoint:
     directory = Path(directory)
     path = directory / CHECKPOINT_NAME if directory.suffix != ".npz" else directory
     if not path.is_file():
-        where = f"{directory}: no such directory" if not directory.exists() else f"{path}: no checkpoint"
-        raise CheckpointError(f"--restart {where} (write one with --checkpoint-every N)")
+        how = ("a run writes one with --checkpoint-every N, and when stopped by Ctrl-C; a run without "
+               "one cannot be continued: run it again without --restart")
+        if not directory.exists():
+            raise CheckpointError(f"--restart {directory}: no such directory (give the output directory of "
+                                  f"an interrupted run; {how})")
+        if not directory.is_dir() and path != directory:
+            raise CheckpointError(f"--restart {directory}: not a directory (give the output directory of "
+                                  "an interrupted run)")
+        raise CheckpointError(f"--restart {directory}: no {CHECKPOINT_NAME} in this directory ({how})")
     try:
         with np.load(path, allow_pickle=False) as data:
             arrays = {k: data[k] for k in data.files}
@@ -153,6 +160,41 @@ def load_checkpoint(directory: Path) -> Checkpoint:
     if meta.get("version") != FORMAT_VERSION:
         raise CheckpointError(f"{path}: checkpoint format {meta.get('version')} is not {FORMAT_VERSION}")
     return Checkpoint(path, meta, arrays)
+
+
+def event_times(scene) -> tuple[list[float], set[float]]:
+    """The dynamic driver's schedule (solvers/dynamic.py): sorted event times (frames and
+    history records) and the frame times among them; its checkpoint position counts them."""
+    out, end = scene.output, scene.solve.end_time
+    frame_times = {t for t in out.times if 0.0 < t <= end} | {end}
+    events = set(frame_times)
+    if out.history_interval > 0:
+        events |= {float(t) for t in np.arange(out.history_interval, end, out.history_interval)}
+    return sorted(events), frame_times
+
+
+def at_end(ckpt: Checkpoint, scene) -> bool:
+    """True when `ckpt` was written after the driver's last step and record (nothing left
+    to compute; a restart would only rewrite the results)."""
+    pos = ckpt.position
+    if scene.solve.kind == "static":
+        return int(pos.get("level", 0)) > scene.solve.load_steps
+    return int(pos.get("event", 0)) >= len(event_times(scene)[0])
+
+
+def summary_is_final(directory: Path) -> bool:
+    """`directory` holds the summary.json of a run that ended without error."""
+    try:
+        summary = json.loads((Path(directory) / "summary.json").read_text())
+    except (OSError, ValueError):
+        return False
+    return isinstance(summary, dict) and not summary.get("error")
+
+
+def finished_run(directory: Path, ckpt: Checkpoint, scene) -> bool:
+    """The run in `directory` is finished: its checkpoint is at the end and its summary.json
+    records no error."""
+    return at_end(ckpt, scene) and summary_is_final(directory)
 
 
 def check_compatible(ckpt: Checkpoint, scene, points, quads) -> None:
@@ -196,6 +238,8 @@ def restore_checkpoint(sim, ckpt: Checkpoint) -> list[str]:
         sim.frames = FrameWriter(sim.out_dir, sim.model.quads)
         sim.frames.entries = entries
         sim.frames._write_pvd()
+    elif (sim.out_dir / "frames.pvd").is_file():      # it lists only frames written after the checkpoint
+        (sim.out_dir / "frames.pvd").unlink()
     frames_dir = sim.out_dir / "frames"
     if frames_dir.is_dir():                       # frames written after the checkpoint: redone
         keep = {Path(f).name for _, f in entries}

@@ -3,8 +3,9 @@
 Exit codes: 0 success, 1 internal error (a bug: one line; set TAICHI_SHELL_MPM_TRACEBACK=1
 for the traceback), 2 scene/mesh/checkpoint error (user mistake, one line per problem,
 all problems at once; for render: a bad output directory or option), 3 run-time failure
-(instability, non-convergence, too much hourglass energy; the last good frame, frames.pvd
-and the results so far are written; for render: nothing could be drawn), 130 interrupted
+(instability, non-convergence, too much hourglass energy, a result file that cannot be
+written; the last good frame stays the last one, frames.pvd and the results so far are
+written; for render: nothing could be drawn), 130 interrupted
 (Ctrl-C: the run stops at the next batch boundary, writes a checkpoint, the last frame and
 the results so far).
 """
@@ -41,21 +42,41 @@ def _fraction(text: str) -> float:
     return value
 
 
+def _directory(text: str) -> Path:
+    """A directory argument: an empty string (which would mean the current directory) is refused."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("expected a directory, got an empty string")
+    return Path(text)
+
+
+SCENE_HELP = ("scene file (TOML): mesh, material, section, method, node sets, boundary conditions, loads, "
+              "probes, reference data, solve and output settings; every key is documented in docs/scenes.md")
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m taichi_shell_mpm",
                                 description="Thin shells by CPDI2 double-mapping MPM with Belytschko-Tsay elements.")
     sub = p.add_subparsers(dest="command", required=True)
-    run = sub.add_parser("run", help="run a scene")
-    run.add_argument("scene", type=Path)
-    run.add_argument("--out", type=Path, default=None,
-                     help="output directory (default outputs/<scene name>, or the --restart directory)")
+    run = sub.add_parser("run", help="run a scene",
+                         description="Run a scene: frames, probes.csv, energy.csv, force.csv and summary.json "
+                                     "in the output directory.",
+                         epilog="Scene keys: docs/scenes.md.  Exit codes: 0 done, 2 a mistake in the scene, "
+                                "mesh or command line, 3 a run-time failure (the results so far are written), "
+                                "130 interrupted, 1 a bug (README.md, 'When something goes wrong').")
+    run.add_argument("scene", type=Path, help=SCENE_HELP)
+    run.add_argument("--out", type=_directory, default=None,
+                     help="output directory (default outputs/<scene name>, or the --restart directory); "
+                          "the results of an earlier run there are replaced (its other files are kept)")
+    run.add_argument("--overwrite", action="store_true",
+                     help="start afresh in an output directory that holds the checkpoint of an unfinished "
+                          "(interrupted) run, deleting it (without this option such a run is refused)")
     run.add_argument("--arch", choices=["cpu", "cuda", "vulkan"], default="cpu")
     run.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                      help="override a scene key by its dotted path, e.g. method.kind=fem")
     run.add_argument("--quiet", action="store_true", help="print only warnings, errors and the final summary")
     run.add_argument("--checkpoint-every", type=_positive_int, default=0, metavar="N",
                      help="write OUTDIR/checkpoint.npz at the first batch boundary after every N steps")
-    run.add_argument("--restart", type=Path, default=None, metavar="DIR",
+    run.add_argument("--restart", type=_directory, default=None, metavar="DIR",
                      help="continue the run whose checkpoint is DIR/checkpoint.npz (same scene and --set "
                           "options); the result is bit-for-bit that of an uninterrupted run")
     run.add_argument("--hourglass-limit", type=_fraction, default=None, metavar="R",
@@ -64,11 +85,12 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--energy-limit", type=_fraction, default=None, metavar="R",
                      help="dynamic runs: stop when the energy balance error exceeds R times the energy "
                           "absorbed (default 0.05; warning at R/5; 0 = never stop)")
-    val = sub.add_parser("validate", help="check a scene and its mesh without running")
-    val.add_argument("scene", type=Path)
+    val = sub.add_parser("validate", help="check a scene and its mesh without running",
+                         epilog="Scene keys: docs/scenes.md.")
+    val.add_argument("scene", type=Path, help=SCENE_HELP)
     val.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
     ren = sub.add_parser("render", help="draw PNG pictures and plots of a run's output directory")
-    ren.add_argument("outdir", type=Path, help="output directory of a run (has frames.pvd)")
+    ren.add_argument("outdir", type=_directory, help="output directory of a run (has frames.pvd)")
     ren.add_argument("--frames", default="all", metavar="all|last|none|T1,T2,...",
                      help="frames to draw, one PNG each: all, last, none, or those nearest to "
                           "the given times / load factors (default all)")
@@ -169,8 +191,10 @@ STICKING_CELL_RATIO = 0.75    # contact scenes: grid cell / longest edge above t
 def setup_warnings(scene, model) -> list[str]:
     """Set-ups that run but are probably not what the user wants: loads whose set includes
     nodes with all translations fixed (that share of the force does nothing; a set of only
-    such nodes is an error, see assembly.assemble), and self-contact on a grid as coarse as
-    the elements (layers stick through the grid: the tube at h = l gave +28 % mean force)."""
+    such nodes is an error, see assembly.assemble), coincident nodes in mpm mode (they move
+    together with the grid, so a slit modelled by them stays closed), and self-contact on a
+    grid as coarse as the elements (layers stick through the grid: the tube at h = l gave
+    +28 % mean force)."""
     import numpy as np
 
     from .nodesets import select_nodes
@@ -186,6 +210,13 @@ def setup_warnings(scene, model) -> list[str]:
             lines.append(f"{scene.source.name}: [[load]][{i}] on '{ld.nodes}': {int(fixed[ids].sum())} of "
                          f"{len(ids)} nodes have all translations fixed; the {100 * lost:.3g}% of the force "
                          "spread onto them does nothing")
+    if model.grid is not None:
+        from .mesh import coincident_pairs
+        pairs = len(coincident_pairs(model.points))
+        if pairs:
+            lines.append(f"{scene.source.name}: [method].kind = \"mpm\": the {pairs} pair{'s' if pairs != 1 else ''} "
+                         "of coincident nodes move together (every node moves with the grid velocity at its "
+                         "position), so a slit or crack there does not open; use kind = \"fem\" to let it open")
     if scene.contact is not None and model.grid is not None and model.grid.h > STICKING_CELL_RATIO * model.max_edge:
         lines.append(f"{scene.source.name}: [method].cell_size: {model.grid.h:g} is more than "
                      f"{STICKING_CELL_RATIO:g} x the longest element edge ({model.max_edge:.3g}); with [contact], "
@@ -230,13 +261,23 @@ def _internal_error(exc: BaseException) -> int:
 
 
 # ------------------------------------------------------------------ commands
+def reference_note(scene) -> str | None:
+    """Why the scene's [reference] comparison will be skipped (a dynamic run), or None."""
+    from .reference import skip_reason
+    if scene.reference is None:
+        return None
+    reason = skip_reason(scene.reference, scene.solve.kind)
+    return None if reason is None else f"{scene.source.name}: {reason}"
+
+
 def _validate(args) -> int:
     from .scene import SceneError
     try:
         scene, mesh, model = prepare(args.scene, args.overrides)
     except SceneError as exc:
         return _fail(EXIT_SCENE, exc.messages)
-    for w in (*mesh.warnings, *setup_warnings(scene, model)):
+    note = reference_note(scene)
+    for w in (*mesh.warnings, *setup_warnings(scene, model), *([note] if note else [])):
         print(f"warning: {w}")
     grid = f", grid {model.grid.dims} nodes at h={model.grid.h:g}" if model.grid else ""
     print(f"{args.scene}: ok ({len(mesh.points)} nodes, {len(mesh.quads)} elements, {scene.method.kind}{grid})")
@@ -253,23 +294,75 @@ def _check_out_dir(out: Path) -> str | None:
     return None
 
 
-def _finish(sim, message: str) -> None:
-    """After a failure or an interrupt: last good frame, tables and summary with the error."""
+def _unfinished_checkpoint(out: Path) -> bool:
+    """`out` holds the checkpoint of a run that can still be continued: no summary.json, or
+    one saying it was interrupted."""
+    import json
+    if not (out / "checkpoint.npz").is_file():
+        return False
+    try:
+        summary = json.loads((out / "summary.json").read_text())
+    except (OSError, ValueError):
+        return True
+    return not isinstance(summary, dict) or summary.get("error") == "interrupted"
+
+
+def _state_is_a_result(sim) -> bool:
+    """After an interrupt: the current state may be written as the last frame.  A dynamic
+    state at a batch boundary is one; a static one only once its load level has converged
+    (mid-level it is not the equilibrium at the level's load factor)."""
+    if sim.scene.solve.kind != "static":
+        return True
+    rows = sim.history.probe_rows
+    return bool(rows) and rows[-1][0] == float(sim.state.load_factor[None])
+
+
+def _undeformed_frame(sim) -> None:
+    """A static run stopped before its first converged load level has no frame: write the
+    undeformed shell at load factor 0 (the equilibrium before any load) as its last good
+    frame, so that frames.pvd opens.  Nothing when the scene writes no frames."""
+    import numpy as np
+
+    from .output import FrameWriter
+    if sim.scene.solve.kind != "static" or not sim.scene.output.load_steps or sim.frames is not None:
+        return
+    zero = np.zeros_like(sim.model.points)
+    cells = {k: (v if k == "thickness" else np.zeros_like(v)) for k, v in sim.element_results().items()}
+    frames = FrameWriter(sim.out_dir, sim.model.quads)
+    frames.write(0.0, sim.model.points, {"displacement": zero, "velocity": zero, "rotation": zero}, cells)
+    sim.frames = frames
+
+
+def _finish(sim, message: str, interrupted: bool = False) -> str | None:
+    """After a failure or an interrupt: tables and summary with the error, and (interrupt
+    only) the current state as the last frame.  After a failure the last frame written stays
+    the last one: the failing state (runaway, inside out, not converged) is not a result.
+    Returns a line saying what could not be written, or None."""
     from .checkpoint import deferred_interrupt
     if sim is None:
-        return
+        return None
     try:
         with deferred_interrupt():
-            sim.final_frame()
-            sim.write_results({"error": message})
+            try:
+                if interrupted and _state_is_a_result(sim):
+                    sim.final_frame()
+                _undeformed_frame(sim)
+            finally:
+                sim.write_results({"error": message})
     except KeyboardInterrupt:
-        print("error: interrupted again while writing the results", file=sys.stderr)
+        return "interrupted again while writing the results"
     except Exception as exc:  # keep the one-line report of the original failure
-        print(f"error: could not write all results: {type(exc).__name__}: {_one_line(exc)}", file=sys.stderr)
+        from .output import OutputError
+        if isinstance(exc, OutputError):
+            return f"while writing the results: {exc}"
+        return f"could not write all results: {type(exc).__name__}: {_one_line(exc)}"
+    return None
 
 
 def _run(args) -> int:
-    from .checkpoint import CheckpointError, RunControl, check_compatible, load_checkpoint, restore_checkpoint
+    from .checkpoint import (CheckpointError, RunControl, check_compatible, finished_run, load_checkpoint,
+                             restore_checkpoint, summary_is_final)
+    from .output import OutputError, clear_run_files
     from .progress import format_summary
     from .scene import SceneError
     try:
@@ -280,21 +373,48 @@ def _run(args) -> int:
             check_compatible(ckpt, scene, model.points, model.quads)
     except (SceneError, CheckpointError) as exc:
         return _fail(EXIT_SCENE, exc.messages)
+    if ckpt is not None and finished_run(ckpt.path.parent, ckpt, scene):
+        print(f"nothing to do: the run in {ckpt.path.parent} is finished (its checkpoint is at the end and its "
+              "summary.json records no error); its results are there.  Run without --restart to compute it "
+              "again", flush=True)
+        return 0
+    if ckpt is not None and summary_is_final(ckpt.path.parent) and not args.quiet:
+        print(f"{ckpt.path.parent}: this run had finished; its checkpoint is at step {ckpt.meta.get('step')}, "
+              "so the steps after it are computed again (bit-for-bit the same)", flush=True)
     out = args.out if args.out is not None else (args.restart if args.restart is not None
                                                   else Path("outputs") / scene.info.name)
     problem = _check_out_dir(out)
     if problem:
         return _fail(EXIT_SCENE, [problem])
+    in_place = ckpt is not None and out.resolve() == ckpt.path.parent.resolve()
+    if not in_place:         # the results of an earlier run in `out` are replaced, never mixed in
+        if _unfinished_checkpoint(out) and not args.overwrite:
+            return _fail(EXIT_SCENE, [f"--out {out}: holds the checkpoint of an unfinished run: continue it with "
+                                      f"--restart {out}, or start afresh with --overwrite (deletes its results)"])
+        try:
+            removed = clear_run_files(out)
+        except OutputError as exc:
+            return _fail(EXIT_SCENE, [f"--out {out}: cannot replace the results of an earlier run ({exc})"])
+        if removed and not args.quiet:
+            print(f"{out}: removed {removed} files of an earlier run (frames, tables, summary, checkpoint, "
+                  "pictures); other files are kept", flush=True)
 
+    if args.quiet:           # Taichi prints a banner when imported unless told not to
+        os.environ.setdefault("ENABLE_TAICHI_HEADER_PRINT", "false")
     from .simulation import Simulation, SimulationError, init_taichi
     from .solvers.dynamic import run_dynamic
     from .solvers.static import run_static
     sim = None
     control = RunControl(args.checkpoint_every, resume=ckpt.position if ckpt else None)
     try:
-        init_taichi(args.arch)
+        arch = init_taichi(args.arch, quiet=args.quiet)
+        if not args.quiet:
+            print("compiling kernels (a configuration's first run takes 15-70 s; later runs load them from "
+                  "Taichi's offline cache) ...", flush=True)
         t0 = time.perf_counter()
-        sim = Simulation(scene, out, args.arch, quiet=args.quiet, mesh=mesh, model=model)
+        sim = Simulation(scene, out, arch, quiet=args.quiet, mesh=mesh, model=model)
+        if arch != args.arch:
+            sim.arch_requested = args.arch
         if args.hourglass_limit is not None:
             sim.hourglass_limit = args.hourglass_limit
         if args.energy_limit is not None:
@@ -304,6 +424,11 @@ def _run(args) -> int:
         if ckpt is not None:
             for w in restore_checkpoint(sim, ckpt):
                 sim.warn(w)
+        fallback = (f"--arch {args.arch}: not available on this machine; Taichi fell back to {arch}, "
+                    f"the run is on {arch}")
+        for note in ((fallback if arch != args.arch else None), reference_note(scene)):
+            if note is not None and note not in sim.warnings:
+                sim.warn(note)
         sim.progress(f"{scene.info.name}: {len(sim.model.points)} nodes, {len(sim.model.quads)} elements, "
                      f"{sim.cfg.method}, kernels ready in {time.perf_counter() - t0:.1f} s -> {sim.out_dir}"
                      + (f" (restarted at step {sim.state.step[None]})" if ckpt else ""))
@@ -312,21 +437,27 @@ def _run(args) -> int:
         summary = sim.write_results(extra)
     except (SceneError, CheckpointError) as exc:
         return _fail(EXIT_SCENE, exc.messages)
-    except SimulationError as exc:
-        _finish(sim, str(exc))
-        return _fail(EXIT_RUNTIME, [str(exc)])
+    except (SimulationError, OutputError) as exc:
+        what = str(exc) if isinstance(exc, SimulationError) else (
+            f"{exc}" + (f" at {sim.where()}" if sim is not None else "")
+            + " (disk full, read-only or no permission?); the results that could be written are there")
+        more = _finish(sim, what)
+        return _fail(EXIT_RUNTIME, [what] + ([more] if more and not isinstance(exc, OutputError) else []))
     except KeyboardInterrupt:
-        _finish(sim, "interrupted")
+        more = _finish(sim, "interrupted", interrupted=True)
         if sim is None:
             return _fail(EXIT_INTERRUPT, ["interrupted before the run started; nothing written"])
         sets = "".join(f" --set {o}" for o in args.overrides)
-        more = (f"; continue with: run {args.scene}{sets} --restart {sim.out_dir}"
-                if control.last_checkpoint is not None else "")
+        follow = (f"; continue with: run {args.scene}{sets} --restart {sim.out_dir}"
+                  if control.last_checkpoint is not None else "")
         return _fail(EXIT_INTERRUPT, [f"interrupted at {sim.where()}; results so far written to {sim.out_dir}"
-                                      + more])
+                                      + follow] + ([more] if more else []))
     except Exception as exc:  # a bug: results so far, then one line
-        _finish(sim, f"internal error: {type(exc).__name__}: {_one_line(exc)}")
-        return _internal_error(exc)
+        more = _finish(sim, f"internal error: {type(exc).__name__}: {_one_line(exc)}")
+        code = _internal_error(exc)
+        if more:
+            print(f"error: {more}", file=sys.stderr, flush=True)
+        return code
     print(format_summary(summary), flush=True)
     return 0
 

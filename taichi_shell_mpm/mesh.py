@@ -6,10 +6,12 @@ about the element normal; for the generated closed-form shapes that normal point
 (+z for the plate).
 
 Every mesh goes through :func:`check_mesh` before use.  Fatal problems (bad node ids,
-degenerate, inverted or non-convex elements, coincident nodes, non-finite coordinates) are
+degenerate, inverted or non-convex elements, non-finite or overflowing coordinates) are
 collected and raised together as one :class:`~taichi_shell_mpm.scene.SceneError`, one line
-per problem; mild ones (warped elements, unused nodes) come back as warning lines.  Node
-and element numbers in messages are the 0-based indices of ``points`` and ``quads``.
+per problem; mild ones (warped elements, unused nodes, coincident nodes) come back as
+warning lines.  Coincident nodes stay distinct (a slit, a crack or a seam is modelled so)
+unless ``[mesh].merge_nodes`` asks to join them (:func:`merge_coincident`).  Node and
+element numbers in messages are the 0-based indices of ``points`` and ``quads``.
 """
 from __future__ import annotations
 
@@ -30,8 +32,12 @@ DUPLICATE_RTOL = 1e-9
 """Nodes closer than this fraction of the bounding-box diagonal coincide."""
 WARP_WARN_DEG = 5.0
 """Warn about elements whose two triangles (1,2,3) and (1,3,4) differ by more than this."""
+MAX_COORDINATE = 1e100
+"""Larger node coordinates are an error: products of lengths (areas, stiffness x length^2)
+would overflow double precision; a unit mistake, not a model."""
 
 _QUAD_CELLS = ("quad", "quad8", "quad9")
+_HIGHER_ORDER_QUADS = {"quad8": "8-node", "quad9": "9-node"}
 _IGNORED_CELLS = ("vertex", "line")
 _NON_QUAD_2D_CELLS = ("triangle", "polygon")
 
@@ -57,6 +63,9 @@ def build_mesh(spec: MeshSpec) -> Mesh:
     if isinstance(spec, FileMesh):
         points, quads, warnings = _read_file(spec)
         source = str(spec.path)
+        if spec.merge_nodes:
+            points, quads, merged = merge_coincident(points, quads, source)
+            warnings += merged
     elif getattr(spec, "kind", None) in generators:
         points, quads = generators[spec.kind](spec)
         warnings, source = (), f"[mesh] {spec.kind}"
@@ -217,6 +226,8 @@ def _read_file(spec: FileMesh) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]
     import meshio
 
     path = Path(spec.path)
+    if path.is_dir():
+        raise SceneError(f"{path}: is a directory, not a mesh file")
     if not path.is_file():
         raise SceneError(f"{path}: mesh file not found")
     printed = io.StringIO()
@@ -240,17 +251,23 @@ def _read_file(spec: FileMesh) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]
         points = np.column_stack([points, np.zeros(len(points))])
     points = points * spec.scale
 
-    quads, n_non_quad, others = [], 0, {}
+    quads, non_quad, others, higher = [], {}, {}, {}
     for block in m.cells:
-        if block.type in _QUAD_CELLS:
-            quads.append(np.asarray(block.data)[:, :4])
+        data = np.asarray(block.data)
+        if block.type in _QUAD_CELLS or (block.type == "polygon" and data.ndim == 2 and data.shape[1] == 4):
+            quads.append(data[:, :4])
+            if block.type in _HIGHER_ORDER_QUADS:
+                higher[block.type] = higher.get(block.type, 0) + len(data)
         elif block.type.startswith(_NON_QUAD_2D_CELLS):
-            n_non_quad += len(block.data)
+            name = (f"polygon with {data.shape[1]} corners" if block.type == "polygon" and data.ndim == 2
+                    else block.type)
+            non_quad[name] = non_quad.get(name, 0) + len(data)
         elif not block.type.startswith(_IGNORED_CELLS):
-            others[block.type] = others.get(block.type, 0) + len(block.data)
-    if n_non_quad:
+            others[block.type] = others.get(block.type, 0) + len(data)
+    if non_quad:
+        listed = ", ".join(_count(n, name) for name, n in non_quad.items())
         raise SceneError(
-            f"{path}: mesh has {n_non_quad} triangles (non-quad cells); this solver needs "
+            f"{path}: mesh has non-quad cells ({listed}); this solver needs 4-node "
             "quadrilateral shells: remesh with quads (e.g. gmsh 'Mesh.RecombineAll = 1')")
     if others:
         listed = ", ".join(f"{n} {t}" for t, n in others.items())
@@ -259,6 +276,10 @@ def _read_file(spec: FileMesh) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]
     if not quads:
         raise SceneError(f"{path}: mesh has no quadrilateral cells")
     quads = np.concatenate(quads).astype(np.int64)
+    for name, n in higher.items():
+        warnings += (f"{path}: {_count(n, name + ' element')} ({_HIGHER_ORDER_QUADS[name]} quads) used as "
+                     "4-node bilinear shells: their mid-side and centre nodes are dropped and curved "
+                     "edges become straight",)
 
     used = np.unique(quads)
     # renumber only when all ids are valid; check_mesh reports out-of-range ids
@@ -269,6 +290,57 @@ def _read_file(spec: FileMesh) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]
                     "(not referenced by any quad) and renumbered the rest",)
         points, quads = points[used], new_id[quads]
     return points, quads, warnings
+
+
+def _count(n: int, name: str) -> str:
+    """'1 triangle', '3 triangles', '2 polygons with 5 corners'."""
+    if n == 1:
+        return f"1 {name}"
+    head, sep, tail = name.partition(" with ")
+    return f"{n} {head}s{sep}{tail}"
+
+
+# ---------------------------------------------------------------- coincident nodes
+def merge_coincident(points: np.ndarray, quads: np.ndarray, source: str
+                     ) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
+    """Join nodes that coincide (within DUPLICATE_RTOL x the bounding-box diagonal) into
+    the lowest-numbered of them, drop the others and renumber; returns the new arrays and a
+    warning line (none when nothing coincides).  Left to :func:`check_mesh` (unchanged)
+    when ids are out of range or coordinates are not finite."""
+    points = np.asarray(points, dtype=np.float64)
+    quads = np.asarray(quads)
+    n = len(points)
+    if (quads.ndim != 2 or quads.size == 0 or quads.min() < 0 or quads.max() >= n
+            or not np.isfinite(points).all() or np.abs(points).max() > MAX_COORDINATE):
+        return points, quads, ()
+    used = np.unique(quads)
+    pairs = _coincident_pairs(points, used, DUPLICATE_RTOL * np.linalg.norm(np.ptp(points[used], axis=0)))
+    if len(pairs) == 0:
+        return points, quads, ()
+    root = np.arange(n)
+
+    def find(i: int) -> int:
+        while root[i] != i:
+            root[i] = root[root[i]]
+            i = root[i]
+        return i
+
+    for a, b in pairs:
+        ra, rb = find(int(a)), find(int(b))
+        if ra != rb:
+            root[max(ra, rb)] = min(ra, rb)
+    rep = np.array([find(i) for i in range(n)])
+    merged_quads = rep[quads]
+    keep = np.unique(merged_quads)
+    new_id = np.full(n, -1, dtype=np.int64)
+    new_id[keep] = np.arange(len(keep))
+    a, b = pairs[0]
+    removed = len(used) - len(keep)
+    line = (f"{source}: merged {removed} coincident node{'s' if removed != 1 else ''} into "
+            f"{'their' if removed != 1 else 'its'} twin{'s' if removed != 1 else ''} ([mesh].merge_nodes; e.g. "
+            f"nodes {a} and {b} at {points[a].tolist()}) and renumbered the rest: node ids in the messages "
+            "and in ids = [...] node sets are those after merging")
+    return points[keep], new_id[merged_quads], (line,)
 
 
 # ---------------------------------------------------------------- checks
@@ -304,6 +376,14 @@ def _coincident_pairs(points: np.ndarray, ids: np.ndarray, tol: float) -> np.nda
     return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
 
 
+def coincident_pairs(points: np.ndarray) -> np.ndarray:
+    """Pairs (k, 2) of nodes of `points` that coincide (within DUPLICATE_RTOL x the
+    bounding-box diagonal), as check_mesh finds them."""
+    points = np.asarray(points, dtype=np.float64)
+    tol = DUPLICATE_RTOL * np.linalg.norm(np.ptp(points, axis=0))
+    return _coincident_pairs(points, np.arange(len(points)), tol)
+
+
 def _orientation_warnings(quads: np.ndarray, source: str) -> list[str]:
     """Lines for neighbouring elements with opposite normals: an edge a->b that two elements
     both run in the same direction (a consistently oriented surface runs it a->b and b->a)."""
@@ -324,11 +404,12 @@ def check_mesh(points, quads, source: str) -> tuple[str, ...]:
     """Check a quad shell mesh; raise :class:`SceneError` for fatal problems, return warnings.
 
     ``source`` (a file name or ``'[mesh] plate'``) prefixes every line.  Fatal: wrong array
-    shapes, no elements, non-finite coordinates, out-of-range or repeated node ids in an
-    element, zero-area elements (area < AREA_RTOL x mean), inverted or non-convex elements
-    (a corner normal (x_{a+1}-x_a) x (x_{a-1}-x_a) not along the element normal
-    (x_3-x_1) x (x_4-x_2)), and coincident nodes (within DUPLICATE_RTOL x bounding-box
-    diagonal).  Warnings: elements warped by more than WARP_WARN_DEG, neighbours with opposite
+    shapes, no elements, non-finite coordinates or coordinates above MAX_COORDINATE,
+    out-of-range or repeated node ids in an element, zero-area elements (area < AREA_RTOL x
+    mean), inverted or non-convex elements (a corner normal (x_{a+1}-x_a) x (x_{a-1}-x_a) not
+    along the element normal (x_3-x_1) x (x_4-x_2)).  Warnings: coincident nodes (within
+    DUPLICATE_RTOL x bounding-box diagonal: one line with their count and one pair; they
+    stay distinct), elements warped by more than WARP_WARN_DEG, neighbours with opposite
     normals (inconsistent node order), unused nodes.
     """
     points = np.asarray(points, dtype=np.float64)
@@ -355,6 +436,12 @@ def check_mesh(points, quads, source: str) -> tuple[str, ...]:
     for e in np.nonzero(repeated.any(axis=1))[0]:
         errors.append(f"{source}: element {e}: degenerate quad "
                       f"(node {s[e, 1:][repeated[e]][0]} repeated)")
+    big = np.nonzero(np.abs(np.where(np.isfinite(points), points, 0.0)).max(axis=1) > MAX_COORDINATE)[0]
+    if len(big):
+        which = f"node {big[0]} has" if len(big) == 1 else f"{len(big)} nodes have"
+        errors.append(f"{source}: {which} coordinates above {MAX_COORDINATE:g} in magnitude (e.g. node "
+                      f"{big[0]} at {points[big[0]].tolist()}; lengths squared would overflow): rescale the "
+                      "mesh ([mesh].scale) or use other units")
     if errors:
         raise SceneError(_limited(errors, source))
 
@@ -372,15 +459,19 @@ def check_mesh(points, quads, source: str) -> tuple[str, ...]:
     for e in np.nonzero(inverted & ~degenerate)[0]:
         errors.append(f"{source}: element {e}: inverted or non-convex quad")
     used = np.unique(quads)
-    diagonal = np.linalg.norm(np.ptp(points[used], axis=0))
-    for a, b in _coincident_pairs(points, used, DUPLICATE_RTOL * diagonal):
-        errors.append(f"{source}: nodes {a} and {b} coincide at {points[a].tolist()}: "
-                      "merge duplicate nodes")
     if errors:
         raise SceneError(_limited(errors, source))
 
     # -- warnings
     warnings = []
+    diagonal = np.linalg.norm(np.ptp(points[used], axis=0))
+    pairs = _coincident_pairs(points, used, DUPLICATE_RTOL * diagonal)
+    if len(pairs):
+        a, b = pairs[0]
+        count = f"{len(pairs)} pair{'s' if len(pairs) != 1 else ''}"
+        warnings.append(f"{source}: {count} of coincident nodes kept distinct (e.g. nodes {a} and {b} at "
+                        f"{points[a].tolist()}): the shell is not connected there (a slit, crack or seam); "
+                        "set [mesh].merge_nodes = true to join them")
     n1 = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])
     n2 = np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 0])
     cos_warp = np.einsum("mi,mi->m", n1, n2) / (

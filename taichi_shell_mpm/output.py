@@ -6,6 +6,7 @@ ParaView opens with every frame written so far.
 """
 from __future__ import annotations
 
+import contextlib
 import csv
 import json
 import os
@@ -16,18 +17,52 @@ import meshio
 import numpy as np
 
 
+class OutputError(OSError):
+    """A file of the results could not be written (disk full, read-only filesystem, no
+    permission ...): a run-time failure, not a bug.  ``str()`` is one line naming the file."""
+
+    def __init__(self, path: Path, exc: OSError):
+        super().__init__(exc.errno, exc.strerror or str(exc), str(path))
+        self.path = Path(path)
+        self.reason = exc.strerror or " ".join(str(exc).split()) or type(exc).__name__
+
+    def __str__(self) -> str:
+        return f"cannot write {self.path}: {self.reason}"
+
+
+_FILE_MODE: int | None = None
+
+
+def file_mode() -> int:
+    """Mode of a new file under the user's umask (0o666 & ~umask), as open() would create it;
+    mkstemp's temporary files are 0600, so the renamed result gets this mode instead."""
+    global _FILE_MODE
+    if _FILE_MODE is None:
+        umask = os.umask(0o022)
+        os.umask(umask)
+        _FILE_MODE = 0o666 & ~umask
+    return _FILE_MODE
+
+
 def atomic_write(path: Path, write) -> None:
-    """Call write(tmp_path) then rename onto `path`."""
+    """Call write(tmp_path) then rename onto `path` (mode 0o666 & ~umask).  An OSError on
+    the way (disk full, read-only filesystem, ...) is raised as :class:`OutputError` naming
+    `path`; the temporary file is removed and an earlier `path` stays as it was."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
+    tmp = None
     try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
+        os.close(fd)
         write(Path(tmp))
+        os.chmod(tmp, file_mode())
         os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    except BaseException as exc:
+        if tmp is not None:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+        if isinstance(exc, OSError) and not isinstance(exc, OutputError):
+            raise OutputError(path, exc) from exc
         raise
 
 
@@ -65,7 +100,10 @@ class FrameWriter:
     def __init__(self, out_dir: Path, quads: np.ndarray):
         self.out_dir = Path(out_dir)
         self.frames_dir = self.out_dir / "frames"
-        self.frames_dir.mkdir(parents=True, exist_ok=True)
+        try:
+            self.frames_dir.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise OutputError(self.frames_dir, exc) from exc
         self.quads = np.asarray(quads, dtype=np.int64)
         self.entries: list[tuple[float, str]] = []
 
@@ -86,3 +124,40 @@ class FrameWriter:
         lines += [f'    <DataSet timestep="{k:.10g}" group="" part="0" file="{f}"/>' for k, f in self.entries]
         lines += ["  </Collection>", "</VTKFile>", ""]
         write_text(self.out_dir / "frames.pvd", "\n".join(lines))
+
+
+# ------------------------------------------------------------------ a reused output directory
+RUN_FILES = ("frames.pvd", "probes.csv", "energy.csv", "force.csv", "summary.json", "checkpoint.npz")
+"""What a run writes at the top of its output directory (besides frames/ and pictures/)."""
+PICTURE_FILES = ("frame_*.png", "sheet.png", "energy.png", "load_displacement.png")
+"""What ``render`` writes into ``pictures/``."""
+
+
+def run_files(out_dir: Path) -> list[Path]:
+    """The files of an earlier run (and of its rendering) in `out_dir`: RUN_FILES,
+    ``frames/frame_*.vtu``, the PICTURE_FILES in ``pictures/``, and the temporary files of
+    an interrupted atomic write of any of them.  Nothing else."""
+    out_dir = Path(out_dir)
+    found = [out_dir / name for name in RUN_FILES]
+    found += [p for name in RUN_FILES for p in out_dir.glob(f".{name}.*")]
+    for folder, patterns in (("frames", ("frame_*.vtu",)), ("pictures", PICTURE_FILES)):
+        for pattern in patterns:
+            found += list((out_dir / folder).glob(pattern)) + list((out_dir / folder).glob(f".{pattern}.*"))
+    return sorted({p for p in found if p.is_file() or p.is_symlink()})
+
+
+def clear_run_files(out_dir: Path) -> int:
+    """Delete :func:`run_files` of `out_dir` (and frames/, pictures/ if that empties them);
+    returns how many files were deleted; raises OutputError if one cannot be."""
+    files = run_files(out_dir)
+    for path in files:
+        try:
+            path.unlink()
+        except FileNotFoundError:
+            pass
+        except OSError as exc:
+            raise OutputError(path, exc) from exc
+    for folder in ("frames", "pictures"):
+        with contextlib.suppress(OSError):
+            (Path(out_dir) / folder).rmdir()          # only when empty
+    return len(files)

@@ -26,9 +26,13 @@ def _is_tty(stream) -> bool:
 
 
 def format_seconds(seconds: float | None) -> str:
-    """``0:07``, ``12:34``, ``1:02:03``; ``--`` when unknown."""
+    """``0:07``, ``12:34``, ``1:02:03``; ``3.0 d`` from a day; ``> 999 d`` beyond (an ETA
+    early in a slow start can be absurdly long); ``--`` when unknown."""
     if seconds is None or not math.isfinite(seconds) or seconds < 0:
         return "--"
+    if seconds >= 86400:
+        days = seconds / 86400
+        return f"{days:.1f} d" if days < 999.5 else "> 999 d"
     s = int(round(seconds))
     h, rem = divmod(s, 3600)
     m, s = divmod(rem, 60)

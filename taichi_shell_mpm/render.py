@@ -74,6 +74,9 @@ COLORMAP = "jet"
 PALETTE = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2",
            "#7f7f7f", "#bcbd22", "#17becf")
 PROBE_TIMEOUT_S = 120
+RUNAWAY_EXTENT = 1e3
+"""A frame whose shell (bounding-box diagonal) is this many times larger than in the first
+drawable frame is a runaway state: not drawn (it would shrink every other frame to a dot)."""
 
 _PROBE = """
 from vtkmodules.vtkRenderingCore import vtkRenderWindow, vtkRenderer
@@ -119,6 +122,8 @@ class Run:
     energy: Table | None = None
     force: Table | None = None
     warnings: list[str] = dc_field(default_factory=list)
+    undrawable: dict[int, str] = dc_field(default_factory=dict)
+    """Frame index -> why it is not drawn (unreadable, no cells, non-finite, runaway)."""
 
     @property
     def static(self) -> bool:
@@ -154,6 +159,9 @@ def load_run(out_dir: Path) -> Run:
         raise RenderError(EXIT_INPUT, f"{out_dir}: no such output directory")
     pvd = out_dir / "frames.pvd"
     if not pvd.is_file():
+        if (out_dir / "summary.json").is_file():     # a run that stopped before its first frame
+            raise RenderError(EXIT_RENDER, f"{out_dir}: nothing to draw: the run wrote no frame (see its "
+                              "summary.json)")
         raise RenderError(EXIT_INPUT, f"{out_dir}: not a run output directory (no frames.pvd)")
     try:
         entries = [(float(ds.get("timestep")), out_dir / ds.get("file"))
@@ -236,13 +244,54 @@ def choose_sheet(run: Run, spec: str | None) -> list[int]:
 
 
 # ---------------------------------------------------------------- frames -> meshes
+class Undrawable(Exception):
+    """A frame that cannot be drawn; the message says why."""
+
+
 def _read_frame(path: Path):
+    """The frame as a pyvista mesh, or :class:`Undrawable` (unreadable or truncated file, no
+    cells, non-finite node coordinates)."""
+    import contextlib
+    import io
+
     import meshio
     import pyvista as pv
+    printed = io.StringIO()
     try:
-        return pv.from_meshio(meshio.read(path))
+        with contextlib.redirect_stdout(printed), contextlib.redirect_stderr(printed):
+            m = meshio.read(path)
+    except SystemExit:       # meshio prints why it cannot read the file, then exits
+        raise Undrawable(f"cannot read it ({' '.join(printed.getvalue().split()) or 'unreadable'})") from None
     except Exception as exc:  # meshio raises many types for a damaged file
-        raise RenderError(EXIT_INPUT, f"{path}: cannot read frame ({exc})") from None
+        raise Undrawable(f"cannot read it ({' '.join(str(exc).split()) or type(exc).__name__})") from None
+    points = np.asarray(m.points, dtype=float)
+    if not sum(len(c.data) for c in m.cells):
+        raise Undrawable("it has no cells")
+    if not points.size or not np.isfinite(points).all():
+        raise Undrawable("its node coordinates are not all finite")
+    try:
+        return pv.from_meshio(m)
+    except Exception as exc:
+        raise Undrawable(f"cannot convert it ({' '.join(str(exc).split()) or type(exc).__name__})") from None
+
+
+def frame_mesh(run: Run, i: int):
+    """Frame `i` of `run` as a pyvista mesh, or None when it cannot be drawn (the reason is
+    kept in ``run.undrawable`` and given once as a warning)."""
+    if i in run.undrawable:
+        return None
+    try:
+        return _read_frame(run.files[i])
+    except Undrawable as exc:
+        run.undrawable[i] = str(exc)
+        run.warnings.append(f"{run.files[i]}: not drawn: {exc}")
+        return None
+
+
+def _nothing_to_draw(run: Run) -> RenderError:
+    why = next(iter(run.undrawable.values()), "no frame")
+    return RenderError(EXIT_RENDER, f"{run.out_dir}: nothing to draw: no frame can be drawn "
+                       f"({len(run.undrawable)} of {len(run.files)} frames read are not drawable; e.g. {why})")
 
 
 def _arrays(mesh) -> dict[str, str]:
@@ -328,21 +377,30 @@ def sequence_stats(run: Run, indices: list[int], fld: Field) -> Stats:
     axes = _view_axes()
     ext_lo, ext_hi = np.full(3, np.inf), np.full(3, -np.inf)
     vmin, vmax = np.inf, -np.inf
+    read = {}
     for i in sorted(sample):
-        mesh = _read_frame(run.files[i])
-        p = np.asarray(mesh.points, dtype=float)
-        p = p[np.isfinite(p).all(axis=1)]
-        if len(p):
-            lo, hi = np.minimum(lo, p.min(axis=0)), np.maximum(hi, p.max(axis=0))
-            q = p @ axes.T
-            ext_lo, ext_hi = np.minimum(ext_lo, q.min(axis=0)), np.maximum(ext_hi, q.max(axis=0))
+        mesh = frame_mesh(run, i)
+        if mesh is not None:
+            p = np.asarray(mesh.points, dtype=float)
+            read[i] = (mesh, p, float(np.linalg.norm(np.ptp(p, axis=0))))
+    if not read:
+        raise _nothing_to_draw(run)
+    first = read[min(read)][2]            # the sample always holds frame 0: the start of the run
+    for i, (mesh, p, diagonal) in read.items():
+        if diagonal > RUNAWAY_EXTENT * first:
+            run.undrawable[i] = f"a runaway state ({diagonal / first:.3g} times the size of the first frame)"
+            run.warnings.append(f"{run.files[i]}: not drawn: {run.undrawable[i]}")
+            continue
+        lo, hi = np.minimum(lo, p.min(axis=0)), np.maximum(hi, p.max(axis=0))
+        q = p @ axes.T
+        ext_lo, ext_hi = np.minimum(ext_lo, q.min(axis=0)), np.maximum(ext_hi, q.max(axis=0))
         if fld.where != "none":
             v = fld.values(mesh)
             v = v[np.isfinite(v)]
             if v.size:
                 vmin, vmax = min(vmin, float(v.min())), max(vmax, float(v.max()))
     if not np.isfinite(lo).all():
-        raise RenderError(EXIT_INPUT, f"{run.out_dir}: the frames have no finite node coordinates")
+        raise _nothing_to_draw(run)
     if not np.isfinite([vmin, vmax]).all():
         vmin, vmax = 0.0, 1.0
     if fld.array in (PLASTIC_FIELD, "displacement") and fld.component is None:
@@ -465,8 +523,11 @@ def _save(plotter, path: Path) -> Path:
 def render_frames(run: Run, indices: list[int], fld: Field, stats: Stats, pictures: Path) -> list[Path]:
     written = []
     for i in indices:
+        mesh = frame_mesh(run, i)
+        if mesh is None:
+            continue
         p = _plotter()
-        mapper = _add_frame(p, _read_frame(run.files[i]), fld, stats)
+        mapper = _add_frame(p, mesh, fld, stats)
         _add_bar(p, fld, mapper, position_x=0.86, position_y=0.12, height=0.72, width=0.06)
         p.add_text(f"{run.name}   {_key_text(run, run.keys[i])}", position="upper_edge",
                    font_size=14, color="black")
@@ -491,7 +552,9 @@ def render_sheet(run: Run, indices: list[int], fld: Field, stats: Stats, picture
     mapper = None
     for j, i in enumerate(indices):
         p.subplot(0, j)
-        mapper = _add_frame(p, _read_frame(run.files[i]), fld, stats)
+        mesh = frame_mesh(run, i)
+        if mesh is not None:
+            mapper = _add_frame(p, mesh, fld, stats)
         p.add_text(_key_text(run, run.keys[i]), position="upper_edge", font_size=14,
                    color="black")
         _set_camera(p, stats, aspect, free=SHEET_FREE)
@@ -635,7 +698,10 @@ def render(out_dir: Path, frames: str = "all", field: str | None = None,
     run = load_run(Path(out_dir))
     indices = choose_frames(run, frames)
     sheet_indices = choose_sheet(run, sheet)
-    last = _read_frame(run.files[-1])
+    last = next((m for m in (frame_mesh(run, i) for i in reversed(range(len(run.files)))) if m is not None),
+                None)
+    if last is None:
+        raise _nothing_to_draw(run)
     fld = choose_field(last, field)
     ensure_offscreen()
     pictures = run.out_dir / "pictures"
@@ -647,6 +713,7 @@ def render(out_dir: Path, frames: str = "all", field: str | None = None,
         _quiet_vtk()
         stats = sequence_stats(run, sorted(set(indices) | set(sheet_indices)), fld)
         written = render_frames(run, indices, fld, stats, pictures)
+        sheet_indices = [i for i in sheet_indices if i not in run.undrawable]
         if sheet_indices:
             written.append(render_sheet(run, sheet_indices, fld, stats, pictures))
         for plot in (render_energy, render_load_displacement):

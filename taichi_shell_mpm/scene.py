@@ -119,6 +119,9 @@ class FileMesh:
     """Any quad surface mesh meshio reads (.msh, .vtk, .vtu, .inp, ...)."""
     path: Path
     scale: float = 1.0
+    merge_nodes: bool = False
+    """Join coincident nodes into one (mesh.merge_coincident); by default they stay distinct
+    (a slit, a crack or a seam that must stay open), with a warning."""
     kind: Literal["file"] = "file"
 
 
@@ -706,7 +709,7 @@ _MESHES: dict[str, tuple[type, dict[str, Validator]]] = {
                         "length": _positive, "n_flat": _int(1), "n_corner": _int(0),
                         "n_length": _int(1), "trigger_amplitude": _non_negative,
                         "trigger_start": _non_negative, "trigger_length": _positive}),
-    "file": (FileMesh, {"scale": _positive}),   # + "path", checked against the scene's folder
+    "file": (FileMesh, {"scale": _positive, "merge_nodes": _bool}),   # + "path", checked against the scene's folder
 }
 
 
@@ -823,9 +826,11 @@ class _SceneParser:
             raise _Invalid(f"expected a file path (relative to the scene file), got {_show(value)}")
         try:
             path = (self.source.parent / value).resolve()
-            found = path.is_file()
+            found, folder = path.is_file(), path.is_dir()
         except (OSError, ValueError):
-            found = False
+            found = folder = False
+        if folder:
+            raise _Invalid(f"expected a file, got the directory {str(self.source.parent / value)!r}")
         if not found:
             raise _Invalid(f"file not found: {str(self.source.parent / value)!r}")
         return path
@@ -1093,6 +1098,15 @@ class _SceneParser:
         spec = {"column": column, "probe": self.probe_component, "scale": _nonzero}
         compare = [self.table_object(p, d, ReferenceColumn, spec)
                    for p, d in self.entries("[[reference.compare]]", data.get("compare", []))]
+        if len(self.messages) == mark and v.get("file") is not None:
+            # the columns the comparison reads: every cell a finite number (the run reads them at its end)
+            from .reference import table_problems
+            try:
+                problems = table_problems(v["file"], [v["load_column"], *(c.column for c in compare)])
+            except (OSError, UnicodeDecodeError, csv.Error) as exc:
+                problems = [f"cannot read {v['file'].name} ({_one_line(exc)})"]
+            for problem in problems:
+                self.error("[reference].file", problem)
         return self.build(mark, Reference, {**v, "compare": tuple(compare)})
 
     def solve(self, data: Any) -> Solve | None:

@@ -20,9 +20,9 @@ from .assembly import Model, assemble
 from .config import StepConfig
 from .mesh import Mesh, build_mesh
 from .crush import crush_summary
-from .output import FrameWriter, write_csv, write_json
+from .output import FrameWriter, OutputError, write_csv, write_json
 from .progress import Progress
-from .reference import compare_with_reference
+from .reference import reference_summary
 from .scene import Scene
 from .solvers.stepper import Stepper
 from .stages.timestep import DT_UNSET, initial_dt
@@ -91,9 +91,21 @@ def choose_launch(arch: str, n_elements: int, static: bool) -> str:
     return "threads"
 
 
-def init_taichi(arch: str = "cpu") -> None:
-    ti.init(arch=getattr(ti, ARCHS[arch]), default_fp=ti.f64, default_ip=ti.i32, offline_cache=True,
-            log_level=ti.WARN)
+def init_taichi(arch: str = "cpu", quiet: bool = False) -> str:
+    """Start Taichi on `arch`; returns the arch it actually runs on ("cpu" when Taichi fell
+    back from an unavailable GPU backend).  `quiet`: without its "[Taichi] Starting on"
+    line.  Taichi's own probing warnings for a missing GPU are held back (the caller
+    reports the fallback)."""
+    import contextlib
+    import io
+    level = ti.WARN if arch == "cpu" else ti.ERROR
+    with contextlib.redirect_stdout(io.StringIO()) if quiet else contextlib.nullcontext():
+        ti.init(arch=getattr(ti, ARCHS[arch]), default_fp=ti.f64, default_ip=ti.i32, offline_cache=True,
+                log_level=level)
+    if level != ti.WARN:
+        ti.set_logging_level(ti.WARN)
+    used = ti.lang.impl.current_cfg().arch
+    return next((name for name, a in ARCHS.items() if getattr(ti, a) == used), "cpu")
 
 
 @dataclass
@@ -110,6 +122,7 @@ class Simulation:
                  mesh: Mesh | None = None, model: Model | None = None):
         self.scene = scene
         self.arch = arch
+        self.arch_requested: str | None = None      # set when Taichi fell back from this arch to `arch`
         self.quiet = quiet
         self.out_dir = Path(out_dir) if out_dir is not None else Path("outputs") / scene.info.name
         self.mesh: Mesh = mesh if mesh is not None else build_mesh(scene.mesh)
@@ -373,8 +386,9 @@ class Simulation:
                                                                  s.stress))
 
     def final_frame(self) -> bool:
-        """After a failure or an interrupt: write the current state as the last frame if it is
-        finite (never a frame with NaN) and not already the last one.  Returns True if written."""
+        """After an interrupt: write the current state as the last frame if it is finite (never
+        a frame with NaN) and not already the last one.  Returns True if written.  Not after a
+        failure: the failing state is no result (cli._finish)."""
         key = self.state.load_factor[None] if self.scene.solve.kind == "static" else self.state.time[None]
         if self.frames is not None and self.frames.entries and self.frames.entries[-1][0] == float(key):
             return False
@@ -385,25 +399,41 @@ class Simulation:
 
     # ------------------------------------------------------------------ finishing
     def write_tables(self) -> None:
+        """probes.csv, energy.csv, force.csv: each is tried even when an earlier one could not
+        be written; then the first OutputError is raised."""
         out = self.out_dir
-        out.mkdir(parents=True, exist_ok=True)
-        write_csv(out / "probes.csv", self.history.probe_header, self.history.probe_rows)
         key = self.history.probe_header[0]
-        write_csv(out / "energy.csv", [key, *ENERGY_COLUMNS], self.history.energy_rows)
         names = [b.name for b in self.model.rigid_bodies]
-        write_csv(out / "force.csv", [key, "support_x", "support_y", "support_z",
-                                      "support_impulse_x", "support_impulse_y", "support_impulse_z"]
-                  + [f"{b}.displacement" for b in names] + [f"{b}.force" for b in names], self.history.force_rows)
+        tables = [("probes.csv", self.history.probe_header, self.history.probe_rows),
+                  ("energy.csv", [key, *ENERGY_COLUMNS], self.history.energy_rows),
+                  ("force.csv", [key, "support_x", "support_y", "support_z", "support_impulse_x", "support_impulse_y",
+                                 "support_impulse_z"] + [f"{b}.displacement" for b in names]
+                   + [f"{b}.force" for b in names], self.history.force_rows)]
+        failed = None
+        for name, header, rows in tables:
+            try:
+                write_csv(out / name, header, rows)
+            except OutputError as exc:
+                failed = failed or exc
+        if failed is not None:
+            raise failed
 
     def write_results(self, extra: dict | None = None) -> dict:
+        """Tables and summary.json (both attempted even if one cannot be written; then the
+        first OutputError is raised); returns the summary."""
         out = self.out_dir
-        self.write_tables()
+        failed = None
+        try:
+            self.write_tables()
+        except OutputError as exc:
+            failed = exc
         e = {k: (v if math.isfinite(v) else None) for k, v in self.energies().items()}
         summary = {
             "scene": self.scene.info.name, "source": str(self.scene.source), "method": self.cfg.method,
             "transfer": self.cfg.transfer if self.cfg.method == "mpm" else None,
             "cell_size": self.model.grid.h if self.model.grid else None,
             "elements": len(self.model.quads), "nodes": len(self.model.points), "arch": self.arch,
+            **({"arch_requested": self.arch_requested} if self.arch_requested else {}),
             "launch": self.cfg.launch,
             "steps": self.total_steps, "compile_seconds": self.compile_seconds, "run_seconds": self.run_seconds,
             "us_per_element_step": 1e6 * self.run_seconds / max(1, self.total_steps * len(self.model.quads)),
@@ -414,16 +444,24 @@ class Simulation:
         if self.state.contact:
             summary["contact"] = {"max_penetration_over_thickness": float(self.state.max_penetration[None]),
                                   "pairs_last_step": int(self.state.contact_pairs[None])}
-        failed = bool(extra and extra.get("error"))
+        stopped = bool(extra and extra.get("error"))
         try:
             if self.scene.crush is not None and self.history.force_rows:
                 summary.update(crush_summary(self))
-            if self.scene.reference is not None:
-                summary["reference"] = compare_with_reference(self.scene.reference, self.history.probe_header,
-                                                              self.history.probe_rows)
+            reference, note = reference_summary(self.scene, self.history.probe_header, self.history.probe_rows)
+            if reference is not None:
+                summary["reference"] = reference
+            if note is not None and note not in self.warnings:
+                self.warn(note)
+                summary["warnings"].append(note)
         except Exception as exc:   # post-processing of a run cut short must not hide its results
-            if not failed:
+            if not stopped:
                 raise
             summary["postprocessing_error"] = f"{type(exc).__name__}: {exc}"
-        write_json(out / "summary.json", summary)
+        try:
+            write_json(out / "summary.json", summary)
+        except OutputError as exc:
+            failed = failed or exc
+        if failed is not None:
+            raise failed
         return summary

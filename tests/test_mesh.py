@@ -141,14 +141,44 @@ def test_file_with_triangle(tmp_path):
     points = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [2, 0, 0]], dtype=float)
     meshio.write(path, meshio.Mesh(points, [("quad", np.array([[0, 1, 2, 3]])),
                                             ("triangle", np.array([[1, 4, 2]]))]))
-    with pytest.raises(SceneError, match="1 triangles") as err:
+    with pytest.raises(SceneError, match=r"non-quad cells \(1 triangle\)") as err:
         build_mesh(FileMesh(path=path))
     assert "RecombineAll" in str(err.value) and str(path) in str(err.value)
+
+
+def test_file_with_pentagon_and_four_node_polygon(tmp_path):
+    """A pentagon is named as one (issue 16.18: it was '1 triangles'); a 4-node polygon is a quad."""
+    points = np.array([[0, 0, 0], [1, 0, 0], [1.5, 0.5, 0], [1, 1, 0], [0, 1, 0]], dtype=float)
+    meshio.write(tmp_path / "p.vtu", meshio.Mesh(points, [("polygon", np.array([[0, 1, 2, 3, 4]]))]))
+    with pytest.raises(SceneError) as err:
+        build_mesh(FileMesh(path=tmp_path / "p.vtu"))
+    assert err.value.messages == [f"{tmp_path / 'p.vtu'}: mesh has non-quad cells (1 polygon with 5 corners); "
+                                  "this solver needs 4-node quadrilateral shells: remesh with quads "
+                                  "(e.g. gmsh 'Mesh.RecombineAll = 1')"]
+    meshio.write(tmp_path / "q.vtu", meshio.Mesh(points, [("polygon", np.array([[0, 1, 3, 4]]))]))
+    assert build_mesh(FileMesh(path=tmp_path / "q.vtu")).quads.tolist() == [[0, 1, 2, 3]]
+
+
+def test_file_quad8_is_linearised_with_a_warning(tmp_path):
+    """Issue 16.18: a quad8 mesh was silently used as 4-node quads."""
+    plate = build_mesh(PlateMesh(lx=2.0, ly=1.0, nx=2, ny=1))
+    mid = np.array([[0.5, 0, 0], [1.5, 0, 0], [2, 0.5, 0], [1.5, 1, 0], [0.5, 1, 0], [0, 0.5, 0], [1, 0.5, 0]])
+    points = np.vstack([plate.points, mid])
+    quad8 = np.array([[0, 1, 4, 3, 6, 11, 10, 5], [1, 2, 5, 4, 7, 8, 9, 11]])
+    meshio.write(tmp_path / "q8.vtu", meshio.Mesh(points, [("quad8", quad8)]))
+    m = build_mesh(FileMesh(path=tmp_path / "q8.vtu"))
+    np.testing.assert_array_equal(m.quads, plate.quads)
+    assert m.warnings[0] == (f"{tmp_path / 'q8.vtu'}: 2 quad8 elements (8-node quads) used as 4-node bilinear "
+                             "shells: their mid-side and centre nodes are dropped and curved edges become straight")
+    assert "removed 7 unused nodes" in m.warnings[1]
 
 
 def test_file_missing_and_unreadable(tmp_path):
     with pytest.raises(SceneError, match="mesh file not found"):
         build_mesh(FileMesh(path=tmp_path / "nope.msh"))
+    with pytest.raises(SceneError) as err:          # issue 16.18: it said "file not found"
+        build_mesh(FileMesh(path=tmp_path))
+    assert err.value.messages == [f"{tmp_path}: is a directory, not a mesh file"]
     bad = tmp_path / "bad.vtu"
     bad.write_text("this is not xml\n")
     with pytest.raises(SceneError) as err:
@@ -206,15 +236,31 @@ def test_check_inverted_and_non_convex():
                                   for e in (1, 3, 4)]
 
 
-def test_check_duplicate_nodes():
-    # two squares sharing an edge geometrically but not topologically
-    points = np.vstack([SQUARE, SQUARE[[1, 2]] + [[0, 0, 1e-12], [0, 0, 0]],
-                        [[2, 0, 0], [2, 1, 0]]])
-    with pytest.raises(SceneError) as err:
-        check_mesh(points, [[0, 1, 2, 3], [4, 6, 7, 5]], "m")
-    assert err.value.messages == [
-        "m: nodes 1 and 4 coincide at [1.0, 0.0, 0.0]: merge duplicate nodes",
-        "m: nodes 2 and 5 coincide at [1.0, 1.0, 0.0]: merge duplicate nodes"]
+SLIT = np.vstack([SQUARE, SQUARE[[1, 2]] + [[0, 0, 1e-12], [0, 0, 0]], [[2, 0, 0], [2, 1, 0]]])
+"""Two squares sharing an edge geometrically but not topologically (a slit along x = 1)."""
+SLIT_QUADS = [[0, 1, 2, 3], [4, 6, 7, 5]]
+
+
+def test_check_duplicate_nodes_warn_and_stay_distinct():
+    """Issue 16.17: coincident nodes model a slit, a crack or a seam: a warning with their
+    count and one pair, not an error."""
+    assert check_mesh(SLIT, SLIT_QUADS, "m") == (
+        "m: 2 pairs of coincident nodes kept distinct (e.g. nodes 1 and 4 at [1.0, 0.0, 0.0]): the shell is not "
+        "connected there (a slit, crack or seam); set [mesh].merge_nodes = true to join them",)
+
+
+def test_file_merge_nodes_on_request(tmp_path):
+    path = tmp_path / "slit.vtu"
+    meshio.write(path, meshio.Mesh(SLIT, [("quad", np.array(SLIT_QUADS))]))
+    kept = build_mesh(FileMesh(path=path))
+    assert len(kept.points) == 8 and "2 pairs of coincident nodes kept distinct" in kept.warnings[0]
+    merged = build_mesh(FileMesh(path=path, merge_nodes=True))
+    assert len(merged.points) == 6
+    assert merged.quads.tolist() == [[0, 1, 2, 3], [1, 4, 5, 2]]
+    assert merged.warnings == (
+        f"{path}: merged 2 coincident nodes into their twins ([mesh].merge_nodes; e.g. nodes 1 and 4 at "
+        "[1.0, 0.0, 0.0]) and renumbered the rest: node ids in the messages and in ids = [...] node sets are "
+        "those after merging",)
 
 
 def test_check_duplicate_detection_is_fast_and_sparse():
@@ -222,10 +268,18 @@ def test_check_duplicate_detection_is_fast_and_sparse():
     plate = build_mesh(PlateMesh(lx=1.0, ly=1.0, nx=199, ny=199))
     points = np.vstack([plate.points, plate.points[[12345]]])
     quads = np.vstack([plate.quads, [[12345 + 1, 12345 + 201, 12345 + 200, len(plate.points)]]])
+    assert check_mesh(points, quads, "m")[0].startswith(
+        f"m: 1 pair of coincident nodes kept distinct (e.g. nodes 12345 and 40000 at {points[12345].tolist()})")
+
+
+def test_check_huge_coordinates_is_one_line():
+    """Issue 16.18: 1e200 coordinates gave 'area inf ... and 231 more' on a 10-element mesh."""
+    plate = build_mesh(PlateMesh(lx=10.0, ly=1.0, nx=10, ny=1))
     with pytest.raises(SceneError) as err:
-        check_mesh(points, quads, "m")
+        check_mesh(plate.points * 1e200, plate.quads, "m")
     assert err.value.messages == [
-        f"m: nodes 12345 and 40000 coincide at {points[12345].tolist()}: merge duplicate nodes"]
+        "m: 21 nodes have coordinates above 1e+100 in magnitude (e.g. node 1 at [1e+200, 0.0, 0.0]; lengths "
+        "squared would overflow): rescale the mesh ([mesh].scale) or use other units"]
 
 
 def test_check_limits_lines():

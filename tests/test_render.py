@@ -5,6 +5,7 @@ through the public CLI; the PNGs are read back with VTK and must be real picture
 """
 from __future__ import annotations
 
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -199,3 +200,63 @@ def test_render_a_dynamic_run(tmp_path):
     for name in names:
         assert_picture(out / "pictures" / name)
     assert not list((out / "pictures").glob(".*")), "temporary files left"
+
+
+def test_render_a_truncated_frame(run_dir, tmp_path, capsys):
+    """Issue 16.12: a truncated .vtu made render exit 1 with meshio's own message (its
+    SystemExit was not caught).  The frame is skipped with a warning; the rest is drawn."""
+    copy = tmp_path / "copy"
+    shutil.copytree(run_dir, copy, ignore=shutil.ignore_patterns("pictures"))
+    frame = copy / "frames" / "frame_00001.vtu"
+    frame.write_bytes(frame.read_bytes()[:1000])
+    assert main(["render", str(copy), "--sheet", "none"]) == 0
+    captured = capsys.readouterr()
+    assert captured.err == "" and "Traceback" not in captured.out
+    assert f"warning: {frame}: not drawn: cannot read it (" in captured.out
+    assert (copy / "pictures" / "frame_00000.png").is_file()
+    assert not (copy / "pictures" / "frame_00001.png").exists()
+
+
+def test_render_nothing_drawable_exits_3(run_dir, tmp_path, capsys):
+    """Issue 16.10: frames holding nothing drawable (non-finite coordinates, truncated files)
+    or no frame at all (a run stopped before its first one): exit 3, one line, no picture."""
+    import meshio
+    copy = tmp_path / "copy"
+    shutil.copytree(run_dir, copy, ignore=shutil.ignore_patterns("pictures"))
+    for i, frame in enumerate(sorted((copy / "frames").glob("frame_*.vtu"))):
+        if i == 0:
+            mesh = meshio.read(frame)
+            mesh.points[:] = np.nan
+            meshio.write(frame, mesh)
+        else:
+            frame.write_bytes(frame.read_bytes()[:500])
+    assert main(["render", str(copy)]) == 3
+    err = capsys.readouterr().err
+    print(err)
+    assert err.count("\n") == 1 and err.startswith(f"error: {copy}: nothing to draw: no frame can be drawn (2 of 2")
+    assert not (copy / "pictures").exists()
+    (copy / "frames.pvd").unlink()
+    assert main(["render", str(copy)]) == 3
+    assert capsys.readouterr().err == f"error: {copy}: nothing to draw: the run wrote no frame (see its summary.json)\n"
+
+
+def test_render_skips_a_runaway_frame(tmp_path):
+    """A frame whose shell is 1e24 in size (a runaway state written by an older run) is not
+    drawn: it would shrink every other frame to a dot."""
+    import meshio
+
+    from taichi_shell_mpm.render import Run, choose_field, frame_mesh, sequence_stats
+    points = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], dtype=float)
+    files = []
+    for i, scale in enumerate((1.0, 1.1, 1e24)):          # (the runaway frame of a dynamic run is its last)
+        files.append(tmp_path / f"frame_{i:05d}.vtu")
+        meshio.write(files[-1], meshio.Mesh(points * scale, [("quad", np.array([[0, 1, 2, 3]]))],
+                                            point_data={"displacement": points * (scale - 1.0)}))
+    run = Run(out_dir=tmp_path, name="x", key="time", keys=np.array([0.0, 1.0, 2.0]), files=files)
+    fld = choose_field(frame_mesh(run, 0), None)
+    stats = sequence_stats(run, [0, 1, 2], fld)
+    assert list(run.undrawable) == [2] and "runaway state (1e+24 times the size of the first frame)" in run.warnings[0]
+    assert stats.bounds[1] == pytest.approx(1.1)
+    two = Run(out_dir=tmp_path, name="x", key="time", keys=np.array([0.0, 2.0]), files=[files[0], files[2]])
+    sequence_stats(two, [0, 1], fld)
+    assert list(two.undrawable) == [1]

@@ -440,6 +440,31 @@ def test_reference_header_must_be_readable(scene_dir):
     assert messages[0].startswith("case.toml: [reference].file: cannot read its header row")
 
 
+def test_reference_cells_must_be_finite_numbers(scene_dir):
+    """Issue 16.9: a non-numeric cell passed validation and crashed the run at its end.  Every
+    cell of the load column and of the compared columns is checked (file, line, column named);
+    the other columns may hold anything."""
+    (scene_dir / "cells.csv").write_text("P_over_Pmax,P,minus_U_tip,W_tip\n0.05,n/a,0.026,0.663\n"
+                                         "0.1,0.4,abc,1.2\n\n0.15,0.6,0.1,nan\n0.2,0.8,0.2\n")
+    raw = _set(raw_of(FULL), "reference.file", "cells.csv")
+    assert errors(raw, scene_dir) == [
+        "case.toml: [reference].file: cells.csv line 3, column 'minus_U_tip': expected a finite number, got 'abc'",
+        "case.toml: [reference].file: cells.csv line 5, column 'W_tip': expected a finite number, got 'nan'",
+        "case.toml: [reference].file: cells.csv line 6, column 'W_tip': expected a finite number, got nothing "
+        "(the row is short)"]
+    (scene_dir / "header_only.csv").write_text("P_over_Pmax,P,minus_U_tip,W_tip\n")
+    assert errors(_set(raw_of(FULL), "reference.file", "header_only.csv"), scene_dir) == [
+        "case.toml: [reference].file: header_only.csv has a header but no data rows"]
+
+
+def test_a_directory_is_not_a_file(scene_dir):
+    """Issue 16.18: a directory as mesh path said 'file not found'."""
+    raw = raw_of(FILE_MESH)
+    _set(raw, "mesh.path", "meshes")
+    assert errors(raw, scene_dir) == [
+        f"case.toml: [mesh].path: expected a file, got the directory {str(scene_dir / 'meshes')!r}"]
+
+
 def test_all_errors_are_reported_at_once(scene_dir):
     raw = raw_of(FULL)
     _set(raw, "material.E", -3)

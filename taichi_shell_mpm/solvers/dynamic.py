@@ -6,9 +6,8 @@ The driver is resumable (:mod:`taichi_shell_mpm.checkpoint`): its position is th
 the next output/history event and whether its time limit is already set; batches have a
 fixed size, so a restarted run takes the same batches.
 """
-import numpy as np
 
-from ..checkpoint import RunControl
+from ..checkpoint import RunControl, event_times
 from ..energy import balance_ratio
 from ..simulation import Simulation
 from ..stages.timestep import landing_step
@@ -17,12 +16,7 @@ from .static import batch_size
 
 def events_of(sim: Simulation) -> tuple[list[float], set[float]]:
     """Sorted event times (frames and history records) and the frame times among them."""
-    out, end = sim.scene.output, sim.scene.solve.end_time
-    frame_times = {t for t in out.times if 0.0 < t <= end} | {end}
-    events = set(frame_times)
-    if out.history_interval > 0:
-        events |= {float(t) for t in np.arange(out.history_interval, end, out.history_interval)}
-    return sorted(events), frame_times
+    return event_times(sim.scene)
 
 
 def run_dynamic(sim: Simulation, control: RunControl | None = None) -> dict:

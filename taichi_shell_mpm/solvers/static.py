@@ -85,6 +85,7 @@ def run_static(sim: Simulation, control: RunControl | None = None) -> dict:
             sim.check_status()                       # hourglass energy of the converged level
             sim.total_steps += steps
             level_steps.append(steps)
+            started = False                          # this level's steps are counted
             s.status[None] = STATUS_OK
             sim.record(lam, frame=scene.output.load_steps)
             e = sim.energies()
@@ -93,6 +94,10 @@ def run_static(sim: Simulation, control: RunControl | None = None) -> dict:
                          f"[{control.run_seconds():.1f} s]")
             j, steps, started = j + 1, 0, False
             control.boundary(sim, {"level": j, "steps": 0, "started": False})
+    except BaseException:
+        if started:          # a failed or interrupted level: its steps were taken too (summary, us/step)
+            sim.total_steps += steps
+        raise
     finally:
         sim.run_seconds = control.run_seconds()
         reporter.close()
