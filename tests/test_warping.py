@@ -265,7 +265,8 @@ def test_twisted_beam(tmp_path, load):
 
 def main(argv=None):
     """The twisted-beam study of docs/element.md:
-    python -m tests.test_warping [--t 0.0032] [--nx 12 --ny 2] [--tolerance 1e-6] [--set KEY=VALUE ...]"""
+    python -m tests.test_warping [--t 0.0032] [--nx 12 --ny 2] [--twist 90] [--tolerance 1e-6] [--set KEY=VALUE ...]
+    (errors against the twisted beam's reference whatever --twist is)"""
     import argparse
     import tempfile
     from pathlib import Path
@@ -273,6 +274,7 @@ def main(argv=None):
     ap.add_argument("--t", type=float, default=0.32, choices=sorted(TWISTED_REFERENCE))
     ap.add_argument("--nx", type=int, default=12)
     ap.add_argument("--ny", type=int, default=2)
+    ap.add_argument("--twist", type=float, default=90.0, help="root-to-tip twist, degrees")
     ap.add_argument("--tolerance", type=float, default=1e-6)
     ap.add_argument("--set", action="append", default=[], help="extra scene override, repeatable")
     args = ap.parse_args(argv)
@@ -280,8 +282,9 @@ def main(argv=None):
         for warping in ("none", "bwc"):
             with tempfile.TemporaryDirectory() as tmp:
                 deflection, error, summary = twisted_beam(Path(tmp), load=load, warping=warping, t=args.t, nx=args.nx,
-                                                          ny=args.ny, tolerance=args.tolerance, sets=args.set)
-            print(f"t = {args.t}, {args.nx}x{args.ny}, {load}, warping {warping}: tip {deflection:.5e} "
+                                                          ny=args.ny, tolerance=args.tolerance, twist_deg=args.twist,
+                                                          sets=args.set)
+            print(f"t = {args.t}, {args.nx}x{args.ny}, twist {args.twist:g} deg, {load}, warping {warping}: tip {deflection:.5e} "
                   f"(MacNeal-Harder {TWISTED_REFERENCE[args.t][load]:.4e}), error {100 * error:+.3f} %, "
                   f"{summary['steps']} steps, run {summary['run_seconds']:.1f} s", flush=True)
 
