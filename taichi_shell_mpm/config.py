@@ -29,6 +29,7 @@ class StepConfig:
     hourglass: float
     kirchhoff_w_hourglass: bool  # stages/hourglass.py: w-mode rate less the Kirchhoff field's
     drilling_stiffness: float   # > 0: drilling spring (stages/shell.py); 0: projection (method.md 2.3)
+    warping_correction: bool    # BWC curvature of warped quads (stages/warping.py, method.md 3.8)
     wave_speed: float           # plane-stress c_e = sqrt(E / (rho (1 - nu^2)))
     dilatational_speed: float   # c_dil = sqrt((K + 4G/3) / rho), paper eq 38-40
     rotational_frequency: float  # physical rotary inertia: sqrt(12 kappa G / rho) / t, else 0 (timestep.element_limit)
@@ -84,6 +85,7 @@ class StepConfig:
             zeta=tuple(float(z) for z in model.zeta), zeta_weight=tuple(float(w) for w in model.zeta_weight),
             hourglass=scene.element.hourglass, kirchhoff_w_hourglass=scene.element.w_hourglass == "kirchhoff",
             drilling_stiffness=scene.element.drilling_stiffness if scene.element.drilling == "penalty" else 0.0,
+            warping_correction=scene.element.warping == "bwc",
             wave_speed=math.sqrt(mat.E / (mat.density * (1.0 - mat.nu ** 2))),
             dilatational_speed=math.sqrt((K + 4.0 * G / 3.0) / mat.density),
             rotational_frequency=(math.sqrt(12.0 * sec.shear_factor * G / mat.density) / sec.thickness

@@ -167,6 +167,10 @@ class ElementOptions:
     drilling_stiffness: float = 0.1
     """alpha of the drilling spring k = alpha D A beta / 4: 1 = the bending stiffness one
     corner rotation meets (stages/drilling.py)."""
+    warping: Literal["none", "bwc"] = "none"
+    """Warped quads: "none" = the flat-facet BT element (the paper's); "bwc" adds the
+    Belytschko-Wong-Chiang (1992) coupling of in-plane motion to the curvature rate
+    (stages/warping.py, method.md 3.8)."""
 
 
 @dataclass(frozen=True)
@@ -684,7 +688,8 @@ _MATERIAL = {"E": _positive, "nu": _number(-1, 0.5, lo_open=True, hi_open=True),
 _SECTION = {"thickness": _positive, "points": _int(1, 10),
             "rule": _choice("lobatto", "gauss"), "shear_factor": _fraction}
 _ELEMENT = {"hourglass": _unit_interval, "w_hourglass": _choice("kirchhoff", "bt"),
-            "drilling": _choice("projection", "penalty"), "drilling_stiffness": _positive}
+            "drilling": _choice("projection", "penalty"), "drilling_stiffness": _positive,
+            "warping": _choice("none", "bwc")}
 _METHOD = {"kind": _choice("mpm", "fem"), "cell_size": _positive, "grid_min": _vec3,
            "grid_max": _vec3, "padding": _non_negative,
            "transfer": _choice("apic", "pic", "flip"), "flip_blend": _unit_interval}

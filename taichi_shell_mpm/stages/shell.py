@@ -2,15 +2,17 @@
 
 One-point in-plane integration in the corotational frame, through-thickness points for
 the stress, transverse shear with shear factor kappa on the resultants, hourglass
-control (:mod:`.hourglass`) and the drilling spring (:mod:`.drilling`; or, with
+control (:mod:`.hourglass`), the drilling spring (:mod:`.drilling`; or, with
 ``drilling = "projection"``, the nodal normals of the paper's drilling projection,
-method.md 2.3).  The same pass accumulates the element energies (method.md 8) and the
-element time-step limit (section 5).
+method.md 2.3) and, with ``warping = "bwc"``, the Belytschko-Wong-Chiang warping
+correction (:mod:`.warping`, method.md 3.8).  The same pass accumulates the element
+energies (method.md 8) and the element time-step limit (section 5).
 """
 
 import taichi as ti
 
 from ..state import STATUS_INVERTED, STATUS_OK, STATUS_RETURN_FAILED, State
+from . import warping
 from .accumulate import Accumulator, CornerLoads
 from .drilling import DrillingSpring
 from .hourglass import Hourglass
@@ -57,6 +59,32 @@ def gradient_operators(xh, yh):
     b1 = inv2a * ti.Vector([yh[1] - yh[3], yh[2] - yh[0], yh[3] - yh[1], yh[0] - yh[2]])
     b2 = inv2a * ti.Vector([xh[3] - xh[1], xh[0] - xh[2], xh[1] - xh[3], xh[2] - xh[0]])
     return area, b1, b2
+
+
+@ti.func
+def strain_rates(g1, g2, vx, vy, vz, tx, ty):
+    """Membrane rate, curvature rate and transverse shear rate of the BT element (method.md
+    3.2) from the local corner velocities and angular velocities."""
+    membrane_rate = ti.Vector([g1.dot(vx), g2.dot(vy), g2.dot(vx) + g1.dot(vy)])
+    curvature_rate = ti.Vector([g1.dot(ty), -g2.dot(tx), g2.dot(ty) - g1.dot(tx)])
+    shear_rate = ti.Vector([g1.dot(vz) + 0.25 * ty.sum(), g2.dot(vz) - 0.25 * tx.sum()])
+    return membrane_rate, curvature_rate, shear_rate
+
+
+@ti.func
+def resultant_loads(area, b1, b2, n_res, m_res, q_res, kappa):
+    """Resisting local nodal forces and moments (4x3 each; paper eq 21-26) of the resultants
+    N, M' (paper sign) and Q: the transpose of `strain_rates`, sum_a f_a . v_a + m_a . theta_a
+    = A (N . eps' - M' . kappa' + kappa Q . gamma') (tests/test_warping.py)."""
+    f = ti.Matrix.zero(ti.f64, 4, 3)
+    m = ti.Matrix.zero(ti.f64, 4, 3)
+    for a in ti.static(range(4)):
+        f[a, 0] = area * (b1[a] * n_res[0] + b2[a] * n_res[2])
+        f[a, 1] = area * (b2[a] * n_res[1] + b1[a] * n_res[2])
+        f[a, 2] = kappa * area * (b1[a] * q_res[0] + b2[a] * q_res[1])
+        m[a, 0] = area * (b2[a] * m_res[1] + b1[a] * m_res[2] - 0.25 * kappa * q_res[1])
+        m[a, 1] = -area * (b1[a] * m_res[0] + b2[a] * m_res[2] - 0.25 * kappa * q_res[0])
+    return f, m
 
 
 @ti.func
@@ -129,12 +157,12 @@ class ShellElement:
         vx, vy, vz = column(vl, 0), column(vl, 1), column(vl, 2)
         tx, ty, tz = column(wl, 0), column(wl, 1), column(wl, 2)
         area_m, g1, g2 = gradient_operators(xm, ym)
-        membrane_rate = ti.Vector([g1.dot(vx), g2.dot(vy), g2.dot(vx) + g1.dot(vy)])
-        curvature_rate = ti.Vector([g1.dot(ty), -g2.dot(tx), g2.dot(ty) - g1.dot(tx)])
-        shear_rate = ti.Vector([g1.dot(vz) + 0.25 * ty.sum(), g2.dot(vz) - 0.25 * tx.sum()])
+        membrane_rate, curvature_rate, shear_rate = strain_rates(g1, g2, vx, vy, vz, tx, ty)
         gam_m = self.hourglass.shape_vector(xm, ym, g1, g2)
         q_rate = self.hourglass.rates(gam_m, self.hourglass.warp_height(zm), vx, vy, vz, tx, ty,
                                       self.hourglass.quadratic_moments(gam_m, xm, ym), curvature_rate)
+        if ti.static(self.cfg.warping_correction):   # BWC (stages/warping.py), after the hourglass rate
+            curvature_rate += warping.curvature_rate(xm, ym, zm, area_m, g1, g2, vx, vy)
         # --- geometry at x^(n+1) for the forces
         rot, xh, yh, zh = local_geometry(x)
         area, b1, b2 = gradient_operators(xh, yh)
@@ -178,14 +206,9 @@ class ShellElement:
         q_res *= 0.5 * t
         m_res *= 0.25 * t * t
         # --- local nodal forces and moments (paper eq 21-26)
-        f = ti.Matrix.zero(ti.f64, 4, 3)
-        m = ti.Matrix.zero(ti.f64, 4, 3)
-        for a in ti.static(range(4)):
-            f[a, 0] = area * (b1[a] * n_res[0] + b2[a] * n_res[2])
-            f[a, 1] = area * (b2[a] * n_res[1] + b1[a] * n_res[2])
-            f[a, 2] = kappa * area * (b1[a] * q_res[0] + b2[a] * q_res[1])
-            m[a, 0] = area * (b2[a] * m_res[1] + b1[a] * m_res[2] - 0.25 * kappa * q_res[1])
-            m[a, 1] = -area * (b1[a] * m_res[0] + b2[a] * m_res[2] - 0.25 * kappa * q_res[0])
+        f, m = resultant_loads(area, b1, b2, n_res, m_res, q_res, kappa)
+        if ti.static(self.cfg.warping_correction):
+            f += warping.nodal_loads(xh, yh, zh, area, b1, b2, m_res)
         # --- hourglass (method.md 4)
         gam = self.hourglass.shape_vector(xh, yh, b1, b2)
         zw = self.hourglass.warp_height(zh)
