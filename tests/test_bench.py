@@ -12,6 +12,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -25,11 +26,15 @@ QUICK_CASES = ["cantilever_5x1_mpm_r0.5", "cantilever_10x1_mpm_r0.5", "cantileve
                "hemisphere_8x8_mpm_r0.5_ls10", "hemisphere_8x8_fem_ls10"]
 ELEMENTS = {"cantilever_5x1": 5, "cantilever_10x1": 10, "hemisphere_8x8": 64}
 MIN_PNG_BYTES = 5000
+CHECKOUT = Path(__file__).resolve().parents[1]
 
 
 def cli(*args: str, cwd: Path, timeout: float = 600) -> subprocess.CompletedProcess:
+    """The bench CLI run from `cwd` on the package of this checkout (a working directory
+    outside it would import whichever checkout is installed)."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(CHECKOUT), os.environ.get("PYTHONPATH")])))
     return subprocess.run([sys.executable, "-m", "taichi_shell_mpm", "bench", *args], capture_output=True,
-                          text=True, timeout=timeout, cwd=cwd)
+                          text=True, timeout=timeout, cwd=cwd, env=env)
 
 
 def read_csv(path: Path) -> list[dict]:
