@@ -289,7 +289,10 @@ def test_free_vibration_period_and_energy(tmp_path):
     inertia, which alone lowers the frequency by 0.15 % at nx = 20 against Euler-Bernoulli,
     shear 0.01 %).  Measured (frequency error against it): nx = 10: +0.411 %, nx = 20:
     +0.103 %, nx = 40: +0.026 % (second order; nx = 40 takes 25 s and is left out); bounds
-    1.5x.  Energy: the scheme's energy (leapfrog_energy) stays to 2.4e-12 of the initial
+    1.5x.  Cross-check of the inertia correction: with rotary_inertia = "physical" the nx = 20
+    strip gives +0.103 % against the Timoshenko beam with J/m = t^2/12 as well (run at
+    dt_safety = 0.2: at the default 0.9 it diverges within 9 steps, the time step having no
+    rotational limit; method.md 5).  Energy: the scheme's energy (leapfrog_energy) stays to 2.4e-12 of the initial
     (round-off over 56 000 and 71 000 steps; bound 1e-11, method.md 9 asks < 0.5 %); the
     energy.csv balance error reaches omega dt / 2 of it (4.5e-4 at nx = 20: the stagger of
     the half-step kinetic energy), asserted below 1.5 omega dt / 2."""
