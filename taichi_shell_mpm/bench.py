@@ -69,7 +69,8 @@ def write_text(path, text: str) -> None:
 ROOT = Path(__file__).resolve().parent.parent
 SCENES = ROOT / "scenes"
 SCENE_FILES = {"cantilever": "cantilever.toml", "hemisphere": "hemisphere.toml", "tube": "square_tube.toml",
-               "scaling": "square_tube.toml", "empty_grid": "square_tube.toml"}
+               "scaling": "square_tube.toml", "empty_grid": "square_tube.toml",
+               "relaxation_cantilever": "cantilever.toml", "relaxation_hemisphere": "hemisphere.toml"}
 CANTILEVER_NX = (5, 10, 20, 40)
 HEMISPHERE_N = (8, 16, 32)
 RATIOS = (1.0, 0.5)                 # grid cell / element size in mpm mode
@@ -195,6 +196,34 @@ def empty_grid_cases(pairs=EMPTY_GRID_PAIRS) -> list[Case]:
     return out
 
 
+# Static relaxation variants (case = default case + "_" + variant) against the default rows
+# (FIRE, uniform_dt mass scaling): plain kinetic damping, the physical masses, and both.
+# Their own scene keys keep them out of the refinement tables, slopes and plots.  (The
+# cantilever's uniform mesh has one element size: mass scaling changes nothing there.
+# Kinetic damping with uniform_dt stalls on the hemisphere: load step 10 ends 400 000 steps
+# at a residual of 1.01e-4 of the load, so that pair is not planned.)
+RELAXATION_VARIANTS = {"kinetic": ("solve.relaxation=kinetic",), "unscaled": ("solve.mass_scaling=none",),
+                       "kinetic_unscaled": ("solve.relaxation=kinetic", "solve.mass_scaling=none")}
+RELAXATION = (("cantilever_10x1_mpm_r0.5", "kinetic"), ("cantilever_10x1_fem", "kinetic"),
+              ("hemisphere_16x16_mpm_r0.5", "unscaled"), ("hemisphere_16x16_mpm_r0.5", "kinetic_unscaled"))
+
+
+def relaxation_default(case: str) -> str:
+    """The default case of a relaxation variant's name."""
+    return next((d for d, v in RELAXATION if case == f"{d}_{v}"), case.rsplit("_", 1)[0])
+
+
+def relaxation_cases() -> list[Case]:
+    """RELAXATION: each variant with the overrides of its default case plus its own."""
+    defaults = {c.name: c for c in cantilever_cases((10,), ratios=(0.5,)) + hemisphere_cases((16,), ratios=(0.5,))}
+    out = []
+    for name, variant in RELAXATION:
+        base = defaults[name]
+        out.append(Case(f"{name}_{variant}", f"relaxation_{base.scene}", base.mesh, base.mode, base.ratio,
+                        base.element_size, base.overrides + RELAXATION_VARIANTS[variant]))
+    return out
+
+
 def peers_available() -> bool:
     try:
         from .peers import kratos
@@ -211,8 +240,8 @@ def plan(quick: bool, peers: bool) -> list[Case]:
         return (cantilever_cases((5,), ratios=(0.5,), fem=False, peers=peers)
                 + cantilever_cases((10,), ratios=(0.5,), peers=peers)
                 + hemisphere_cases((8,), ratios=(0.5,), peers=peers, load_steps=QUICK_LOAD_STEPS))
-    return (cantilever_cases(peers=peers) + hemisphere_cases(peers=peers) + tube_cases() + scaling_cases()
-            + empty_grid_cases())
+    return (cantilever_cases(peers=peers) + hemisphere_cases(peers=peers) + relaxation_cases() + tube_cases()
+            + scaling_cases() + empty_grid_cases())
 
 
 # ------------------------------------------------------------------ machine
@@ -737,6 +766,38 @@ def _empty_grid_section(rows: list[dict]) -> list[str]:
     return L + [""]
 
 
+def _relaxation_section(rows: list[dict]) -> list[str]:
+    """The relaxation variants, each group after its default row: steps and errors (steps of
+    a static solve are the same every run: the batched launch is serial)."""
+    variants = [r for r in rows if r["scene"].startswith("relaxation_")]
+    if not variants:
+        return []
+    by_name = {r["case"]: r for r in rows}
+    L = ["## Static relaxation: FIRE against kinetic damping, and mass scaling", "",
+         "The default static solve relaxes each load step with FIRE (`[solve].relaxation = \"fire\"`) and "
+         "gives every element the stable step of the smallest one through fictitious densities "
+         "(`[solve].mass_scaling = \"uniform_dt\"`); `_kinetic` rows use plain kinetic damping, "
+         "`_unscaled` rows the physical masses (`mass_scaling = \"none\"`).  Steps / default: against "
+         "the default row of the same mesh and mode (the first line of each group).", "",
+         "| case | mode | relaxation | mass scaling | steps | steps / default | run s | error 1 mean / max % "
+         "| error 2 mean / max % | status |", "|---|---|---|---|---|---|---|---|---|---|"]
+    groups: dict[str, list[dict]] = {}
+    for r in variants:
+        groups.setdefault(relaxation_default(r["case"]), []).append(r)
+    for default, group in groups.items():
+        base = by_name.get(default)
+        for r in ([base] if base else []) + group:
+            over = r.get("overrides", "")
+            relax = "kinetic" if "solve.relaxation=kinetic" in over else "fire"
+            scaling = "none" if "solve.mass_scaling=none" in over else "uniform_dt"
+            ok = base is not None and base.get("status") == "ok" and r.get("status") == "ok"
+            ratio = _num(r, "steps") / _num(base, "steps") if ok else float("nan")
+            L.append(f"| {r['case']} | {_series_label(r)} | {relax} | {scaling} | {_fmt(_num(r, 'steps'))} "
+                     f"| {_fmt(ratio)} | {_fmt(_num(r, 'run_s'))} | {r.get('comp1') or ''} {_errs(r, 1)} "
+                     f"| {r.get('comp2') or ''} {_errs(r, 2)} | {_status(r)} |")
+    return L + [""]
+
+
 def write_report(path: Path, out: Path, rows: list[dict], planned: list[Case], command: str, info: dict,
                  arch: str, peers: bool, plots: dict[str, Path | None], quick: bool) -> None:
     rel = lambda p: Path(os.path.relpath(p, path.parent)).as_posix()   # noqa: E731
@@ -781,6 +842,7 @@ def write_report(path: Path, out: Path, rows: list[dict], planned: list[Case], c
             L.append(f"| {o['scene']} | {o['series']} | {o['meshes']} | {o['comp1']} | "
                      f"{_fmt(o['order1'], 3)} | {o['comp2']} | {_fmt(o['order2'], 3)} |")
         L.append("")
+    L += _relaxation_section(rows)
     tubes = [r for r in rows if r["scene"] == "tube"]
     if tubes:
         L += ["## Square tube crush to 15 ms (a case name ending _tT: to T ms)", "",
@@ -805,7 +867,10 @@ def write_report(path: Path, out: Path, rows: list[dict], planned: list[Case], c
                      f"| {_fmt(_num(r, 'us_per_element_step'))} | {_fmt(_num(r, 'peak_mem_MB'))} | {_status(r)} |")
         L.append("")
     L += _empty_grid_section([r for r in rows if r["scene"] == "empty_grid"])
-    if not peers:
+    if not peers and any(r.get("mode") == "kratos" for r in rows):
+        L += ["Peer comparison: the `*_kratos` rows are from a sitting with the optional extra `peers` (Kratos) "
+              "installed; it is not installed for this run, so no `*_kratos` case ran now.", ""]
+    elif not peers:
         L += ["Peer comparison: the optional extra `peers` (Kratos) is not installed here, so no implicit "
               "reference code ran (`pip install taichi_shell_mpm[peers]` adds the `*_kratos` cases).", ""]
     drawn = [(name, p) for name, p in plots.items() if p is not None and p.exists()]
@@ -832,14 +897,20 @@ def known_rows(rows: list[dict], quick: bool) -> list[dict]:
     return [r for r in rows if r["case"] in known]
 
 
+def sort_rows(rows: list[dict], quick: bool) -> None:
+    """In the order of the plan with the peers, whether or not they are installed here (a
+    sitting without them keeps the *_kratos rows of an earlier one in their place)."""
+    order = {c.name: i for i, c in enumerate(plan(quick, peers=True))}
+    rows.sort(key=lambda r: (order.get(r["case"], len(order)), r["case"]))
+
+
 def regenerate(out: Path, report: Path, planned: list[Case], command: str, info: dict, arch: str,
                peers: bool, quick: bool) -> dict:
     every = read_results(out / "results.csv")
     rows = known_rows(every, quick)
     if len(rows) != len(every):
         write_results(out / "results.csv", rows)
-    order = {c.name: i for i, c in enumerate(planned)}
-    rows.sort(key=lambda r: (order.get(r["case"], len(order)), r["case"]))
+    sort_rows(rows, quick)
     orders = observed_orders(rows)
     with_cols = ["scene", "series", "meshes", "comp1", "order1", "points1", "comp2", "order2", "points2"]
 

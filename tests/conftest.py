@@ -178,36 +178,48 @@ end_time = 1.0
 
 
 def element_simulation(tmp_path: Path, corners, *, E: float, nu: float, t: float, material: str = "",
-                       section: str = "", element: str = "") -> Simulation:
+                       section: str = "", element: str = "", quads=None) -> Simulation:
     """A Simulation of the single quad `corners` (4x3, explicit FE) for driving the element stage
     (S7) alone; `material`, `section` and `element` are extra TOML lines of those tables
-    (:func:`unwarmed_simulation`: the full step is not compiled)."""
-    meshio.write(tmp_path / "element.vtu", meshio.Mesh(np.asarray(corners, dtype=float),
-                                                       [("quad", np.array([[0, 1, 2, 3]]))]))
+    (:func:`unwarmed_simulation`: the full step is not compiled).  With `quads` (m x 4 node
+    ids), `corners` are the nodes of a patch of m quads instead."""
+    quads = np.array([[0, 1, 2, 3]]) if quads is None else np.asarray(quads)
+    meshio.write(tmp_path / "element.vtu", meshio.Mesh(np.asarray(corners, dtype=float), [("quad", quads)]))
     scene = load_scene(write_scene(tmp_path, ELEMENT.format(E=E, nu=nu, t=t, material=material,
                                                             section=section, element=element)))
     return unwarmed_simulation(scene, tmp_path)
 
 
-def element_pass(sim: Simulation, end, velocity, omega, dt: float, steps: int = 1):
-    """Element updates (stage S7) from zero stress: the corners arrive at `end` having moved with
-    `velocity`, with nodal angular velocity `omega`; the stage runs `steps` times with these
-    rates (stresses, plastic strains and nodal forces accumulate).  Returns (stress of element 0
-    per point, nodal internal forces, nodal internal moments, hourglass resultant of element 0)."""
+def element_stage(sim: Simulation, end, velocity, omega, dt: float, steps: int = 1):
+    """Element updates (stage S7) of every element from zero stress: the nodes arrive at `end`
+    having moved with `velocity`, with nodal angular velocity `omega`; the stage runs `steps`
+    times with these rates (stresses, plastic strains, hourglass resultants, drilling moments
+    and nodal forces accumulate; the energy accumulators are not reset).  The element loop runs
+    serially (the stage's plain scatter-adds of the batched launch).  Returns (stress per
+    element and point, nodal internal forces, nodal internal moments, hourglass resultant per
+    element, drilling corner moments per element or None)."""
     s = sim.state
     s.position.from_numpy(np.asarray(end, dtype=float))
     s.grid_velocity.from_numpy(np.asarray(velocity, dtype=float))
     s.omega.from_numpy(np.asarray(omega, dtype=float))
-    for f in (s.stress, s.plastic_strain, s.hourglass_resultant, s.force_int, s.moment_int):
+    for f in (s.stress, s.plastic_strain, s.hourglass_resultant, s.drilling_moment, s.force_int, s.moment_int):
         if f is not None:
             f.fill(0)
     s.dt[None] = dt
 
     @ti.kernel
     def run():
-        sim.stepper.shell.element_pass()
+        for _ in range(1):          # the outermost loop is the parallel one: keep the element loop serial
+            sim.stepper.shell.element_pass()
 
     for _ in range(steps):
         run()
-    return (s.stress.to_numpy()[0], s.force_int.to_numpy(), s.moment_int.to_numpy(),
-            s.hourglass_resultant.to_numpy()[0])
+    return (s.stress.to_numpy(), s.force_int.to_numpy(), s.moment_int.to_numpy(),
+            s.hourglass_resultant.to_numpy(), None if s.drilling_moment is None else s.drilling_moment.to_numpy())
+
+
+def element_pass(sim: Simulation, end, velocity, omega, dt: float, steps: int = 1):
+    """:func:`element_stage` of the single quad: returns (stress of element 0 per point, nodal
+    internal forces, nodal internal moments, hourglass resultant of element 0)."""
+    stress, force, moment, hourglass, _ = element_stage(sim, end, velocity, omega, dt, steps)
+    return stress[0], force, moment, hourglass[0]

@@ -12,6 +12,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -25,11 +26,15 @@ QUICK_CASES = ["cantilever_5x1_mpm_r0.5", "cantilever_10x1_mpm_r0.5", "cantileve
                "hemisphere_8x8_mpm_r0.5_ls10", "hemisphere_8x8_fem_ls10"]
 ELEMENTS = {"cantilever_5x1": 5, "cantilever_10x1": 10, "hemisphere_8x8": 64}
 MIN_PNG_BYTES = 5000
+CHECKOUT = Path(__file__).resolve().parents[1]
 
 
 def cli(*args: str, cwd: Path, timeout: float = 600) -> subprocess.CompletedProcess:
+    """The bench CLI run from `cwd` on the package of this checkout (a working directory
+    outside it would import whichever checkout is installed)."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(CHECKOUT), os.environ.get("PYTHONPATH")])))
     return subprocess.run([sys.executable, "-m", "taichi_shell_mpm", "bench", *args], capture_output=True,
-                          text=True, timeout=timeout, cwd=cwd)
+                          text=True, timeout=timeout, cwd=cwd, env=env)
 
 
 def read_csv(path: Path) -> list[dict]:
@@ -122,9 +127,18 @@ def test_resume_and_case_selection(quick):
 def test_plan_names():
     full = bench.plan(quick=False, peers=False)
     names = [c.name for c in full]
-    assert len(names) == len(set(names)) == 4 * 3 + 3 * 3 + 3 + len(bench.SCALING_FLAT) + 2 * bench.EMPTY_GRID_PAIRS
+    assert len(names) == len(set(names)) == (4 * 3 + 3 * 3 + len(bench.RELAXATION) + 3 + len(bench.SCALING_FLAT)
+                                             + 2 * bench.EMPTY_GRID_PAIRS)
     assert {"cantilever_40x4_mpm_r1", "hemisphere_32x32_fem", "tube_2.5mm_mpm", "tube_5mm_fem", "scaling_60",
             "empty_grid_scene_1", "empty_grid_wide_3"} <= set(names)
+    # the relaxation variants: their default row's overrides plus their own, on scene keys of their own
+    by_name = {c.name: c for c in full}
+    for default, extra in bench.RELAXATION:
+        variant, base = by_name[f"{default}_{extra}"], by_name[default]
+        assert variant.overrides == base.overrides + bench.RELAXATION_VARIANTS[extra]
+        assert variant.scene_file == base.scene_file and variant.scene == "relaxation_" + base.scene
+        assert (variant.mode, variant.ratio) == (base.mode, base.ratio)
+        assert bench.relaxation_default(variant.name) == default
     grid = [c for c in full if c.scene == "empty_grid"]
     assert [c.name.rsplit("_", 2)[1] for c in grid] == ["scene", "wide"] * bench.EMPTY_GRID_PAIRS   # interleaved
     for scene, wide in zip(grid[::2], grid[1::2]):
@@ -215,3 +229,34 @@ def test_only_the_study_into_its_folder_writes_the_committed_report(tmp_path, mo
     assert bench.default_report(tmp_path / "scratch", quick=False) == tmp_path / "scratch" / "BENCHMARKS.md"
     assert bench.default_report(Path("x"), quick=True) == Path("x") / "BENCHMARKS.md"
     assert bench.default_report(bench.default_out(True), quick=True) == Path("outputs") / "bench_quick" / "BENCHMARKS.md"
+
+
+def test_relaxation_variants_have_their_own_table():
+    """The relaxation rows are reported after their default row (steps and their ratio), and
+    stay out of the refinement series (slopes, plots)."""
+    base = {"scene": "hemisphere", "mesh": "16x16q", "mode": "mpm", "cell_ratio": "0.5", "element_size": "0.5",
+            "status": "ok", "comp1": "d_out", "comp2": "d_in", "err1_mean": "0.0016", "err1_max": "0.006",
+            "err2_mean": "0.0023", "err2_max": "0.0064", "run_s": "12.5", "elements": "256"}
+    rows = [dict(base, case="hemisphere_16x16_mpm_r0.5", steps="200000",
+                 overrides="mesh.n_around=16 method.kind=mpm"),
+            dict(base, case="hemisphere_16x16_mpm_r0.5_unscaled", scene="relaxation_hemisphere", steps="500000",
+                 overrides="mesh.n_around=16 method.kind=mpm solve.mass_scaling=none"),
+            dict(base, case="hemisphere_8x8_mpm_r0.5", mesh="8x8q", element_size="1", elements="64",
+                 steps="100000", overrides="")]
+    text = "\n".join(bench._relaxation_section(rows))
+    assert "| hemisphere_16x16_mpm_r0.5 | mpm h=0.5l | fire | uniform_dt | 200 000 | 1 |" in text
+    assert "| hemisphere_16x16_mpm_r0.5_unscaled | mpm h=0.5l | fire | none | 500 000 | 2.5 |" in text
+    (o,) = bench.observed_orders(rows)
+    assert o["meshes"] == "8x8q 16x16q"
+    assert [r["case"] for r in bench._static_rows(rows, "hemisphere")["mpm h=0.5l"]] == [
+        "hemisphere_8x8_mpm_r0.5", "hemisphere_16x16_mpm_r0.5"]
+
+
+def test_rows_keep_the_plan_order_without_the_peers():
+    """A sitting without Kratos regenerates the report with the *_kratos rows of an earlier
+    sitting in their place beside their meshes, not moved to the end."""
+    rows = [{"case": name} for name in ("cantilever_5x1_kratos", "cantilever_10x1_fem", "cantilever_5x1_fem",
+                                        "cantilever_10x1_kratos")]
+    bench.sort_rows(rows, quick=False)
+    assert [r["case"] for r in rows] == ["cantilever_5x1_fem", "cantilever_5x1_kratos", "cantilever_10x1_fem",
+                                         "cantilever_10x1_kratos"]

@@ -19,7 +19,20 @@ import pytest
 
 from .conftest import ROOT
 
-BOUNDS = {"cantilever": (0.010, 0.020), "hemisphere": (0.005, 0.010)}    # mean, max (measured 16x16: 0.16-0.23 % / 0.61-0.65 %)
+# (scene, method) -> column -> (mean, max) bound on e_i: about 1.5x the measured errors, each
+# printed by the test (`python -m pytest -q -s tests/test_benchmarks_cli.py`; measured
+# 2026-11 on the 2-core EPYC, in %: cantilever mpm W_tip 0.0854 / 0.1746, -U_tip 0.2091 /
+# 0.3788; fem 0.0861 / 0.1748, 0.2110 / 0.3797; hemisphere 16x16 mpm d_out 0.1597 / 0.6020,
+# d_in 0.2334 / 0.6393; fem 0.1611 / 0.6039, 0.2330 / 0.6414).  The static runs are batched
+# (serial), so they take the same steps every time.
+BOUNDS = {
+    ("cantilever", "mpm"): {"W_tip": (0.0013, 0.0026), "minus_U_tip": (0.0031, 0.0057)},
+    ("cantilever", "fem"): {"W_tip": (0.0013, 0.0026), "minus_U_tip": (0.0032, 0.0057)},
+    ("hemisphere", "mpm"): {"radial_disp_outward_loaded_point": (0.0024, 0.0090),
+                            "radial_disp_inward_loaded_point_magnitude": (0.0035, 0.0096)},
+    ("hemisphere", "fem"): {"radial_disp_outward_loaded_point": (0.0024, 0.0091),
+                            "radial_disp_inward_loaded_point_magnitude": (0.0035, 0.0096)},
+}
 RUNS = [(scene, method) for scene in ("hemisphere", "cantilever") for method in ("mpm", "fem")]
 KINETIC = ("cantilever", "fem", "kinetic")     # the default FIRE relaxation against plain kinetic damping
 
@@ -48,12 +61,15 @@ def test_sze_reference_both_components_all_levels(runs, scene, method):
     summary = json.loads((target / "summary.json").read_text())
     ref = summary["reference"]
     assert ref["rows"] == 20 and ref["missing_levels"] == []
-    mean_bound, max_bound = BOUNDS[scene]
+    bounds = BOUNDS[(scene, method)]
+    assert set(ref["columns"]) == set(bounds)
     print(f"\n{scene} ({method}): {summary['steps']} steps, compile {summary['compile_seconds']:.1f} s, "
           f"run {summary['run_seconds']:.1f} s, {summary['us_per_element_step']:.3f} us/element-step")
     for column, r in ref["columns"].items():
-        print(f"  {column:<45s} mean {100 * r['mean_rel_error']:.2f}%  max {100 * r['max_rel_error']:.2f}%")
+        print(f"  {column:<45s} mean {100 * r['mean_rel_error']:.4f}% (bound {100 * bounds[column][0]:.2f}%)  "
+              f"max {100 * r['max_rel_error']:.4f}% (bound {100 * bounds[column][1]:.2f}%)")
     for column, r in ref["columns"].items():
+        mean_bound, max_bound = bounds[column]
         assert r["mean_rel_error"] <= mean_bound, column
         assert r["max_rel_error"] <= max_bound, column
 
@@ -90,7 +106,11 @@ def test_output_contract(runs):
 
 def test_fire_relaxation_same_answer_fewer_steps(runs):
     """FIRE (the default) and plain kinetic damping converge to the same equilibria (both to
-    the residual tolerance 1e-4 of the load), FIRE in fewer steps."""
+    the residual tolerance 1e-4 of the load), FIRE in fewer steps.  Measured (cantilever 10x1,
+    fem): largest W_tip difference 7.8e-5 of the largest W_tip; 95 015 against 383 022 steps
+    (ratio 0.248; the bench rows cantilever_10x1_fem and cantilever_10x1_fem_kinetic).  Bounds
+    about 1.5x: 1.2e-4 and a ratio of 0.37 (step counts of the batched static solve are
+    deterministic, not timings)."""
     summaries = {}
     for key in (("cantilever", "fem"), KINETIC):
         target, proc = runs[key]
@@ -102,5 +122,5 @@ def test_fire_relaxation_same_answer_fewer_steps(runs):
     diff = np.abs(w_fire - w_kin).max() / np.abs(w_kin).max()
     print(f"\nFIRE {fire['steps']} steps, kinetic damping {kinetic['steps']} steps "
           f"(ratio {fire['steps'] / kinetic['steps']:.2f}); largest W_tip difference {100 * diff:.3f}%")
-    assert diff < 1e-3
-    assert fire["steps"] < kinetic["steps"]
+    assert diff < 1.2e-4
+    assert fire["steps"] < 0.37 * kinetic["steps"]

@@ -1,6 +1,7 @@
 """Reduced crush (issue 3): the paper's tube section and material, 80 mm long, crushed for
-2.5 ms (about 37 mm) through the CLI.  Asserts the energy balance against the absorbed
-energy, the hourglass share, contact penetration and that folds form."""
+2.5 ms (about 37 mm) through the CLI.  Asserts the mean crush force and the fold
+half-wavelength against their measured values, the energy balance against the absorbed
+energy, the hourglass share and contact penetration."""
 from __future__ import annotations
 
 import json
@@ -17,6 +18,14 @@ SHORT = ["mesh.length=80", "mesh.n_length=16", "nodesets.rear.plane.point=[0,0,8
          "output.history_interval=0.02"]
 
 
+# Measured (`python -m pytest -q -s tests/test_crush.py -k reduced_crush`, 2026-11, 768
+# elements, batched serial launch, so the same every run): crush 37.4 mm, mean crush force
+# 10.563 kN over 20-37.4 mm, 3 lobes, H = 12.5 mm, energy balance 0.26 % of the absorbed
+# energy, E_hg / E_int 8.3 %, penetration 1.42 % of t, 8 281 steps.
+REDUCED_MEAN_FORCE = 10.563       # kN
+REDUCED_HALF_WAVELENGTH = 12.5    # mm (the fold counter reads extrema on 5 mm elements)
+
+
 def test_reduced_crush(tmp_path):
     args = [sys.executable, "-m", "taichi_shell_mpm", "run", str(ROOT / "scenes" / "square_tube.toml"),
             "--out", str(tmp_path), "--quiet"]
@@ -27,16 +36,17 @@ def test_reduced_crush(tmp_path):
     summary = json.loads((tmp_path / "summary.json").read_text())
     c = summary["crush"]
     print(f"\ncrush {c['crush_distance']:.1f} mm, peak {c['peak_support_force']:.1f} kN, mean "
-          f"{c['mean_crush_force']:.2f} kN over {c['mean_force_window']}, lobes {c['lobes']}, H {c['half_wavelength']}, "
+          f"{c['mean_crush_force']:.3f} kN over {c['mean_force_window']}, lobes {c['lobes']}, H {c['half_wavelength']}, "
           f"balance {100 * c['energy_balance_error_max']:.2f}% of absorbed, hourglass/internal "
           f"{100 * c['hourglass_over_internal']:.1f}%, penetration {100 * c['max_penetration_over_thickness']:.1f}% t, "
           f"{summary['steps']} steps, run {summary['run_seconds']:.0f} s, {summary['us_per_element_step']:.2f} us/el-step")
     assert c["crush_distance"] > 30
-    assert c["energy_balance_error_max"] <= 0.05
-    assert c["hourglass_over_internal"] <= 0.10
-    assert c["max_penetration_over_thickness"] <= 0.5
+    assert c["energy_balance_error_max"] <= 0.004            # 1.5x measured (method.md 8 accepts 5 %)
+    assert c["hourglass_over_internal"] <= 0.10              # the warning level (measured 8.3 %)
+    assert c["max_penetration_over_thickness"] <= 0.021      # 1.5x measured
     assert c["lobes"] >= 2
-    assert 2.0 < c["mean_crush_force"] < 30.0
+    assert abs(c["mean_crush_force"] - REDUCED_MEAN_FORCE) <= 0.15 * REDUCED_MEAN_FORCE
+    assert abs(c["half_wavelength"] - REDUCED_HALF_WAVELENGTH) <= 0.15 * REDUCED_HALF_WAVELENGTH
 
 
 def test_fold_geometry_reads_lobes_and_half_wavelength():
