@@ -198,3 +198,16 @@ def test_unconverged_plastic_return_stops_the_run(tmp_path, monkeypatch):
     element_pass(sim, corners + 0.01 * stretch, stretch, np.zeros((4, 3)), 0.01)
     with pytest.raises(SimulationError, match="plastic return map did not converge at element 0"):
         sim.check_status()
+
+
+def test_physical_rotary_inertia_repro_through_the_cli(tmp_path):
+    """The issue's repro: Sze's cantilever run dynamically with the physical rotary inertia and
+    an initial velocity ran away at step 5; it now finishes (the static reference is skipped
+    with a warning for a dynamic run)."""
+    from .conftest import ROOT
+    from .test_reliability import cli_run
+    r = cli_run("run", str(ROOT / "scenes" / "cantilever.toml"), "--out", str(tmp_path / "out"), "--quiet",
+                "--set", "solve.kind=dynamic", "--set", "solve.end_time=0.02", "--set", "solve.rotary_inertia=physical",
+                "--set", "initial=[{velocity=[0,0,1]}]")
+    print(r.err, r.out[-600:])
+    assert r.code == 0, r.err
