@@ -175,45 +175,56 @@ def _number(text: str, kind: str):
     """The value of one field ('' is 0); raises ValueError."""
     if text == "":
         return 0 if kind == "i" else 0.0
-    t = text.replace("d", "e").replace("D", "e")
-    m = _FORTRAN_EXPONENT.match(t)
-    if m:                                   # Fortran's 1.5-3 for 1.5e-3
-        t = f"{m.group(1)}e{m.group(2)}"
-    if kind == "i":
-        try:
-            return int(t)
-        except ValueError:
-            value = float(t)
+    try:                                    # the common case first: plain Python syntax
+        value = int(text) if kind == "i" else float(text)
+    except ValueError:
+        t = text.replace("d", "e").replace("D", "e")
+        m = _FORTRAN_EXPONENT.match(t)
+        if m:                               # Fortran's 1.5-3 for 1.5e-3
+            t = f"{m.group(1)}e{m.group(2)}"
+        value = float(t)
+        if kind == "i":
             if not value.is_integer():
                 raise
             return int(value)
-    value = float(t)
-    if not math.isfinite(value):
+    if kind == "f" and not math.isfinite(value):
         raise ValueError(text)
     return value
 
 
+_SLICES: dict[int, list[tuple[str, int, int, str]]] = {}
+
+
+def _slices(layout) -> list[tuple[str, int, int, str]]:
+    """(name, start, end, type) of each field of a fixed-format card."""
+    key = id(layout)
+    if key not in _SLICES:
+        out, start = [], 0
+        for name, width, kind in layout:
+            out.append((name, start, start + width, kind))
+            start += width
+        _SLICES[key] = out
+    return _SLICES[key]
+
+
 def _fields(line: _Line, layout, keyword: str) -> dict:
     """The fields of one card, free format when the line holds a comma, else fixed."""
-    text = line.text.rstrip("\r\n")
-    if "," in text:
+    text = line.text
+    free = "," in text
+    if free:
         raw = [t.strip() for t in text.split(",")]
         raw += [""] * (len(layout) - len(raw))
-        where = [f"field {i + 1}" for i in range(len(layout))]
     else:
-        raw, where, start = [], [], 0
-        for _, width, _ in layout:
-            raw.append(text[start:start + width].strip())
-            where.append(f"columns {start + 1}-{start + width}")
-            start += width
+        raw = [text[a:b].strip() for _, a, b, _ in _slices(layout)]
     out = {}
-    for (name, _, kind), value, at in zip(layout, raw, where):
+    for k, (name, a, b, kind) in enumerate(_slices(layout)):
         try:
-            out[name] = _number(value, kind)
+            out[name] = _number(raw[k], kind)
         except (ValueError, OverflowError):
             expected = "an integer" if kind == "i" else "a number"
+            at = f"field {k + 1}" if free else f"columns {a + 1}-{b}"
             raise SceneError(f"{_where(line, keyword)}: {name.upper()} ({at}): expected {expected}, "
-                             f"got {value!r}") from None
+                             f"got {raw[k]!r}") from None
     return out
 
 

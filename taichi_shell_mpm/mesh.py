@@ -87,8 +87,8 @@ class Mesh:
     def quads(self) -> np.ndarray:
         """``elements`` of an all-quad mesh, for the solver that does not run triangles yet."""
         if (self.elements[:, 3] < 0).any():
-            raise SceneError(f"mesh has {int((self.elements[:, 3] < 0).sum())} triangles: this solver build "
-                             "does not run triangles yet")
+            raise SceneError(f"mesh has {_count(int((self.elements[:, 3] < 0).sum()), 'triangle')}: this solver "
+                             "build does not run triangles yet")
         return self.elements
 
 

@@ -392,10 +392,11 @@ def test_dyna_deck(tmp_path, variant):
 
 def test_dyna_mat_003_and_024_points(tmp_path):
     """*MAT_003 with its second card, a *MAT_024 whose curve is EPS1.. / ES1..; a missing LCSS
-    curve is a warning."""
+    curve is a warning.  Blank lines are cards where a group needs them (the last *MAT_024's
+    EPS and ES cards), spacing elsewhere (after the first *PART)."""
     body = fixed_deck().split("*PART\n")[0]
     path = tmp_path / "mats.k"
-    path.write_text(body + "*PART\nskin\n1,1,1\n*PART\nstiffener\n2,1,2\n*PART\nrib\n3,1,3\n"
+    path.write_text(body + "*PART\nskin\n1,1,1\n\n*PART\nstiffener\n2,1,2\n*PART\nrib\n3,1,3\n"
                     "*SECTION_SHELL\n1\n1.0\n"
                     "*MAT_PLASTIC_KINEMATIC\n1,7.8e-9,2.1e5,0.3,250.0,1000.0,1.0\n40.0,5.0,0.3,1.0\n"
                     "*MAT_024\n2,7.8e-9,2.1e5,0.3,250.0\n0,0,0\n0.0,0.05,0.2\n250,300,350\n"
@@ -458,3 +459,37 @@ def test_dyna_check_messages_name_deck_ids(tmp_path):
         build_mesh(FileMesh(path=path))
     assert err.value.messages == [f"{path}: element 2 (id 1003): degenerate triangle (area 0: its corners are "
                                   "collinear)"]
+
+
+def test_dyna_duplicates_includes_and_options(tmp_path):
+    deck = fixed_deck()
+    path = tmp_path / "dup.k"
+    path.write_text(deck.replace("     104             0.0", "     102             0.0"))
+    with pytest.raises(SceneError) as err:
+        build_mesh(FileMesh(path=path))
+    lines = deck.splitlines()
+    first = next(i for i, t in enumerate(lines, 1) if t.startswith("     102"))
+    assert err.value.messages == [f"{path}:{first + 2}: *NODE: node 102 is defined twice (also on {path}:{first})"]
+
+    path.write_text(deck.replace("*PART\nstiffener\n         2", "*PART\nstiffener\n         1"))
+    with pytest.raises(SceneError, match=r"\*PART: part 1 is defined twice"):
+        build_mesh(FileMesh(path=path))
+
+    (tmp_path / "loop.k").write_text("*INCLUDE\nloop.k\n")
+    with pytest.raises(SceneError, match=r"loop.k:2: \*INCLUDE: loop.k includes itself"):
+        build_mesh(FileMesh(path=tmp_path / "loop.k"))
+
+    path.write_text(deck.replace("*ELEMENT_SHELL\n", "*ELEMENT_SHELL_COMPOSITE\n"))
+    with pytest.raises(SceneError, match=r"\*ELEMENT_SHELL_COMPOSITE: this option of \*ELEMENT_SHELL is not read"):
+        build_mesh(FileMesh(path=path))
+
+    # Fortran-style numbers, lower-case keywords, a part without *PART, TC/RC codes
+    path.write_text(deck.replace("*PART\nstiffener\n         2         2         2\n", "")
+                    .replace("*NODE", "*node").replace("     101             0.0             0.0             0.0       0",
+                                                       "     101           0.0d0          0.0e+0           1.0-3       1"))
+    m = build_mesh(FileMesh(path=path))
+    assert m.points[0].tolist() == [0.0, 0.0, 0.001]
+    assert f"{path}: 1 nodes have TC/RC constraint codes in *NODE, which are not read (fix them with " \
+           "[[boundary]])" in m.warnings
+    assert f"{path}: part 2 of 2 shells has no *PART card" in m.warnings
+    assert sets(m) == {"part:1": [0], "skin": [0], "part:2": [1, 2]}
