@@ -184,10 +184,10 @@ def _number(text: str, kind: str):
             t = f"{m.group(1)}e{m.group(2)}"
         value = float(t)
         if kind == "i":
-            if not value.is_integer():
+            if not value.is_integer() or abs(value) >= 2**62:
                 raise
             return int(value)
-    if kind == "f" and not math.isfinite(value):
+    if kind == "f" and not math.isfinite(value) or kind == "i" and abs(value) >= 2**62:
         raise ValueError(text)
     return value
 
@@ -391,7 +391,7 @@ def read_deck(path: Path) -> tuple[np.ndarray, np.ndarray, dict, Deck, tuple[str
                 mid = values.pop("mid")
                 values = {k: float(x) for k, x in values.items()}
                 _unique(materials, mid, DeckMaterial(mid, kind, heading, values), group[titled], name, "material")
-                material_lines[mid] = group[titled]
+                material_lines[mid] = (group[titled], name)
         elif base == "DEFINE_CURVE":
             cards = _cards(block)
             cards = cards[1:] if titled else cards
@@ -414,7 +414,8 @@ def read_deck(path: Path) -> tuple[np.ndarray, np.ndarray, dict, Deck, tuple[str
     if not shells:
         raise SceneError(f"{path}: deck has no *ELEMENT_SHELL cards")
     if constrained:
-        warnings.append(f"{path}: {constrained} nodes have TC/RC constraint codes in *NODE, which are not read "
+        which = "1 node has" if constrained == 1 else f"{constrained} nodes have"
+        warnings.append(f"{path}: {which} TC/RC constraint codes in *NODE, which are not read "
                         "(fix them with [[boundary]])")
     if offsets:
         warnings.append(f"{path}: the OFFSET of {offsets} *ELEMENT_SHELL_..._OFFSET elements is not read: "
@@ -425,13 +426,18 @@ def read_deck(path: Path) -> tuple[np.ndarray, np.ndarray, dict, Deck, tuple[str
 
     # nodes: user ids -> positions
     nids = np.array(node_ids, dtype=np.int64)
+    table = np.array(shells, dtype=np.int64).reshape(-1, 6)
+    for ids, lines, keyword, what in ((nids, node_lines, "NODE", "NID"), (table[:, 0], shell_lines, "ELEMENT_SHELL", "EID"),
+                                      (table[:, 1], shell_lines, "ELEMENT_SHELL", "PID")):
+        bad = np.nonzero(ids <= 0)[0]
+        if len(bad):
+            raise SceneError(f"{_where(lines[bad[0]], keyword)}: {what} must be > 0, got {ids[bad[0]]}")
     order = np.argsort(nids, kind="stable")
     dup = np.nonzero(nids[order][1:] == nids[order][:-1])[0]
     if len(dup):
         a, b = sorted((order[dup[0]], order[dup[0] + 1]))
         raise SceneError(f"{_where(node_lines[b], 'NODE')}: node {nids[b]} is defined twice (also on "
                          f"{node_lines[a].file}:{node_lines[a].number})")
-    table = np.array(shells, dtype=np.int64).reshape(-1, 6)
     eids, pids, corners = table[:, 0], table[:, 1], table[:, 2:]
     eorder = np.argsort(eids, kind="stable")
     dup = np.nonzero(eids[eorder][1:] == eids[eorder][:-1])[0]
@@ -480,7 +486,7 @@ def read_deck(path: Path) -> tuple[np.ndarray, np.ndarray, dict, Deck, tuple[str
             if lcss in curves:
                 materials[mid] = _replace_curve(mat, curves[lcss])
             else:
-                warnings.append(f"{_where(material_lines[mid], 'MAT_024')}: material {mid}: LCSS {lcss} is not a "
+                warnings.append(f"{_where(*material_lines[mid])}: material {mid}: LCSS {lcss} is not a "
                                 "*DEFINE_CURVE of this deck (a *DEFINE_TABLE is not read): no stress-strain curve")
         else:
             pts = [(mat.values[f"eps{k}"], mat.values[f"es{k}"]) for k in range(1, 9)]
@@ -496,7 +502,7 @@ def read_deck(path: Path) -> tuple[np.ndarray, np.ndarray, dict, Deck, tuple[str
         part = parts.get(int(pid))
         n = int((pids == pid).sum())
         if part is None:
-            problems.append(f"{path}: part {pid} of {n} shells has no *PART card")
+            problems.append(f"{path}: part {pid} ({n} shell{'s' if n != 1 else ''}) has no *PART card")
             continue
         if part.secid not in sections:
             problems.append(f"{path}: part {pid} ({part.title or 'no heading'}): section {part.secid} is not a "

@@ -489,7 +489,7 @@ def test_dyna_duplicates_includes_and_options(tmp_path):
                                                        "     101           0.0d0          0.0e+0           1.0-3       1"))
     m = build_mesh(FileMesh(path=path))
     assert m.points[0].tolist() == [0.0, 0.0, 0.001]
-    assert f"{path}: 1 nodes have TC/RC constraint codes in *NODE, which are not read (fix them with " \
+    assert f"{path}: 1 node has TC/RC constraint codes in *NODE, which are not read (fix them with " \
            "[[boundary]])" in m.warnings
-    assert f"{path}: part 2 of 2 shells has no *PART card" in m.warnings
+    assert f"{path}: part 2 (2 shells) has no *PART card" in m.warnings
     assert sets(m) == {"part:1": [0], "skin": [0], "part:2": [1, 2]}
