@@ -15,7 +15,7 @@ from taichi_shell_mpm.scene import (FileMesh, HemisphereMesh, NodeSet, PlateMesh
 
 def quad_normals(mesh: Mesh) -> np.ndarray:
     """Vector-area normals (x3-x1) x (x4-x2) / 2 of every element."""
-    x = mesh.points[mesh.quads]
+    x = mesh.points[mesh.elements]
     return 0.5 * np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])
 
 
@@ -25,7 +25,7 @@ def total_area(mesh: Mesh) -> float:
 
 def assert_outward(mesh: Mesh, centre_of=lambda c: c) -> None:
     """Every element normal has a positive component along ``centre_of(centroid)``."""
-    centroid = mesh.points[mesh.quads].mean(axis=1)
+    centroid = mesh.points[mesh.elements].mean(axis=1)
     assert (np.einsum("ij,ij->i", quad_normals(mesh), centre_of(centroid)) > 0).all()
 
 
@@ -33,7 +33,7 @@ def assert_outward(mesh: Mesh, centre_of=lambda c: c) -> None:
 def test_plate_counts_area_and_numbering():
     m = build_mesh(PlateMesh(lx=2.0, ly=3.0, nx=4, ny=6, origin=(1.0, -1.0, 0.5)))
     assert m.points.shape == (5 * 7, 3) and m.points.dtype == np.float64
-    assert m.quads.shape == (24, 4) and m.quads.dtype == np.int32
+    assert m.elements.shape == (24, 4) and m.elements.dtype == np.int32
     assert m.warnings == ()
     assert total_area(m) == pytest.approx(6.0)
     # node j*(nx+1)+i sits at (ox + i*dx, oy + j*dy, oz)
@@ -46,7 +46,7 @@ def test_plate_counts_area_and_numbering():
 def test_hemisphere_quarter():
     r, hole = 10.0, 18.0
     m = build_mesh(HemisphereMesh(radius=r, hole_deg=hole, n_around=16, n_meridian=16))
-    assert m.points.shape == (17 * 17, 3) and m.quads.shape == (256, 4)
+    assert m.points.shape == (17 * 17, 3) and m.elements.shape == (256, 4)
     np.testing.assert_allclose(np.linalg.norm(m.points, axis=1), r, rtol=1e-14)
     # first and last column lie exactly on the y=0 and x=0 planes
     assert (m.points[0::17, 1] == 0.0).all()
@@ -64,9 +64,9 @@ def test_hemisphere_quarter():
 def test_hemisphere_full_wraps_without_duplicates():
     m = build_mesh(HemisphereMesh(radius=2.0, hole_deg=10.0, n_around=12, n_meridian=5,
                                   quarter=False))
-    assert m.points.shape == (6 * 12, 3) and m.quads.shape == (60, 4)
+    assert m.points.shape == (6 * 12, 3) and m.elements.shape == (60, 4)
     assert len(np.unique(np.round(m.points, 9), axis=0)) == len(m.points)
-    assert len(np.unique(m.quads)) == len(m.points)
+    assert len(np.unique(m.elements)) == len(m.points)
     assert_outward(m)
     exact = 2 * math.pi * 4.0 * math.sin(math.radians(80.0))
     assert total_area(m) == pytest.approx(exact, rel=0.05)
@@ -83,7 +83,7 @@ def test_tube_counts_perimeter_and_normals():
     m = build_mesh(TubeMesh(width=w, depth=d, corner_radius=r, length=length,
                             n_flat=nf, n_corner=nc, n_length=nl))
     ring = 4 * (nf + nc)
-    assert m.points.shape == ((nl + 1) * ring, 3) and m.quads.shape == (nl * ring, 4)
+    assert m.points.shape == ((nl + 1) * ring, 3) and m.elements.shape == (nl * ring, 4)
     assert m.warnings == ()
     xy = m.points[:ring, :2]
     assert (m.points[:ring, 2] == 0.0).all() and (m.points[-ring:, 2] == length).all()
@@ -116,47 +116,53 @@ def test_tube_sharp_corners():
 def test_file_round_trip(tmp_path, name, fmt):
     plate = build_mesh(PlateMesh(lx=2.0, ly=1.0, nx=4, ny=3))
     path = tmp_path / name
-    meshio.write(path, meshio.Mesh(plate.points, [("quad", plate.quads)]), file_format=fmt)
+    meshio.write(path, meshio.Mesh(plate.points, [("quad", plate.elements)]), file_format=fmt)
     m = build_mesh(FileMesh(path=path, scale=2.0))
     np.testing.assert_allclose(m.points, 2.0 * plate.points)
-    np.testing.assert_array_equal(m.quads, plate.quads)
-    assert m.quads.dtype == np.int32 and m.warnings == ()
+    np.testing.assert_array_equal(m.elements, plate.elements)
+    assert m.elements.dtype == np.int32 and m.warnings == ()
 
 
 def test_file_quad9_lines_and_unused_nodes(tmp_path):
     plate = build_mesh(PlateMesh(lx=1.0, ly=1.0, nx=2, ny=2))
     # extra stray node, quad9 cells (first 4 = corners), and an ignored line cell
     points = np.vstack([plate.points, [[5.0, 5.0, 5.0]]])
-    quad9 = np.column_stack([plate.quads, np.zeros((4, 5), dtype=np.int64) + plate.quads[:, :1]])
+    quad9 = np.column_stack([plate.elements, np.zeros((4, 5), dtype=np.int64) + plate.elements[:, :1]])
     path = tmp_path / "q.vtu"
     meshio.write(path, meshio.Mesh(points, [("quad9", quad9), ("line", np.array([[0, 1]]))]))
     m = build_mesh(FileMesh(path=path))
-    np.testing.assert_array_equal(m.quads, plate.quads)
+    np.testing.assert_array_equal(m.elements, plate.elements)
     assert len(m.points) == 9
     assert any("removed 1 unused node" in w for w in m.warnings)
 
 
 def test_file_with_triangle(tmp_path):
+    """Issue 17: triangles are read (a -1 in column 3); the solver of this build refuses them."""
     path = tmp_path / "t.vtu"
     points = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [2, 0, 0]], dtype=float)
     meshio.write(path, meshio.Mesh(points, [("quad", np.array([[0, 1, 2, 3]])),
                                             ("triangle", np.array([[1, 4, 2]]))]))
-    with pytest.raises(SceneError, match=r"non-quad cells \(1 triangle\)") as err:
-        build_mesh(FileMesh(path=path))
-    assert "RecombineAll" in str(err.value) and str(path) in str(err.value)
+    m = build_mesh(FileMesh(path=path))
+    assert m.elements.tolist() == [[0, 1, 2, 3], [1, 4, 2, -1]]
+    assert m.triangles.tolist() == [False, True] and m.warnings == () and m.element_sets == {}
+    with pytest.raises(SceneError, match="does not run triangles yet"):
+        m.quads
 
 
 def test_file_with_pentagon_and_four_node_polygon(tmp_path):
-    """A pentagon is named as one (issue 16.18: it was '1 triangles'); a 4-node polygon is a quad."""
+    """A pentagon is named as one (issue 16.18: it was '1 triangles'); a 4-node polygon is a quad
+    (and a 3-node one a triangle, issue 17)."""
     points = np.array([[0, 0, 0], [1, 0, 0], [1.5, 0.5, 0], [1, 1, 0], [0, 1, 0]], dtype=float)
     meshio.write(tmp_path / "p.vtu", meshio.Mesh(points, [("polygon", np.array([[0, 1, 2, 3, 4]]))]))
     with pytest.raises(SceneError) as err:
         build_mesh(FileMesh(path=tmp_path / "p.vtu"))
-    assert err.value.messages == [f"{tmp_path / 'p.vtu'}: mesh has non-quad cells (1 polygon with 5 corners); "
-                                  "this solver needs 4-node quadrilateral shells: remesh with quads "
-                                  "(e.g. gmsh 'Mesh.RecombineAll = 1')"]
+    assert err.value.messages == [f"{tmp_path / 'p.vtu'}: mesh has polygonal cells with more than 4 corners "
+                                  "(1 polygon with 5 corners); this solver needs 3-node triangles and 4-node "
+                                  "quadrilaterals: remesh (e.g. gmsh, with 'Mesh.RecombineAll = 1' for quads)"]
     meshio.write(tmp_path / "q.vtu", meshio.Mesh(points, [("polygon", np.array([[0, 1, 3, 4]]))]))
-    assert build_mesh(FileMesh(path=tmp_path / "q.vtu")).quads.tolist() == [[0, 1, 2, 3]]
+    assert build_mesh(FileMesh(path=tmp_path / "q.vtu")).elements.tolist() == [[0, 1, 2, 3]]
+    meshio.write(tmp_path / "t.vtu", meshio.Mesh(points, [("polygon", np.array([[0, 1, 3]]))]))
+    assert build_mesh(FileMesh(path=tmp_path / "t.vtu")).elements.tolist() == [[0, 1, 2, -1]]
 
 
 def test_file_quad8_is_linearised_with_a_warning(tmp_path):
@@ -167,7 +173,7 @@ def test_file_quad8_is_linearised_with_a_warning(tmp_path):
     quad8 = np.array([[0, 1, 4, 3, 6, 11, 10, 5], [1, 2, 5, 4, 7, 8, 9, 11]])
     meshio.write(tmp_path / "q8.vtu", meshio.Mesh(points, [("quad8", quad8)]))
     m = build_mesh(FileMesh(path=tmp_path / "q8.vtu"))
-    np.testing.assert_array_equal(m.quads, plate.quads)
+    np.testing.assert_array_equal(m.elements, plate.elements)
     assert m.warnings[0] == (f"{tmp_path / 'q8.vtu'}: 2 quad8 elements (8-node quads) used as 4-node bilinear "
                              "shells: their mid-side and centre nodes are dropped and curved edges become straight")
     assert "removed 7 unused nodes" in m.warnings[1]
@@ -231,7 +237,7 @@ def test_check_inverted_and_non_convex():
     points = plate.points.copy()
     points[5] = [2.5, 2.5, 0.0]
     with pytest.raises(SceneError) as err:
-        check_mesh(points, plate.quads, "m")
+        check_mesh(points, plate.elements, "m")
     assert err.value.messages == [f"m: element {e}: inverted or non-convex quad"
                                   for e in (1, 3, 4)]
 
@@ -256,7 +262,7 @@ def test_file_merge_nodes_on_request(tmp_path):
     assert len(kept.points) == 8 and "2 pairs of coincident nodes kept distinct" in kept.warnings[0]
     merged = build_mesh(FileMesh(path=path, merge_nodes=True))
     assert len(merged.points) == 6
-    assert merged.quads.tolist() == [[0, 1, 2, 3], [1, 4, 5, 2]]
+    assert merged.elements.tolist() == [[0, 1, 2, 3], [1, 4, 5, 2]]
     assert merged.warnings == (
         f"{path}: merged 2 coincident nodes into their twins ([mesh].merge_nodes; e.g. nodes 1 and 4 at "
         "[1.0, 0.0, 0.0]) and renumbered the rest: node ids in the messages and in ids = [...] node sets are "
@@ -267,7 +273,7 @@ def test_check_duplicate_detection_is_fast_and_sparse():
     # 40 000 nodes on a grid: no false positives, and a single duplicate is found
     plate = build_mesh(PlateMesh(lx=1.0, ly=1.0, nx=199, ny=199))
     points = np.vstack([plate.points, plate.points[[12345]]])
-    quads = np.vstack([plate.quads, [[12345 + 1, 12345 + 201, 12345 + 200, len(plate.points)]]])
+    quads = np.vstack([plate.elements, [[12345 + 1, 12345 + 201, 12345 + 200, len(plate.points)]]])
     assert check_mesh(points, quads, "m")[0].startswith(
         f"m: 1 pair of coincident nodes kept distinct (e.g. nodes 12345 and 40000 at {points[12345].tolist()})")
 
@@ -276,7 +282,7 @@ def test_check_huge_coordinates_is_one_line():
     """Issue 16.18: 1e200 coordinates gave 'area inf ... and 231 more' on a 10-element mesh."""
     plate = build_mesh(PlateMesh(lx=10.0, ly=1.0, nx=10, ny=1))
     with pytest.raises(SceneError) as err:
-        check_mesh(plate.points * 1e200, plate.quads, "m")
+        check_mesh(plate.points * 1e200, plate.elements, "m")
     assert err.value.messages == [
         "m: 21 nodes have coordinates above 1e+100 in magnitude (e.g. node 1 at [1e+200, 0.0, 0.0]; lengths "
         "squared would overflow): rescale the mesh ([mesh].scale) or use other units"]
@@ -301,7 +307,7 @@ def test_check_opposite_normals_warning():
                                                                        n_meridian=3, quarter=False),
                  TubeMesh(width=4, depth=3, corner_radius=0.5, length=5, n_flat=2, n_corner=2, n_length=3)):
         mesh = build_mesh(spec)
-        assert not [w for w in check_mesh(mesh.points, mesh.quads, "m") if "opposite normals" in w]
+        assert not [w for w in check_mesh(mesh.points, mesh.elements, "m") if "opposite normals" in w]
 
 
 def test_check_warp_and_unused_warnings():
@@ -390,7 +396,7 @@ def test_tube_trigger_shape():
     plain = build_mesh(TubeMesh(**TUBE))
     trig = build_mesh(TubeMesh(**TUBE, trigger_amplitude=a0, trigger_start=z0,
                                trigger_length=lt))
-    np.testing.assert_array_equal(trig.quads, plain.quads)
+    np.testing.assert_array_equal(trig.elements, plain.elements)
     assert trig.warnings == ()
     delta = trig.points - plain.points
     assert (delta[:, 2] == 0.0).all()
