@@ -60,8 +60,8 @@ def child(steps: int, overrides: list[str]) -> None:
     n = sim.stepper.advance(steps)
     ti.sync()
     seconds = time.perf_counter() - t0
-    print(json.dumps({"elements": len(model.quads), "steps": n, "launch": sim.cfg.launch,
-                      "us": 1e6 * seconds / (n * len(model.quads)), "compile": sim.compile_seconds}))
+    print(json.dumps({"elements": len(model.elements), "steps": n, "launch": sim.cfg.launch,
+                      "us": 1e6 * seconds / (n * len(model.elements)), "compile": sim.compile_seconds}))
 
 
 def main() -> int:

@@ -1,9 +1,10 @@
 """Scene + mesh -> the numerical model as plain numpy arrays (no Taichi here).
 
 Everything that is computed once before time stepping lives here: element reference
-areas and frozen CPDI2 corner weights (method.md 2.1), lumped corner mass and scaled
-rotary inertia (2.3), boundary-condition masks (2.4-2.5), the reference load vector,
-initial velocities and the background-grid geometry.
+areas and frozen CPDI2 corner weights (method.md 2.1), each element's section and material
+data and the tables they index (the parts), lumped corner mass and scaled rotary inertia
+(2.3), boundary-condition masks (2.4-2.5), the reference load vector, initial velocities
+and the background-grid geometry.
 """
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import materials
 from .mesh import Mesh
 from .nodesets import select_nodes
 from .quadrature import through_thickness_rule
@@ -77,26 +79,95 @@ class WallSpec:
 
 
 @dataclass(frozen=True)
+class PartSpec:
+    name: str
+    elements: np.ndarray                    # element ids
+    material: str
+    section: str
+
+
+@dataclass(frozen=True)
+class ElementData:
+    """Each element's section and material data (state.sections), from its part."""
+    part: np.ndarray                        # (m,) part index
+    section: np.ndarray                     # (m,) section index (into SectionTable)
+    thickness: np.ndarray                   # (m,)
+    shear_factor: np.ndarray                # (m,) kappa
+    wave_speed: np.ndarray                  # (m,) plane-stress c_e of its stiffest material (physical density)
+    rotational_frequency: np.ndarray        # (m,) sqrt(12 kappa G / rho) / t with physical rotary inertia, else 0
+    hourglass_membrane: np.ndarray          # (m,) r E t / 8      (stages/hourglass.py: x A beta -> C3)
+    hourglass_bending: np.ndarray           # (m,) r E t^3 / 192  (x A beta -> C1)
+    hourglass_transverse: np.ndarray        # (m,) r kappa G t^3 / 12 (x beta -> C2)
+    drilling_factor: np.ndarray             # (m,) alpha E t^3 / 48 (stages/drilling.py: x A beta -> k)
+
+
+@dataclass(frozen=True)
+class SectionTable:
+    """Through-thickness rules: point positions zeta in [-1, 1], weights (sum 2) and the
+    material of each point, per section (padded to the most points of any section)."""
+    names: tuple[str, ...]
+    point_count: np.ndarray                 # (ns,)
+    zeta: np.ndarray                        # (ns, nk)
+    weight: np.ndarray                      # (ns, nk)
+    point_material: np.ndarray              # (ns, nk) material index
+
+    @property
+    def points(self) -> int:
+        return self.zeta.shape[1]
+
+
+@dataclass(frozen=True)
+class MaterialTable:
+    """One row of parameters per scene material (materials.py); ``kind`` indexes ``kinds``,
+    the material models the scene uses (registry order)."""
+    names: tuple[str, ...]
+    kinds: tuple[str, ...]
+    kind: np.ndarray                        # (nm,)
+    rows: np.ndarray                        # (nm, MATERIAL_PARAMETERS)
+    dilatational_speed: float               # the largest of the paper's grid-rule speeds
+
+    @property
+    def plastic(self) -> bool:
+        return any(materials.PLASTIC[k] for k in self.kinds)
+
+
+@dataclass(frozen=True)
+class StepParameters:
+    """Run-time values of the step that are not per entity (state.step, state.contact)."""
+    dt_safety: float
+    flip_blend: float
+    contact_thickness: float = 0.0      # t_c (no contact: 0)
+    contact_stiffness: float = 0.0      # alpha_c
+    contact_damping: float = 0.0
+    contact_friction: float = 0.0
+
+
+@dataclass(frozen=True)
 class Model:
     points: np.ndarray            # (n, 3) reference coordinates
-    quads: np.ndarray             # (m, 4) corner ids
+    elements: np.ndarray          # (m, 4) corner ids; a triangle's 4th is -1
+    parts: tuple[PartSpec, ...]
+    element: ElementData
+    sections: SectionTable
+    materials: MaterialTable
     area0: np.ndarray             # (m,) reference element areas
     corner_weight: np.ndarray     # (m, 4) CPDI2 weights, frozen (paper eq 15)
     node_mass: np.ndarray         # (n,)
     node_inertia: np.ndarray      # (n,) scalar rotary inertia J_c
     node_area: np.ndarray         # (n,) tributary area sum_e w_ea A_e
+    node_thickness: np.ndarray    # (n,) the thickest adjacent element's thickness (walls keep half of it)
     fix_mask: np.ndarray          # (n,) int bits 0..5 = ux uy uz rx ry rz fixed
     load_force: np.ndarray        # (n, 3) nodal force at load factor 1
     load_moment: np.ndarray       # (n, 3)
     velocity0: np.ndarray         # (n, 3)
     omega0: np.ndarray            # (n, 3)
-    zeta: np.ndarray              # through-thickness points
-    zeta_weight: np.ndarray
     grid: GridGeometry | None     # None in fem mode
     probes: tuple[ProbeSpec, ...]
     min_edge: float
     mean_edge: float
     max_edge: float
+    parameters: StepParameters | None = None
+    notes: tuple[str, ...] = ()           # warnings of the assembly (e.g. an LS-DYNA card approximated)
     rigid_bodies: tuple[RigidBodySpec, ...] = ()
     walls: tuple[WallSpec, ...] = ()
     node_body: np.ndarray | None = None   # (n,) rigid body index of each node, -1 = none
@@ -104,11 +175,14 @@ class Model:
     neighbor_nodes: np.ndarray | None = None
 
 
-def cpdi2_weights(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def cpdi2_weights(points: np.ndarray, elements: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Element areas and CPDI2 corner weights (method.md 2.1), in each element's projected
-    local frame (e3 from the diagonals). A parallelogram gives 1/4 each."""
-    x = points[quads]                                    # (m, 4, 3)
+    local frame (e3 from the diagonals). A parallelogram gives 1/4 each; a triangle (a
+    linear domain) 1/3 at each corner and 0 in the unused 4th column."""
+    quad = elements[:, 3] >= 0
+    x = points[np.where(elements >= 0, elements, elements[:, :1])]     # (m, 4, 3), a triangle's 4th = 1st
     e3 = np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])
+    e3 = np.where(quad[:, None], e3, np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]))
     e3 /= np.linalg.norm(e3, axis=1)[:, None]
     r21 = x[:, 1] - x[:, 0]
     e1 = r21 - np.sum(r21 * e3, axis=1)[:, None] * e3
@@ -133,13 +207,33 @@ def cpdi2_weights(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np
     w = np.stack([4 * c1 + 2 * c2 + 2 * c3 + c4,
                   2 * c1 + 4 * c2 + c3 + 2 * c4,
                   c1 + 2 * c2 + 2 * c3 + 4 * c4,
-                  2 * c1 + c2 + 4 * c3 + 2 * c4], axis=1) / (36.0 * area[:, None])
+                  2 * c1 + c2 + 4 * c3 + 2 * c4], axis=1) / (36.0 * np.where(quad, area, 1.0)[:, None])
+    x31 = x[:, 2] - x[:, 0]
+    area = np.where(quad, area, 0.5 * np.sum(np.cross(x[:, 1] - x[:, 0], x31) * e3, axis=1))
+    w = np.where(quad[:, None], w, np.array([1.0, 1.0, 1.0, 0.0]) / 3.0)
     return area, w
 
 
-def _edge_lengths(points, quads):
-    x = points[quads]
-    return np.linalg.norm(x - np.roll(x, -1, axis=1), axis=2)
+def _edge_lengths(points, elements) -> np.ndarray:
+    """Lengths of every element edge (a triangle's 3)."""
+    nxt = np.roll(elements, -1, axis=1)
+    tri = elements[:, 3] < 0
+    nxt[tri, 2] = elements[tri, 0]
+    valid = (elements >= 0) & (nxt >= 0)
+    lengths = np.linalg.norm(points[np.where(valid, elements, 0)] - points[np.where(valid, nxt, 0)], axis=2)
+    return lengths[valid]
+
+
+def element_length(points: np.ndarray, elements: np.ndarray, area: np.ndarray) -> np.ndarray:
+    """L_e of the element rule (method.md 5): area / longest diagonal of a quad; for a
+    triangle area / longest edge x 2 (its altitude over the longest edge), the host twin of
+    stages/shell's element length."""
+    x = points[np.where(elements >= 0, elements, elements[:, :1])]
+    quad = elements[:, 3] >= 0
+    diag = np.maximum(np.linalg.norm(x[:, 2] - x[:, 0], axis=1), np.linalg.norm(x[:, 3] - x[:, 1], axis=1))
+    edge = np.max(np.stack([np.linalg.norm(x[:, 1] - x[:, 0], axis=1), np.linalg.norm(x[:, 2] - x[:, 1], axis=1),
+                            np.linalg.norm(x[:, 0] - x[:, 2], axis=1)]), axis=0)
+    return np.where(quad, area / diag, 2.0 * area / edge)
 
 
 def _grid_geometry(scene: Scene, points: np.ndarray, min_edge: float, planes_xyz) -> GridGeometry:
@@ -171,40 +265,249 @@ def _grid_geometry(scene: Scene, points: np.ndarray, min_edge: float, planes_xyz
                         planes=tuple(sorted(set(planes))), slab_axis=int(np.argmax(hi_pt - lo_pt)))
 
 
-def uniform_dt_mass_factor(points: np.ndarray, quads: np.ndarray, area0: np.ndarray) -> np.ndarray:
+def uniform_dt_mass_factor(points: np.ndarray, elements: np.ndarray, area0: np.ndarray) -> np.ndarray:
     """Static solves, [solve].mass_scaling = "uniform_dt" [choice, issue 4]: dynamic
     relaxation only needs *some* mass matrix, and its step count grows with the spread of
-    the elements' own stable steps dt_e = alpha L_e / c (L_e = area / longest diagonal,
-    method.md 5), since the smallest element sets dt for all.  Scaling each element's
-    density by (L_min / L_e)^2 raises its wave speed so that every element's dt_e equals
-    the smallest one: the step does not change, the larger elements just stop being slower
-    than they need to be.  Factors are <= 1 (1 on a uniform mesh)."""
-    x = points[quads]
-    longest = np.maximum(np.linalg.norm(x[:, 2] - x[:, 0], axis=1), np.linalg.norm(x[:, 3] - x[:, 1], axis=1))
-    length = area0 / longest
+    the elements' own stable steps dt_e = alpha L_e / c (method.md 5), since the smallest
+    element sets dt for all.  Scaling each element's density by (L_min / L_e)^2 raises its
+    wave speed so that every element's dt_e equals the smallest one: the step does not
+    change, the larger elements just stop being slower than they need to be.  Factors are
+    <= 1 (1 on a uniform mesh)."""
+    length = element_length(points, elements, area0)
     return (length.min() / length) ** 2
+
+
+def _element_selection(name: str, scene: Scene, mesh: Mesh, points: np.ndarray, elements: np.ndarray,
+                       path: str) -> np.ndarray:
+    """The element ids `name` selects: "all", an [elementsets.NAME], or a set of the mesh file."""
+    m = len(elements)
+    if name == "all":
+        return np.arange(m)
+    where = f"{scene.source.name}: {path}.elements"
+    sets = {s.name: s for s in scene.elementsets}
+    if name in sets:
+        spec = sets[name]
+        where = f"{scene.source.name}: [elementsets.{name}]"
+        if spec.kind == "all":
+            ids = np.arange(m)
+        elif spec.kind == "ids":
+            ids = np.unique(np.asarray(spec.ids, dtype=np.int64))
+            if ids.max() >= m:
+                raise SceneError(f"{where}.ids: element {int(ids.max())} out of range (the mesh has {m} elements)")
+        elif spec.kind == "box":
+            x = points[np.where(elements >= 0, elements, elements[:, :1])]
+            count = np.where(elements[:, 3] >= 0, 4, 3)
+            centroid = np.where(elements[:, 3:4] >= 0, x.sum(axis=1), x[:, :3].sum(axis=1)) / count[:, None]
+            inside = np.all((centroid >= np.asarray(spec.box_min) - 1e-12) & (centroid <= np.asarray(spec.box_max) + 1e-12),
+                            axis=1)
+            ids = np.flatnonzero(inside)
+        else:
+            ids = _mesh_set(spec.mesh_set, mesh, f"{where}.mesh")
+        if not len(ids):
+            raise SceneError(f"{where}: selects no element")
+        return ids
+    return _mesh_set(name, mesh, where, extra=tuple(sets))
+
+
+def _mesh_set(name: str, mesh: Mesh, where: str, extra: tuple = ()) -> np.ndarray:
+    if name in mesh.element_sets:
+        return np.asarray(mesh.element_sets[name], dtype=np.int64)
+    known = sorted(mesh.element_sets) + list(extra)
+    hint = f" (sets: {', '.join(known[:12])}{' ...' if len(known) > 12 else ''})" if known else \
+        " (the mesh has no element sets)"
+    raise SceneError(f"{where}: no element set or mesh set named {name!r}{hint}")
+
+
+def _deck_specs(deck, source: str):
+    """Scene materials and sections for an LS-DYNA deck's parts (dyna.Deck): *MAT_001 elastic,
+    *MAT_003 and *MAT_024 J2 with linear hardening H = E E_t / (E - E_t) from their tangent
+    modulus (a *MAT_024 curve: the straight line through its points, least squares, with a
+    warning until tabulated hardening exists), *SECTION_SHELL thickness T1, NIP Gauss points
+    (QR = 0) or Lobatto (QR = 1), SHRF."""
+    from .scene import Material, Section
+    materials, sections, notes = {}, {}, []
+    for mid, card in deck.materials.items():
+        v = card.values
+        E, nu, rho = v.get("e", 0.0), v.get("pr", 0.0), v.get("ro", 0.0)
+        if card.kind == "elastic":
+            materials[f"mat_{mid}"] = Material(E=E, nu=nu, density=rho)
+            continue
+        sigy, etan = v.get("sigy", 0.0), v.get("etan", 0.0)
+        if card.curve:
+            eps, sig = np.array(card.curve, dtype=float).T
+            slope, intercept = np.polyfit(eps, sig, 1) if len(eps) > 1 else (0.0, sig[0])
+            sigy, hardening = float(intercept), float(max(slope, 0.0))
+            notes.append(f"{source}: *MAT_024 {mid}: its stress-strain curve is taken as the straight line "
+                         f"sigma_y = {sigy:.4g} + {hardening:.4g} ebar (least squares over its {len(eps)} points)")
+        else:
+            hardening = E * etan / (E - etan) if 0.0 < etan < E else 0.0
+        materials[f"mat_{mid}"] = Material(E=E, nu=nu, density=rho, model="j2", yield_stress=sigy,
+                                           hardening=hardening)
+    for secid, card in deck.sections.items():
+        sections[f"sec_{secid}"] = Section(thickness=card.thickness, points=max(card.nip, 1),
+                                           rule="lobatto" if card.quadrature == 1 and card.nip > 1 else "gauss",
+                                           shear_factor=min(card.shear_factor, 1.0))
+    return materials, sections, notes
+
+
+def _part_data(scene: Scene, mesh: Mesh, points: np.ndarray, elements: np.ndarray):
+    """The parts (PartSpec: element ids, material and section names), the materials and the
+    sections by name.  [[part]] assigns them; without it the scene's one material and section
+    cover the mesh, or an LS-DYNA deck's *PART cards assign its own (scene tables of the same
+    name -- mat_<mid>, sec_<secid> -- replace the deck's).  Every element belongs to exactly
+    one part: overlaps and orphans are errors naming the parts and elements."""
+    m = len(elements)
+    materials, sections = dict(scene.materials), dict(scene.sections)
+    notes: list[str] = []
+    thickness = None
+    if not scene.parts and scene.material is not None:
+        return (PartSpec("all", np.arange(m), "material", "section"),), {"material": scene.material}, \
+            {"section": scene.section}, thickness, notes
+    if not scene.parts and mesh.deck is None:
+        (mname, mat), (sname, sec) = next(iter(materials.items())), next(iter(sections.items()))
+        return (PartSpec("all", np.arange(m), mname, sname),), {mname: mat}, {sname: sec}, thickness, notes
+    if not scene.parts:                          # an LS-DYNA deck's parts
+        deck_materials, deck_sections, notes = _deck_specs(mesh.deck, scene.source.name)
+        materials = {**deck_materials, **materials}
+        sections = {**deck_sections, **sections}
+        from .scene import Part
+        entries = tuple(Part(name=(p.title if p.title and p.title in mesh.element_sets else f"part:{pid}"),
+                             material=f"mat_{p.mid}", section=f"sec_{p.secid}", elements=f"part:{pid}")
+                        for pid, p in sorted(mesh.deck.parts.items()) if f"part:{pid}" in mesh.element_sets)
+        thickness = _deck_element_thickness(mesh.deck, scene, notes)
+    else:
+        entries = scene.parts
+    errors = []
+    owner = np.full(m, -1)
+    parts = []
+    for i, part in enumerate(entries):
+        path = f"[[part]][{i}]" if scene.parts else f"part {part.name}"
+        for key, table in (("material", materials), ("section", sections)):
+            if getattr(part, key) not in table:
+                errors.append(f"{scene.source.name}: {path}.{key}: no {key} named {getattr(part, key)!r}")
+        try:
+            ids = _element_selection(part.elements, scene, mesh, points, elements, path)
+        except SceneError as exc:
+            errors += exc.messages
+            continue
+        taken = ids[owner[ids] >= 0]
+        if len(taken):
+            other = entries[int(owner[taken[0]])].name
+            errors.append(f"{scene.source.name}: {path} '{part.name}': {len(taken)} elements also in part '{other}' "
+                          f"(e.g. {', '.join(map(str, taken[:5]))}): every element belongs to one part")
+        owner[ids] = i
+        parts.append(PartSpec(part.name, ids, part.material, part.section))
+    orphans = np.flatnonzero(owner < 0)
+    if len(orphans) and not errors:
+        errors.append(f"{scene.source.name}: [[part]]: {len(orphans)} elements belong to no part "
+                      f"(e.g. {', '.join(map(str, orphans[:5]))})")
+    if errors:
+        raise SceneError(errors)
+    used_m = {p.material for p in parts}
+    used_s = {p.section for p in parts}
+    return tuple(parts), {k: v for k, v in materials.items() if k in used_m}, \
+        {k: v for k, v in sections.items() if k in used_s}, thickness, notes
+
+
+def _deck_element_thickness(deck, scene: Scene, notes: list) -> np.ndarray | None:
+    """(m,) thickness of each element from *ELEMENT_SHELL_THICKNESS (the mean of its corner
+    values; NaN: the section's), as LS-DYNA takes it over the section's T1 -- except in parts
+    whose section the scene redefines ([sections.sec_<id>]: the scene's value wins)."""
+    corner = deck.element_thickness
+    if corner is None:
+        return None
+    given = np.where(corner > 0.0, corner, np.nan)
+    count = np.sum(np.isfinite(given), axis=1)
+    mean = np.where(count > 0, np.nansum(given, axis=1) / np.maximum(count, 1), np.nan)
+    overridden = [pid for pid, p in deck.parts.items() if f"sec_{p.secid}" in scene.sections]
+    mean[np.isin(deck.element_parts, overridden)] = np.nan
+    varying = int(np.sum(np.nanmax(given, axis=1, initial=0.0) - np.nanmin(given, axis=1, initial=np.inf) > 1e-12
+                         * np.nanmax(given, axis=1, initial=1.0)))
+    if varying:
+        notes.append(f"{scene.source.name}: {varying} elements of *ELEMENT_SHELL_THICKNESS have corner "
+                     "thicknesses that differ: each uses their mean (a constant thickness per element)")
+    return mean if np.isfinite(mean).any() else None
+
+
+def _tables(scene: Scene, parts, material_specs: dict, section_specs: dict, m: int,
+            element_thickness: np.ndarray | None = None):
+    """SectionTable, MaterialTable and ElementData of the parts.  A row of the section table
+    is a (section, material) pair of some part: its through-thickness rule and the material
+    of each point.  `element_thickness` (NaN: the section's) overrides the section's thickness
+    element by element (an LS-DYNA deck's *ELEMENT_SHELL_THICKNESS)."""
+    material_names = tuple(material_specs)
+    kinds = tuple(k for k in materials.KINDS if any(spec.model == k for spec in material_specs.values()))
+    material_table = MaterialTable(
+        names=material_names, kinds=kinds,
+        kind=np.array([kinds.index(material_specs[n].model) for n in material_names], dtype=np.int32),
+        rows=np.array([materials.parameter_row(material_specs[n], materials.MATERIAL_PARAMETERS)
+                       for n in material_names]),
+        dilatational_speed=max(materials.dilatational_speed(spec) for spec in material_specs.values()))
+    pairs = tuple(dict.fromkeys((p.section, p.material) for p in parts))
+    rules = [through_thickness_rule(section_specs[sec].rule, section_specs[sec].points) for sec, _ in pairs]
+    nk = max(len(z) for z, _ in rules)
+    zeta = np.zeros((len(rules), nk))
+    weight = np.zeros((len(rules), nk))
+    for i, (z, w) in enumerate(rules):
+        zeta[i, :len(z)], weight[i, :len(w)] = z, w
+    point_material = np.array([[material_names.index(mat)] * nk for _, mat in pairs], dtype=np.int32)
+    section_table = SectionTable(names=tuple(f"{sec}/{mat}" for sec, mat in pairs),
+                                 point_count=np.array([len(z) for z, _ in rules], np.int32),
+                                 zeta=zeta, weight=weight, point_material=point_material)
+    el = scene.element
+    columns = {name: np.zeros(m) for name in ("thickness", "shear_factor", "wave_speed", "rotational_frequency",
+                                              "hourglass_membrane", "hourglass_bending", "hourglass_transverse",
+                                              "drilling_factor")}
+    part_of = np.zeros(m, dtype=np.int32)
+    section_of = np.zeros(m, dtype=np.int32)
+    for i, part in enumerate(parts):
+        mat, sec = material_specs[part.material], section_specs[part.section]
+        ids = part.elements
+        t = np.full(len(ids), sec.thickness)
+        if element_thickness is not None:
+            t = np.where(np.isfinite(element_thickness[ids]), element_thickness[ids], t)
+        kappa, G = sec.shear_factor, materials.shear_modulus(mat)
+        part_of[ids] = i
+        section_of[ids] = pairs.index((part.section, part.material))
+        r = sec.hourglass if sec.hourglass is not None else el.hourglass
+        alpha = sec.drilling_stiffness if sec.drilling_stiffness is not None else el.drilling_stiffness
+        values = {"thickness": t, "shear_factor": kappa, "wave_speed": materials.wave_speed(mat),
+                  "rotational_frequency": (np.sqrt(12.0 * kappa * G / mat.density) / t
+                                           if scene.solve.rotary_inertia == "physical" else 0.0),
+                  "hourglass_membrane": r * mat.E * t / 8.0, "hourglass_bending": r * mat.E * t ** 3 / 192.0,
+                  "hourglass_transverse": r * kappa * G * t ** 3 / 12.0,
+                  "drilling_factor": alpha * mat.E * t ** 3 / 48.0 if el.drilling == "penalty" else 0.0}
+        for name, value in values.items():
+            columns[name][ids] = value
+    return section_table, material_table, ElementData(part=part_of, section=section_of, **columns)
 
 
 def assemble(scene: Scene, mesh: Mesh) -> Model:
     """Build the :class:`Model` for `scene` on `mesh` (raises SceneError on user mistakes)."""
-    points, quads = mesh.points.astype(np.float64), mesh.quads.astype(np.int64)
-    n = len(points)
-    sec, mat = scene.section, scene.material
-    area0, weight = cpdi2_weights(points, quads)
-    edges = _edge_lengths(points, quads)
-    element_mass = mat.density * sec.thickness * area0
+    points, elements = mesh.points.astype(np.float64), mesh.elements.astype(np.int64)
+    n, m = len(points), len(elements)
+    parts, material_specs, section_specs, element_thickness, notes = _part_data(scene, mesh, points, elements)
+    sections, material_table, element = _tables(scene, parts, material_specs, section_specs, m, element_thickness)
+    area0, weight = cpdi2_weights(points, elements)
+    edges = _edge_lengths(points, elements)
+    density = material_table.rows[sections.point_material[element.section, 0], materials.COL["density"]]
+    element_mass = density * element.thickness * area0
     if scene.solve.kind == "static" and scene.solve.mass_scaling != "none":
-        element_mass *= uniform_dt_mass_factor(points, quads, area0)
+        element_mass *= uniform_dt_mass_factor(points, elements, area0)
     node_mass = np.zeros(n)
     node_area = np.zeros(n)
     node_inertia = np.zeros(n)
     if scene.solve.rotary_inertia == "scaled":
-        inertia_arm = np.maximum(sec.thickness ** 2 / 12.0, area0 / 8.0)
+        inertia_arm = np.maximum(element.thickness ** 2 / 12.0, area0 / 8.0)
     else:
-        inertia_arm = np.full_like(area0, sec.thickness ** 2 / 12.0)
-    np.add.at(node_mass, quads, weight * element_mass[:, None])
-    np.add.at(node_area, quads, weight * area0[:, None])
-    np.add.at(node_inertia, quads, weight * (element_mass * inertia_arm)[:, None])
+        inertia_arm = element.thickness ** 2 / 12.0
+    corners = np.where(elements >= 0, elements, 0)       # a triangle's 4th weight is 0
+    np.add.at(node_mass, corners, weight * element_mass[:, None])
+    np.add.at(node_area, corners, weight * area0[:, None])
+    np.add.at(node_inertia, corners, weight * (element_mass * inertia_arm)[:, None])
+    node_thickness = np.zeros(n)
+    valid = elements >= 0
+    np.maximum.at(node_thickness, elements[valid], np.repeat(element.thickness, 4).reshape(-1, 4)[valid])
 
     sets = {}
 
@@ -271,21 +574,29 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
         velocity0[(fix_mask >> d) & 1 == 1, d] = 0.0
         omega0[(fix_mask >> (3 + d)) & 1 == 1, d] = 0.0
     probes = tuple(ProbeSpec(p.name, nodes_of(p.nodes), p.components) for p in scene.probes)
-    zeta, zw = through_thickness_rule(sec.rule, sec.points)
     min_edge = float(edges.min())
     grid = _grid_geometry(scene, points, min_edge, planes_xyz) if scene.method.kind == "mpm" else None
-    return Model(points=points, quads=quads, area0=area0, corner_weight=weight, node_mass=node_mass,
+    contact = scene.contact
+    parameters = StepParameters(
+        dt_safety=scene.solve.dt_safety, flip_blend=scene.method.flip_blend,
+        **({"contact_thickness": contact.thickness or float(element.thickness.max()),
+            "contact_stiffness": contact.stiffness, "contact_damping": contact.damping,
+            "contact_friction": contact.friction} if contact is not None else {}))
+    return Model(points=points, elements=elements.astype(np.int32), parts=parts, element=element,
+                 parameters=parameters, notes=tuple(notes),
+                 sections=sections, materials=material_table, area0=area0, corner_weight=weight, node_mass=node_mass,
+                 node_thickness=node_thickness,
                  node_inertia=node_inertia, node_area=node_area, fix_mask=fix_mask, load_force=load_force,
-                 load_moment=load_moment, velocity0=velocity0, omega0=omega0, zeta=zeta, zeta_weight=zw,
+                 load_moment=load_moment, velocity0=velocity0, omega0=omega0,
                  grid=grid, probes=probes, min_edge=min_edge, mean_edge=float(edges.mean()),
                  max_edge=float(edges.max()), rigid_bodies=tuple(bodies), walls=walls, node_body=node_body,
-                 **(node_neighbors(quads, n) if scene.contact else {}))
+                 **(node_neighbors(elements, n) if scene.contact else {}))
 
 
-def node_neighbors(quads: np.ndarray, n: int) -> dict[str, np.ndarray]:
+def node_neighbors(elements: np.ndarray, n: int) -> dict[str, np.ndarray]:
     """CSR lists of the nodes sharing an element with each node (itself included): the
     contact exclusion ring of method.md 7.3."""
-    pairs = np.stack(np.broadcast_arrays(quads[:, :, None], quads[:, None, :]), axis=-1).reshape(-1, 2)
-    pairs = np.unique(pairs, axis=0)
+    pairs = np.stack(np.broadcast_arrays(elements[:, :, None], elements[:, None, :]), axis=-1).reshape(-1, 2)
+    pairs = np.unique(pairs[(pairs >= 0).all(axis=1)], axis=0)
     start = np.searchsorted(pairs[:, 0], np.arange(n + 1)).astype(np.int32)
     return {"neighbor_start": start, "neighbor_nodes": pairs[:, 1].astype(np.int32)}

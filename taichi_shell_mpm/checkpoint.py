@@ -2,11 +2,11 @@
 
 A checkpoint (``OUTDIR/checkpoint.npz``, written atomically) holds
 
-* every Taichi field of :class:`~taichi_shell_mpm.state.State` except the scratch fields
-  (:data:`TRANSIENT_FIELDS`): between two steps the grid mass, momentum and force are
-  zero, and the P2G bins, gathered element loads and contact pair scratch are rewritten
-  before they are read; the contact hash is rebuilt before it is read; so a fresh State is
-  equivalent;
+* every persistent Taichi field of :class:`~taichi_shell_mpm.state.State` (the used entries
+  of each, ``group.name``; State.arrays).  The scratch fields (``persistent=False`` in
+  state.py) are left out: between two steps the grid mass, momentum and force are zero, and
+  the P2G bins, gathered element loads and contact pair scratch are rewritten before they
+  are read; the contact hash is rebuilt before it is read; so a fresh State is equivalent;
 * the recorded history rows (probes, energies, forces), the frames listed in
   ``frames.pvd``, the step counters, the warnings given so far;
 * the driver's position (static: load level and steps taken in it; dynamic: the next
@@ -42,13 +42,7 @@ from .output import atomic_write
 from .scene import SceneError
 
 CHECKPOINT_NAME = "checkpoint.npz"
-FORMAT_VERSION = 1
-TRANSIENT_FIELDS = ("grid_mass", "grid_momentum", "grid_force", "node_cell", "slab_start", "slab_fill",
-                    "slab_nodes", "corner_loads", "contact_pair_force", "contact_pair_weight",
-                    # step scratch, see the module docstring
-                    "hash_cell", "hash_count", "hash_start", "hash_elements", "element_slot",
-                    "element_radius")                  # contact hash: scratch of a candidate rebuild
-
+FORMAT_VERSION = 2
 stop_hook: Callable[[Any], bool] | None = None
 """Tests and embedding code: called with the Simulation at every batch boundary; returning
 True stops the run there exactly as a Ctrl-C does."""
@@ -82,14 +76,6 @@ def scene_hash(scene, points: np.ndarray, quads: np.ndarray) -> str:
     return h.hexdigest()
 
 
-# ------------------------------------------------------------------ fields
-def state_fields(state) -> dict:
-    """The persistent Taichi fields of `state`, by attribute name."""
-    from taichi.lang.field import Field
-    return {name: value for name, value in vars(state).items()
-            if isinstance(value, Field) and name not in TRANSIENT_FIELDS}
-
-
 def _rows(rows: list, width: int) -> np.ndarray:
     return np.array(rows, dtype=np.float64).reshape(len(rows), width)
 
@@ -98,7 +84,7 @@ def _rows(rows: list, width: int) -> np.ndarray:
 def save_checkpoint(sim, position: dict, path: Path | None = None) -> Path:
     """Write the checkpoint of `sim` at driver `position` (atomically)."""
     path = Path(path) if path is not None else sim.out_dir / CHECKPOINT_NAME
-    arrays = {f"field.{name}": f.to_numpy() for name, f in state_fields(sim.state).items()}
+    arrays = {f"field.{name}": a for name, a in sim.state.arrays().items()}
     h = sim.history
     ncols = len(h.probe_header)
     arrays["history.probe"] = _rows(h.probe_rows, ncols)
@@ -106,12 +92,12 @@ def save_checkpoint(sim, position: dict, path: Path | None = None) -> Path:
     arrays["history.force"] = _rows(h.force_rows, len(h.force_rows[0]) if h.force_rows else 0)
     meta = {
         "version": FORMAT_VERSION,
-        "scene_hash": scene_hash(sim.scene, sim.model.points, sim.model.quads),
+        "scene_hash": scene_hash(sim.scene, sim.model.points, sim.model.elements),
         "scene": sim.scene.info.name, "arch": sim.arch,
         "launch": sim.cfg.launch,
         "position": position,
         "total_steps": int(sim.total_steps), "run_seconds": float(sim.run_seconds),
-        "step": int(sim.state.step[None]),
+        "step": int(sim.state.step.step[None]),
         "frames": [[float(k), f] for k, f in (sim.frames.entries if sim.frames else [])],
         "warnings": list(sim.warnings), "hourglass_warned": bool(sim.hourglass_warned),
         "driver": sim.driver_data,
@@ -209,13 +195,12 @@ def restore_checkpoint(sim, ckpt: Checkpoint) -> list[str]:
     """Load `ckpt` into the freshly built `sim`; returns warning lines (e.g. another arch)."""
     from .output import FrameWriter
     warnings = []
-    fields = state_fields(sim.state)
+    fields = set(sim.state.arrays())
     saved = {k[len("field."):] for k in ckpt.arrays if k.startswith("field.")}
-    if saved != set(fields):
-        raise CheckpointError(f"{ckpt.path}: checkpoint fields {sorted(saved ^ set(fields))} do not match "
+    if saved != fields:
+        raise CheckpointError(f"{ckpt.path}: checkpoint fields {sorted(saved ^ fields)} do not match "
                               "this build of the solver")
-    for name, f in fields.items():
-        f.from_numpy(ckpt.arrays[f"field.{name}"])
+    sim.state.restore({name: ckpt.arrays[f"field.{name}"] for name in fields})
     h = sim.history
     h.probe_rows = ckpt.arrays["history.probe"].tolist()
     h.energy_rows = ckpt.arrays["history.energy"].tolist()
@@ -235,7 +220,7 @@ def restore_checkpoint(sim, ckpt: Checkpoint) -> list[str]:
             if (source / f).is_file():
                 shutil.copyfile(source / f, sim.out_dir / f)
     if entries:
-        sim.frames = FrameWriter(sim.out_dir, sim.model.quads)
+        sim.frames = FrameWriter(sim.out_dir, sim.model.elements)
         sim.frames.entries = entries
         sim.frames._write_pvd()
     elif (sim.out_dir / "frames.pvd").is_file():      # it lists only frames written after the checkpoint
@@ -279,7 +264,7 @@ class RunControl:
 
     def boundary(self, sim, position: dict) -> None:
         """A safe point between batches: the state and `position` say how to continue."""
-        step = int(sim.state.step[None])
+        step = int(sim.state.step.step[None])
         every = self.checkpoint_every
         if every > 0 and step // every > sim.driver_data.get("checkpoint_step", 0) // every:
             self.write(sim, position, step)

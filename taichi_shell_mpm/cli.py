@@ -198,7 +198,7 @@ def setup_warnings(scene, model) -> list[str]:
     import numpy as np
 
     from .nodesets import select_nodes
-    lines = []
+    lines = list(model.notes)
     fixed = (model.fix_mask & 0b111) == 0b111
     for i, ld in enumerate(scene.loads):
         if not any(ld.force):
@@ -280,7 +280,7 @@ def _validate(args) -> int:
     for w in (*mesh.warnings, *setup_warnings(scene, model), *([note] if note else [])):
         print(f"warning: {w}")
     grid = f", grid {model.grid.dims} nodes at h={model.grid.h:g}" if model.grid else ""
-    print(f"{args.scene}: ok ({len(mesh.points)} nodes, {len(mesh.quads)} elements, {scene.method.kind}{grid})")
+    print(f"{args.scene}: ok ({len(mesh.points)} nodes, {len(mesh.elements)} elements, {scene.method.kind}{grid})")
     return 0
 
 
@@ -314,7 +314,7 @@ def _state_is_a_result(sim) -> bool:
     if sim.scene.solve.kind != "static":
         return True
     rows = sim.history.probe_rows
-    return bool(rows) and rows[-1][0] == float(sim.state.load_factor[None])
+    return bool(rows) and rows[-1][0] == float(sim.state.step.load_factor[None])
 
 
 def _undeformed_frame(sim) -> None:
@@ -328,7 +328,7 @@ def _undeformed_frame(sim) -> None:
         return
     zero = np.zeros_like(sim.model.points)
     cells = {k: (v if k == "thickness" else np.zeros_like(v)) for k, v in sim.element_results().items()}
-    frames = FrameWriter(sim.out_dir, sim.model.quads)
+    frames = FrameWriter(sim.out_dir, sim.model.elements)
     frames.write(0.0, sim.model.points, {"displacement": zero, "velocity": zero, "rotation": zero}, cells)
     sim.frames = frames
 
@@ -370,7 +370,7 @@ def _run(args) -> int:
         ckpt = None
         if args.restart is not None:
             ckpt = load_checkpoint(args.restart)
-            check_compatible(ckpt, scene, model.points, model.quads)
+            check_compatible(ckpt, scene, model.points, model.elements)
     except (SceneError, CheckpointError) as exc:
         return _fail(EXIT_SCENE, exc.messages)
     if ckpt is not None and finished_run(ckpt.path.parent, ckpt, scene):
@@ -429,9 +429,9 @@ def _run(args) -> int:
         for note in ((fallback if arch != args.arch else None), reference_note(scene)):
             if note is not None and note not in sim.warnings:
                 sim.warn(note)
-        sim.progress(f"{scene.info.name}: {len(sim.model.points)} nodes, {len(sim.model.quads)} elements, "
+        sim.progress(f"{scene.info.name}: {len(sim.model.points)} nodes, {len(sim.model.elements)} elements, "
                      f"{sim.cfg.method}, kernels ready in {time.perf_counter() - t0:.1f} s -> {sim.out_dir}"
-                     + (f" (restarted at step {sim.state.step[None]})" if ckpt else ""))
+                     + (f" (restarted at step {sim.state.step.step[None]})" if ckpt else ""))
         with control.catch_interrupts():
             extra = run_static(sim, control) if scene.solve.kind == "static" else run_dynamic(sim, control)
         summary = sim.write_results(extra)

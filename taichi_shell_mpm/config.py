@@ -1,47 +1,40 @@
-"""Compile-time configuration of the time step, derived once from the Scene and Model.
+"""What the step compiles: the feature set of a scene (issue 17).
 
-Every field is a Python constant baked into the kernels (``ti.static``): a scene without
-a feature never compiles its code.
+Every field of :class:`Features` is a Python constant baked into the kernels
+(``ti.static``), so a scene without a feature never compiles its code; everything else --
+every value (E, nu, thickness, hourglass and contact coefficients, dt safety, masses,
+walls ...) and every size (nodes, elements, grid) -- is run-time data in the fields of
+state.py.  Two scenes with the same Features load each other's kernels from Taichi's
+offline cache.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
-from .assembly import GridGeometry, Model
+from .assembly import Model
 from .scene import Scene
 
 
 @dataclass(frozen=True)
-class StepConfig:
+class Features:
     method: str                 # "mpm" | "fem"
-    transfer: str               # "apic" | "pic" | "flip"
-    flip_blend: float
+    transfer: str               # "apic" | "pic" | "flip" (mpm)
     static: bool                # dynamic relaxation (method.md 6)
     fire: bool                  # static: FIRE velocity mixing instead of plain kinetic damping
-    E: float
-    nu: float
-    shear_modulus: float
-    thickness: float
-    shear_factor: float
-    zeta: tuple[float, ...]
-    zeta_weight: tuple[float, ...]
-    hourglass: float
+    points: int                 # through-thickness points: the most of any section
+    materials: tuple[str, ...]  # material models the scene uses (materials.KINDS order)
     kirchhoff_w_hourglass: bool  # stages/hourglass.py: w-mode rate less the Kirchhoff field's
-    drilling_stiffness: float   # > 0: drilling spring (stages/shell.py); 0: projection (method.md 2.3)
+    drilling_spring: bool       # drilling spring (stages/drilling.py); else the projection (method.md 2.3)
     warping_correction: bool    # BWC curvature of warped quads (stages/warping.py, method.md 3.8)
-    wave_speed: float           # plane-stress c_e = sqrt(E / (rho (1 - nu^2)))
-    dilatational_speed: float   # c_dil = sqrt((K + 4G/3) / rho), paper eq 38-40
-    rotational_frequency: float  # physical rotary inertia: sqrt(12 kappa G / rho) / t, else 0 (timestep.element_limit)
-    dt_safety: float
-    grid_rule: bool             # include the paper's grid rule in dt (dt_rule = "both")
-    length_ref: float           # L_ref for the rotational residual (mean edge)
-    grid: GridGeometry | None
+    physical_rotary_inertia: bool   # the rotational limit in the element's step (stages/timestep.py)
+    grid_rule: bool             # the paper's grid rule in dt (dt_rule = "both", mpm)
+    grid_planes: bool           # symmetry planes on the grid (stages/grid.py)
+    bodies: bool                # rigid bodies (stages/bodies.py)
+    walls: bool                 # rigid walls
+    moving_walls: bool          # a wall moving with a rigid body
+    contact: bool               # penalty self-contact (stages/contact.py)
+    friction: bool              # contact friction
     launch: str = "batched"     # "batched" | "threads" | "gpu" (solvers/stepper.py)
-    bodies: tuple = ()          # (total mass, added mass, unit direction, first slave, slave count)
-    walls: tuple = ()           # (point, unit normal, rigid body index or -1)
-    contact: object = None      # scene.Contact or None (no contact kernels compiled)
-    contact_thickness: float = 0.0
 
     @property
     def serial(self) -> bool:
@@ -64,42 +57,24 @@ class StepConfig:
         return self.transfer == "flip" or self.static
 
     @property
-    def drilling_spring(self) -> bool:
-        """Drilling rotation kept and tied to the element spin, instead of projected out."""
-        return self.drilling_stiffness > 0.0
-
-    @property
-    def has_contact(self) -> bool:
-        return self.contact is not None
+    def plastic(self) -> bool:
+        from .materials import PLASTIC
+        return any(PLASTIC[k] for k in self.materials)
 
     @staticmethod
-    def from_scene(scene: Scene, model: Model) -> "StepConfig":
-        mat, sec = scene.material, scene.section
-        G = mat.E / (2.0 * (1.0 + mat.nu))
-        K = mat.E / (3.0 * (1.0 - 2.0 * mat.nu))
-        return StepConfig(
-            method=scene.method.kind, transfer=scene.method.transfer, flip_blend=scene.method.flip_blend,
-            static=scene.solve.kind == "static",
-            fire=scene.solve.kind == "static" and scene.solve.relaxation == "fire", E=mat.E, nu=mat.nu, shear_modulus=G,
-            thickness=sec.thickness, shear_factor=sec.shear_factor,
-            zeta=tuple(float(z) for z in model.zeta), zeta_weight=tuple(float(w) for w in model.zeta_weight),
-            hourglass=scene.element.hourglass, kirchhoff_w_hourglass=scene.element.w_hourglass == "kirchhoff",
-            drilling_stiffness=scene.element.drilling_stiffness if scene.element.drilling == "penalty" else 0.0,
-            warping_correction=scene.element.warping == "bwc",
-            wave_speed=math.sqrt(mat.E / (mat.density * (1.0 - mat.nu ** 2))),
-            dilatational_speed=math.sqrt((K + 4.0 * G / 3.0) / mat.density),
-            rotational_frequency=(math.sqrt(12.0 * sec.shear_factor * G / mat.density) / sec.thickness
-                                  if scene.solve.rotary_inertia == "physical" else 0.0),
-            dt_safety=scene.solve.dt_safety,
+    def from_scene(scene: Scene, model: Model, launch: str = "batched") -> "Features":
+        el = scene.element
+        return Features(
+            method=scene.method.kind, transfer=scene.method.transfer, static=scene.solve.kind == "static",
+            fire=scene.solve.kind == "static" and scene.solve.relaxation == "fire",
+            points=model.sections.points, materials=model.materials.kinds,
+            kirchhoff_w_hourglass=el.w_hourglass == "kirchhoff", drilling_spring=el.drilling == "penalty",
+            warping_correction=el.warping == "bwc",
+            physical_rotary_inertia=scene.solve.rotary_inertia == "physical",
             grid_rule=scene.solve.dt_rule == "both" and scene.method.kind == "mpm",
-            length_ref=model.mean_edge, grid=model.grid,
-            bodies=tuple(_bodies(model)), walls=tuple((w.point, w.normal, w.body) for w in model.walls),
-            contact=scene.contact,
-            contact_thickness=(scene.contact.thickness or sec.thickness) if scene.contact else 0.0)
-
-
-def _bodies(model: Model):
-    start = 0
-    for b in model.rigid_bodies:
-        yield (b.total_mass, b.added_mass, b.direction, start, len(b.nodes))
-        start += len(b.nodes)
+            grid_planes=model.grid is not None and bool(model.grid.planes),
+            bodies=bool(model.rigid_bodies), walls=bool(model.walls),
+            moving_walls=any(w.body >= 0 for w in model.walls),
+            contact=scene.contact is not None,
+            friction=scene.contact is not None and scene.contact.friction > 0.0,
+            launch=launch)

@@ -145,11 +145,12 @@ def crush_summary(sim) -> dict:
         "hourglass_over_internal": float(e["hourglass"][-1] / final_internal) if final_internal > 0 else None,
         "drilling_over_internal": float(e["drilling"][-1] / final_internal) if final_internal > 0 else None,
         "absorbed_energy": float(absorbed[-1]),
-        "max_penetration_over_thickness": float(s.max_penetration[None]) if s.contact else None,
-        "ram_velocity_final": float(s.body_velocity[b]),
+        "max_penetration_over_thickness": float(s.contact.max_penetration[None]) if s.contact is not None else None,
+        "ram_velocity_final": float(s.bodies.velocity[b]),
     }
     if spec.folds:
-        folds = fold_geometry(sim.model.points, sim.state.position.to_numpy(), sim.cfg.thickness, axis)
+        folds = fold_geometry(sim.model.points, sim.state.fetch("nodes.position"),
+                              float(sim.model.element.thickness.max()), axis)
         out.update(folds)
         if spec.half_wavelength_reference is not None:
             out["half_wavelength_over_reference"] = (folds["half_wavelength"] / spec.half_wavelength_reference

@@ -85,34 +85,34 @@ class EnergyLedger:
     def element(self, e, internal, plastic, hourglass, drilling, stagger):
         """Element e's increments of the step (stages/shell.py), and its stagger term (not
         accumulated: this step's value)."""
-        old = self.s.element_energy[e]
-        self.s.element_energy[e] = ti.Vector([old[0] + internal, old[1] + plastic, old[2] + hourglass,
+        old = self.s.elements.energy[e]
+        self.s.elements.energy[e] = ti.Vector([old[0] + internal, old[1] + plastic, old[2] + hourglass,
                                               old[3] + drilling, stagger])
-        self.acc.total(self.s.stagger_energy, stagger)
-        self.acc.total(self.s.internal_energy, internal)
-        self.acc.total(self.s.hourglass_energy, hourglass)
+        self.acc.total(self.s.step.stagger_energy, stagger)
+        self.acc.total(self.s.step.internal_energy, internal)
+        self.acc.total(self.s.step.hourglass_energy, hourglass)
         if ti.static(self.cfg.drilling_spring):
-            self.acc.total(self.s.drilling_energy, drilling)
+            self.acc.total(self.s.step.drilling_energy, drilling)
         if ti.static(self.plastic):
-            self.acc.total(self.s.plastic_work, plastic)
+            self.acc.total(self.s.step.plastic_work, plastic)
 
     @ti.func
     def node(self, c, external, contact, wall):
         """Node c's increments of the step (stages/constraints.py): external work, work done
         against the contact forces, energy taken out by walls."""
-        self.s.node_energy[c] += ti.Vector([external, contact, wall])
-        self.acc.total(self.s.external_work, external)
-        if ti.static(self.cfg.has_contact):
-            self.acc.total(self.s.contact_energy, contact)
-        if ti.static(len(self.cfg.walls) > 0):
-            self.acc.total(self.s.wall_energy, wall)
+        self.s.nodes.energy[c] += ti.Vector([external, contact, wall])
+        self.acc.total(self.s.step.external_work, external)
+        if ti.static(self.cfg.contact):
+            self.acc.total(self.s.step.contact_energy, contact)
+        if ti.static(self.cfg.walls):
+            self.acc.total(self.s.step.wall_energy, wall)
 
     @ti.func
     def body(self, b, wall):
         """Energy taken out of rigid body b by the walls moving with it (stages/bodies.py);
         serial (end of step)."""
-        self.s.body_wall_energy[b] += wall
-        self.s.wall_energy[None] += wall
+        self.s.bodies.wall_energy[b] += wall
+        self.s.step.wall_energy[None] += wall
 
     @ti.func
     def guard(self, shell_kinetic):
@@ -122,22 +122,21 @@ class EnergyLedger:
         a spin) is warned of by the host (Simulation.check_balance).  Reads the 0-d running totals at the end of a step.
         Dynamic runs only: dynamic relaxation's FIRE mixing turns the velocity towards the
         force, which no work term books, so a static run's balance is reported, not guarded."""
-        s = self.s
-        limit = s.energy_limit[None]
-        if ti.static(not self.cfg.static) and limit > 0.0 and s.status[None] == STATUS_OK:
-            absorbed = (s.internal_energy[None] + s.hourglass_energy[None] + s.drilling_energy[None]
-                        + s.contact_energy[None] + s.wall_energy[None] + s.damped_energy[None])
-            error = (s.kinetic[None] + absorbed + s.stagger_energy[None] - s.kinetic_initial[None]
-                     - s.external_work[None])
+        limit = self.s.step.energy_limit[None]
+        if ti.static(not self.cfg.static) and limit > 0.0 and self.s.step.status[None] == STATUS_OK:
+            absorbed = (self.s.step.internal_energy[None] + self.s.step.hourglass_energy[None] + self.s.step.drilling_energy[None]
+                        + self.s.step.contact_energy[None] + self.s.step.wall_energy[None] + self.s.step.damped_energy[None])
+            error = (self.s.step.kinetic[None] + absorbed + self.s.step.stagger_energy[None] - self.s.step.kinetic_initial[None]
+                     - self.s.step.external_work[None])
             scale = ti.max(absorbed, KINETIC_SHARE * shell_kinetic)
             if not (error <= limit * scale) and scale > 0.0:      # also catches NaN
-                s.status[None] = STATUS_ENERGY
-                s.status_index[None] = -1
+                self.s.step.status[None] = STATUS_ENERGY
+                self.s.step.status_index[None] = -1
 
 
 def bodies_kinetic_energy(state, model) -> float:
     """1/2 M_tot V^2 summed over the rigid bodies (slave nodes and added mass)."""
-    return float(sum(0.5 * b.total_mass * state.body_velocity[i] ** 2 for i, b in enumerate(model.rigid_bodies)))
+    return float(sum(0.5 * b.total_mass * state.bodies.velocity[i] ** 2 for i, b in enumerate(model.rigid_bodies)))
 
 
 def kinetic_energy(state, model) -> float:
@@ -145,8 +144,8 @@ def kinetic_energy(state, model) -> float:
     slaves, + 1/2 M_tot V^2 of each rigid body (its slaves and added mass move with V)."""
     m, inertia = model.node_mass, model.node_inertia
     free = model.node_body < 0 if model.node_body is not None else np.ones(len(m), bool)
-    v = state.grid_velocity.to_numpy()[free]
-    w = state.omega.to_numpy()[free]
+    v = state.read(state.nodes.grid_velocity, state.n_nodes)[free]
+    w = state.read(state.nodes.omega, state.n_nodes)[free]
     return float(0.5 * np.sum(m[free] * np.sum(v * v, axis=1)) + 0.5 * np.sum(inertia[free] * np.sum(w * w, axis=1))
                  + bodies_kinetic_energy(state, model))
 
@@ -154,15 +153,15 @@ def kinetic_energy(state, model) -> float:
 def totals(state, model, initial_kinetic: float) -> dict[str, float]:
     """Every column of ENERGY_COLUMNS from the per-entity accumulators (a fixed summation
     order: restart-exact and independent of the number of threads)."""
-    element = state.element_energy.to_numpy().sum(axis=0)
-    node = state.node_energy.to_numpy().sum(axis=0)
+    element = state.read(state.elements.energy, state.n_elements).sum(axis=0)
+    node = state.read(state.nodes.energy, state.n_nodes).sum(axis=0)
     e = {name: float(element[i]) for i, name in enumerate(ELEMENT_PARTS)}
     e.update({name: float(node[i]) for i, name in enumerate(NODE_PARTS)})
     if model.rigid_bodies:
-        e["wall"] += float(state.body_wall_energy.to_numpy()[:len(model.rigid_bodies)].sum())
+        e["wall"] += float(state.read(state.bodies.wall_energy, len(model.rigid_bodies)).sum())
     e["kinetic"] = kinetic_energy(state, model)
     e["kinetic_bodies"] = bodies_kinetic_energy(state, model)      # (not a column: the guard's scale)
-    e["damped"] = float(state.damped_energy[None])
+    e["damped"] = float(state.step.damped_energy[None])
     e["balance_error"] = (e["kinetic"] + absorbed(e) + e["stagger"] - initial_kinetic - e["external_work"])
     return e
 

@@ -82,15 +82,6 @@ class Mesh:
         """(m,) bool: which elements are triangles (``elements[:, 3] < 0``)."""
         return self.elements[:, 3] < 0
 
-    # TEMPORARY (issue 17): removed when the solver takes elements
-    @property
-    def quads(self) -> np.ndarray:
-        """``elements`` of an all-quad mesh, for the solver that does not run triangles yet."""
-        if (self.elements[:, 3] < 0).any():
-            raise SceneError(f"mesh has {_count(int((self.elements[:, 3] < 0).sum()), 'triangle')}: this solver "
-                             "build does not run triangles yet")
-        return self.elements
-
 
 def build_mesh(spec: MeshSpec) -> Mesh:
     """Generate or import the mesh described by ``spec`` and check it.

@@ -97,20 +97,26 @@ def _json_default(o):
 class FrameWriter:
     """``frames/frame_00000.vtu`` ... plus ``frames.pvd`` (timestep = time or load factor)."""
 
-    def __init__(self, out_dir: Path, quads: np.ndarray):
+    def __init__(self, out_dir: Path, elements: np.ndarray):
         self.out_dir = Path(out_dir)
         self.frames_dir = self.out_dir / "frames"
         try:
             self.frames_dir.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise OutputError(self.frames_dir, exc) from exc
-        self.quads = np.asarray(quads, dtype=np.int64)
+        self.elements = np.asarray(elements, dtype=np.int64)
+        self.triangles = self.elements[:, 3] < 0
         self.entries: list[tuple[float, str]] = []
 
     def write(self, key: float, points: np.ndarray, point_data: dict, cell_data: dict) -> Path:
         name = f"frame_{len(self.entries):05d}.vtu"
-        mesh = meshio.Mesh(points, [("quad", self.quads)], point_data=point_data,
-                           cell_data={k: [v] for k, v in cell_data.items()})
+        if self.triangles.any():     # a quad block and a triangle block; cell data split alike
+            q, t = ~self.triangles, self.triangles
+            cells = [("quad", self.elements[q]), ("triangle", self.elements[t][:, :3])]
+            data = {k: [v[q], v[t]] for k, v in cell_data.items()}
+        else:
+            cells, data = [("quad", self.elements)], {k: [v] for k, v in cell_data.items()}
+        mesh = meshio.Mesh(points, cells, point_data=point_data, cell_data=data)
         path = self.frames_dir / name
         atomic_write(path, lambda p: meshio.write(p, mesh, file_format="vtu"))
         self.entries.append((float(key), f"frames/{name}"))

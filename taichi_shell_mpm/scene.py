@@ -18,7 +18,7 @@ import math
 import re
 import tomllib
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import MISSING, dataclass, fields
+from dataclasses import MISSING, dataclass, field, fields
 from pathlib import Path
 from typing import Any, Literal, Union
 
@@ -149,6 +149,33 @@ class Section:
     """Number of through-thickness integration points."""
     rule: Literal["lobatto", "gauss"] = "lobatto"
     shear_factor: float = 5.0 / 6.0
+    hourglass: float | None = None
+    """Hourglass coefficient r of this section's elements (None: [element].hourglass)."""
+    drilling_stiffness: float | None = None
+    """Drilling-spring alpha of this section's elements (None: [element].drilling_stiffness)."""
+
+
+@dataclass(frozen=True)
+class ElementSet:
+    """A selection of elements. Exactly one selector kind."""
+    name: str
+    kind: Literal["all", "box", "ids", "mesh"]
+    box_min: Vec3 | None = None
+    box_max: Vec3 | None = None
+    """box: the elements whose centroid (reference configuration) lies inside."""
+    ids: tuple[int, ...] = ()
+    mesh_set: str | None = None
+    """mesh: a set of the mesh file (a Gmsh physical group, an ELSET, an LS-DYNA part ...)."""
+
+
+@dataclass(frozen=True)
+class Part:
+    """A group of elements with one material and one section."""
+    name: str
+    material: str
+    section: str
+    elements: str = "all"
+    """An [elementsets.NAME], a set of the mesh file (its name), or "all"."""
 
 
 @dataclass(frozen=True)
@@ -343,8 +370,9 @@ class Scene:
     source: Path
     info: SceneInfo
     mesh: MeshSpec
-    material: Material
-    section: Section
+    material: Material | None
+    """The one material of a scene without [[part]] (None with [materials.NAME] / a deck)."""
+    section: Section | None
     element: ElementOptions
     method: Method
     solve: Solve
@@ -359,6 +387,13 @@ class Scene:
     walls: tuple[Wall, ...] = ()
     contact: Contact | None = None
     crush: Crush | None = None
+    materials: dict[str, Material] = field(default_factory=dict)
+    """Named materials ([materials.NAME]); with [[part]]."""
+    sections: dict[str, Section] = field(default_factory=dict)
+    elementsets: tuple[ElementSet, ...] = ()
+    parts: tuple[Part, ...] = ()
+    """[[part]] entries; empty: one part over the mesh ([material] and [section], or the one
+    named material and section, or an LS-DYNA deck's parts)."""
 
     def nodeset(self, name: str) -> NodeSet:
         for s in self.nodesets:
@@ -645,6 +680,12 @@ def _dofs(allow_all: bool) -> Validator:
     return check
 
 
+def _element_ids(value: Any) -> tuple[int, ...]:
+    if isinstance(value, list) and value and all(_is_int(i) and i >= 0 for i in value):
+        return tuple(value)
+    raise _Invalid(f"expected a non-empty list of element indices >= 0, got {_show(value)}")
+
+
 def _node_ids(value: Any) -> tuple[int, ...]:
     if isinstance(value, list) and value and all(_is_int(i) and i >= 0 for i in value):
         return tuple(value)
@@ -675,10 +716,11 @@ def _times(value: Any) -> tuple[float, ...]:
 
 
 # ================================================================ table layout
-_TABLES = ("scene", "mesh", "material", "section", "element", "method", "nodesets",
-           "boundary", "load", "initial", "probe", "reference", "solve", "output", "rigid_body", "wall",
-           "contact", "crush")
-_REQUIRED_TABLES = ("scene", "mesh", "material", "section", "solve")
+_TABLES = ("scene", "mesh", "material", "section", "materials", "sections", "elementsets", "part", "element",
+           "method", "nodesets", "boundary", "load", "initial", "probe", "reference", "solve", "output",
+           "rigid_body", "wall", "contact", "crush")
+_REQUIRED_TABLES = ("scene", "mesh", "solve")
+DECK_SUFFIXES = (".k", ".key", ".dyn", ".kw")      # LS-DYNA keyword decks (dyna.py)
 _SELECTORS = ("all", "box", "plane", "nearest", "ids")
 
 _INFO = {"name": _file_name, "units": _nonempty, "description": _text}
@@ -686,7 +728,8 @@ _MATERIAL = {"E": _positive, "nu": _number(-1, 0.5, lo_open=True, hi_open=True),
              "density": _positive, "model": _choice("elastic", "j2"), "yield_stress": _positive,
              "hardening": _non_negative}
 _SECTION = {"thickness": _positive, "points": _int(1, 10),
-            "rule": _choice("lobatto", "gauss"), "shear_factor": _fraction}
+            "rule": _choice("lobatto", "gauss"), "shear_factor": _fraction, "hourglass": _unit_interval,
+            "drilling_stiffness": _positive}
 _ELEMENT = {"hourglass": _unit_interval, "w_hourglass": _choice("kirchhoff", "bt"),
             "drilling": _choice("projection", "penalty"), "drilling_stiffness": _positive,
             "warping": _choice("none", "bwc")}
@@ -893,10 +936,7 @@ class _SceneParser:
                 self.error(f"[{_key(key)}]", "unknown key" + _hint(key, _TABLES, "allowed"))
         info = self.plain("scene")
         mesh = self.part("mesh", self.mesh)
-        material = self.plain("material")
-        if material is not None and material.model == "j2" and material.yield_stress <= 0:
-            self.error("[material].yield_stress", "missing required key for model = \"j2\"")
-        section = self.part("section", self.section)
+        material, section, materials, sections, elementsets, parts = self.parts(mesh)
         element = self.plain("element")
         method = self.part("method", self.method)
         nodesets = self.part("nodesets", self.nodesets)
@@ -919,7 +959,8 @@ class _SceneParser:
                      element=element, method=method, solve=solve, output=output,
                      nodesets=tuple(nodesets), boundaries=tuple(boundaries), loads=tuple(loads),
                      initial=tuple(initial), probes=tuple(probes), reference=reference,
-                     rigid_bodies=tuple(bodies), walls=tuple(walls), contact=contact, crush=crush)
+                     rigid_bodies=tuple(bodies), walls=tuple(walls), contact=contact, crush=crush,
+                     materials=materials, sections=sections, elementsets=tuple(elementsets), parts=tuple(parts))
 
     def mesh(self, data: Any) -> MeshSpec | None:
         if not isinstance(data, dict):
@@ -952,14 +993,124 @@ class _SceneParser:
                 self.error("[mesh].n_corner", "expected an integer >= 1 when corner_radius > 0, got 0")
         return self.build(mark, cls, v)
 
-    def section(self, data: Any) -> Section | None:
+    def material_table(self, path: str, data: Any) -> Material | None:
+        material = self.table_object(path, data, Material, _MATERIAL)
+        if material is not None and material.model == "j2" and material.yield_stress <= 0:
+            self.error(f"{path}.yield_stress", "missing required key for model = \"j2\"")
+            return None
+        return material
+
+    def section(self, data: Any, path: str = "[section]") -> Section | None:
         mark = len(self.messages)
-        v = self.read("[section]", data, _SECTION, Section)
+        v = self.read(path, data, _SECTION, Section)
         if v is None:
             return None
         if v.get("rule") == "lobatto" and v.get("points") == 1:
-            self.error("[section].points", "expected an integer in [2, 10] for rule = lobatto, got 1")
+            self.error(f"{path}.points", "expected an integer in [2, 10] for rule = lobatto, got 1")
         return self.build(mark, Section, v)
+
+    def named(self, key: str, reader) -> dict:
+        """The [key.NAME] tables read by reader(path, data), by name (invalid ones left out)."""
+        data = self.raw.get(key, {})
+        if not isinstance(data, dict):
+            self.error(f"[{key}]", f"expected tables [{key}.NAME], got {_show(data)}")
+            return {}
+        out = {}
+        for name, value in data.items():
+            path = f"[{key}.{_key(name)}]"
+            if not _TOML_BARE_KEY.fullmatch(name):
+                self.error(path, "a name may contain only letters, digits, '_' and '-'")
+                continue
+            item = reader(path, value)
+            if item is not None:
+                out[name] = item
+        return out
+
+    def parts(self, mesh):
+        """[material]/[section] (one part), or [materials.NAME], [sections.NAME], [elementsets.NAME]
+        and [[part]]; an LS-DYNA deck may supply all of them (assembly.py)."""
+        raw = self.raw
+        deck = isinstance(mesh, FileMesh) and mesh.path.suffix.lower() in DECK_SUFFIXES
+        legacy = [k for k in ("material", "section") if k in raw]
+        named = [k for k in ("materials", "sections", "part") if k in raw]
+        material = self.plain("material") if "material" in raw else None
+        if material is not None and material.model == "j2" and material.yield_stress <= 0:
+            self.error("[material].yield_stress", "missing required key for model = \"j2\"")
+            material = None
+        section = self.section(raw["section"]) if "section" in raw else None
+        materials = self.named("materials", self.material_table)
+        sections = self.named("sections", lambda path, data: self.section(data, path))
+        elementsets = [self.elementset(name, value) for name, value in
+                       (raw.get("elementsets") if isinstance(raw.get("elementsets"), dict) else {}).items()]
+        if "elementsets" in raw and not isinstance(raw["elementsets"], dict):
+            self.error("[elementsets]", f"expected tables [elementsets.NAME], got {_show(raw['elementsets'])}")
+        parts = self.array("part", self.part_entry)
+        if legacy and named:
+            self.error(f"[{legacy[0]}]", f"a scene has either [material] and [section] (one part) or "
+                       f"[materials.NAME], [sections.NAME] and [[part]], not both (found [{named[0]}])")
+        elif not legacy and not named and not deck:
+            for key in ("material", "section"):
+                self.error(f"[{key}]", f"missing required table (or [{key}s.NAME] tables with [[part]])")
+        elif legacy:
+            for key in ("material", "section"):
+                if key not in raw:
+                    self.error(f"[{key}]", "missing required table")
+        elif "part" not in raw and not deck and ("materials" in raw or "sections" in raw) \
+                and (len(raw.get("materials", {})) != 1 or len(raw.get("sections", {})) != 1):
+            self.error("[[part]]", "missing: with several [materials.NAME] or [sections.NAME], [[part]] entries "
+                                   "say which elements get which")
+        if "part" in raw:
+            names = [p.name for p in parts if p is not None]
+            for i, name in enumerate(names):
+                if name in names[:i]:
+                    self.error("[[part]]", f"duplicate part name {name!r}")
+            for key in ("materials", "sections"):
+                if key not in raw and not deck:
+                    self.error(f"[{key}]", f"missing: [[part]] needs [{key}.NAME] tables")
+            set_names = [s.name for s in elementsets if s is not None]
+            for i, part in enumerate(parts):
+                if part is None:
+                    continue
+                for key, table, label in (("material", materials, "materials"), ("section", sections, "sections")):
+                    value = getattr(part, key)
+                    if table and value not in table and not deck:
+                        self.error(f"[[part]][{i}].{key}", f"no [{label}.{value}]" + _hint(value, list(table), "defined"))
+                if part.elements in set_names or part.elements == "all":
+                    continue
+                if not isinstance(mesh, FileMesh):
+                    self.error(f"[[part]][{i}].elements", f"no [elementsets.{part.elements}]"
+                               + _hint(part.elements, set_names + ["all"], "defined"))
+        return material, section, materials, sections, [s for s in elementsets if s is not None], parts
+
+    def elementset(self, name: str, data: Any) -> ElementSet | None:
+        path = f"[elementsets.{_key(name)}]"
+        mark = len(self.messages)
+        if name == "all":
+            self.error(path, "the name 'all' is predefined (every element); choose another name")
+        elif not _TOML_BARE_KEY.fullmatch(name):
+            self.error(path, "an element set name may contain only letters, digits, '_' and '-'")
+        v = self.read(path, data, {"all": _true, "ids": _element_ids, "mesh": _nonempty}, extra=("box",))
+        if v is None:
+            return None
+        given = [key for key in ("all", "box", "ids", "mesh") if key in data]
+        if len(given) != 1:
+            self.error(path, f"expected exactly one selector (all, box, ids, mesh), got {', '.join(given) or 'none'}")
+            return None
+        values = {"name": name, "kind": given[0]}
+        if given[0] == "box":
+            box = self.read(f"{path}.box", data["box"], {"min": _vec3, "max": _vec3}, required=("min", "max"))
+            if box:
+                self.check_order(f"{path}.box", box.get("min"), box.get("max"), ("min", "max"), strict=False)
+                values.update(box_min=box.get("min"), box_max=box.get("max"))
+        elif given[0] == "ids":
+            values["ids"] = v.get("ids")
+        elif given[0] == "mesh":
+            values["mesh_set"] = v.get("mesh")
+        return self.build(mark, ElementSet, values)
+
+    def part_entry(self, path: str, data: Any) -> Part | None:
+        return self.table_object(path, data, Part, {"name": _identifier, "material": _nonempty,
+                                                    "section": _nonempty, "elements": _nonempty})
 
     def method(self, data: Any) -> Method | None:
         mark = len(self.messages)

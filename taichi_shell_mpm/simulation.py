@@ -10,23 +10,22 @@ import math
 import os
 import sys
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import taichi as ti
 
 from .assembly import Model, assemble
-from .config import StepConfig
+from .config import Features
 from .mesh import Mesh, build_mesh
 from .crush import crush_summary
 from .output import FrameWriter, OutputError, write_csv, write_json
 from .progress import Progress
 from .reference import reference_summary
-from .scene import Scene
+from .scene import Scene, SceneError
 from .solvers.stepper import Stepper
 from .stages.timestep import DT_UNSET, initial_dt
-from .stages.material import make_material
 from .state import (CANDIDATES_PER_NODE, STATUS_CONTACT_FULL, STATUS_DT_COLLAPSE, STATUS_ENERGY, STATUS_INVERTED,
                     STATUS_LEFT_GRID, STATUS_NONFINITE, STATUS_RETURN_FAILED, State)
 from . import energy
@@ -70,7 +69,6 @@ FAILURES = {
 }
 FORCE_LAUNCH: str | None = None         # tests and profiles: "batched" | "threads" | "gpu" on any arch
 THREADS_MIN_ELEMENTS = 1000             # CPU: smaller meshes run the batched serial kernel (choose_launch)
-RUNAWAY_SPEED = 10.0     # x the shell wave speed, as the in-kernel check (stages/constraints.py)
 HOURGLASS_WARN, HOURGLASS_STOP = 0.10, 0.20     # (E_hg + E_drill) / E_int
 HOURGLASS_ACTIVE = 1e-6     # ratio checked once max(E_int, E_hg) > this x max(W_ext, KE0)
 
@@ -101,11 +99,27 @@ def init_taichi(arch: str = "cpu", quiet: bool = False) -> str:
     level = ti.WARN if arch == "cpu" else ti.ERROR
     with contextlib.redirect_stdout(io.StringIO()) if quiet else contextlib.nullcontext():
         ti.init(arch=getattr(ti, ARCHS[arch]), default_fp=ti.f64, default_ip=ti.i32, offline_cache=True,
-                log_level=level)
+                offline_cache_file_path=kernel_cache_dir(), log_level=level)
     if level != ti.WARN:
         ti.set_logging_level(ti.WARN)
     used = ti.lang.impl.current_cfg().arch
     return next((name for name, a in ARCHS.items() if getattr(ti, a) == used), "cpu")
+
+
+def kernel_cache_dir() -> str:
+    """Taichi's offline kernel cache of this build of the package: a folder per hash of its
+    sources, under $TAICHI_SHELL_MPM_CACHE or ~/.cache/taichi_shell_mpm [choice, issue 17].
+    Taichi keys a cached kernel by its IR and the SNodes it touches, identified by their own
+    structure and id but not by their place in the tree; a kernel cached by another build
+    whose tree puts another field at that SNode id would be loaded and address the wrong
+    memory (seen: a segmentation fault).  Within one build every run builds the same tree
+    (state.py), so the folder is shared by all runs of the build."""
+    import hashlib
+    digest = hashlib.sha256()
+    for path in sorted(Path(__file__).parent.rglob("*.py")):
+        digest.update(path.read_bytes())
+    base = Path(os.environ.get("TAICHI_SHELL_MPM_CACHE") or Path.home() / ".cache" / "taichi_shell_mpm")
+    return str(base / digest.hexdigest()[:16])
 
 
 @dataclass
@@ -127,12 +141,14 @@ class Simulation:
         self.out_dir = Path(out_dir) if out_dir is not None else Path("outputs") / scene.info.name
         self.mesh: Mesh = mesh if mesh is not None else build_mesh(scene.mesh)
         self.model: Model = model if model is not None else assemble(scene, self.mesh)
-        launch = choose_launch(arch, len(self.model.quads), scene.solve.kind == "static")
-        self.cfg = replace(StepConfig.from_scene(scene, self.model), launch=launch)
-        material = make_material(scene.material)
-        self.state = State(self.model, self.cfg.transfer, material.plastic, scene.contact is not None, launch,
-                           self.cfg.grid_force, self.cfg.drilling_spring)
-        self.stepper = Stepper(self.state, self.cfg, material, self.model)
+        if self.model.elements.size and (self.model.elements[:, 3] < 0).any():
+            raise SceneError(f"{scene.source.name}: [mesh]: the mesh has {int((self.model.elements[:, 3] < 0).sum())} "
+                             "triangles; this build does not run triangular shells yet")
+        launch = choose_launch(arch, len(self.model.elements), scene.solve.kind == "static")
+        self.cfg = Features.from_scene(scene, self.model, launch)
+        self.state = State(self.model, self.cfg)
+        self.state.load(self.model)
+        self.stepper = Stepper(self.state, self.cfg, self.model)
         self._initial_geometry()
         t0 = time.perf_counter()
         self._compile()
@@ -159,44 +175,45 @@ class Simulation:
         """State before the first step: for the drilling projection (method.md 2.3) the nodal
         normals (sum A e3) and the initial omega without its drilling part; the first
         stable dt."""
-        pts, quads = self.model.points, self.model.quads
+        pts, elements = self.model.points, self.model.elements
         w = self.model.omega0
         if not self.cfg.drilling_spring:
-            x = pts[quads]
+            x = pts[elements]
             element_normal = 0.5 * np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])     # A e3
             normal = np.zeros_like(pts)
             area = np.zeros(len(pts))
-            np.add.at(normal, quads, np.repeat(element_normal[:, None, :], 4, axis=1))
-            np.add.at(area, quads, np.repeat(np.linalg.norm(element_normal, axis=1)[:, None], 4, axis=1))
-            self.state.normal_sum.from_numpy(normal)
-            self.state.area_sum.from_numpy(area)
+            np.add.at(normal, elements, np.repeat(element_normal[:, None, :], 4, axis=1))
+            np.add.at(area, elements, np.repeat(np.linalg.norm(element_normal, axis=1)[:, None], 4, axis=1))
+            self.state.put("nodes.normal_sum", normal)
+            self.state.put("nodes.area_sum", area)
             unit = normal / np.maximum(np.linalg.norm(normal, axis=1), 1e-300)[:, None]
             w = w - np.sum(w * unit, axis=1)[:, None] * unit
-        self.state.omega.from_numpy(w)
-        dt = initial_dt(pts, quads, self.model.velocity0, self.cfg)
-        for f in (self.state.dt, self.state.dt_stable, self.state.dt_first):
+        self.state.put("nodes.omega", w)
+        dt = initial_dt(self.model, self.model.velocity0, self.cfg)
+        st = self.state.step
+        for f in (st.dt, st.dt_stable, st.dt_first):
             f[None] = dt
-        self.state.dt_next[None] = DT_UNSET
+        st.dt_next[None] = DT_UNSET
 
     # ------------------------------------------------------------------ measurements
     @property
     def initial_kinetic(self) -> float:
         """KE_0 of the energy balance (a field: the in-kernel guard reads it)."""
-        return float(self.state.kinetic_initial[None])
+        return float(self.state.step.kinetic_initial[None])
 
     @initial_kinetic.setter
     def initial_kinetic(self, value: float) -> None:
-        self.state.kinetic_initial[None] = value
+        self.state.step.kinetic_initial[None] = value
 
     @property
     def energy_limit(self) -> float:
         """Balance guard: stop when |E_err| exceeds this x the absorbed energy (0: never;
         energy.py); warn at energy.WARN_FRACTION of it."""
-        return float(self.state.energy_limit[None])
+        return float(self.state.step.energy_limit[None])
 
     @energy_limit.setter
     def energy_limit(self, value: float) -> None:
-        self.state.energy_limit[None] = value
+        self.state.step.energy_limit[None] = value
 
     def kinetic_energy(self) -> float:
         return energy.kinetic_energy(self.state, self.model)
@@ -206,8 +223,8 @@ class Simulation:
 
     def displacements(self) -> tuple[np.ndarray, np.ndarray]:
         """Nodal displacement (n,3) and rotation vector (n,3) from the orientation quaternion."""
-        u = self.state.position.to_numpy() - self.model.points
-        q = self.state.rotation.to_numpy()
+        u = self.state.fetch("nodes.position") - self.model.points
+        q = self.state.fetch("nodes.rotation")
         s = np.linalg.norm(q[:, 1:], axis=1)
         angle = 2.0 * np.arctan2(s, q[:, 0])
         rot = q[:, 1:] * (angle / np.maximum(s, 1e-300))[:, None]
@@ -223,21 +240,23 @@ class Simulation:
         return out
 
     def element_results(self) -> dict[str, np.ndarray]:
-        """Membrane forces N, bending moments M = int z sigma dz (per unit length) and the
-        mid-surface von Mises stress of each element (local frame)."""
-        t = self.cfg.thickness
-        zeta, w = np.array(self.cfg.zeta), np.array(self.cfg.zeta_weight)
-        sig = self.state.stress.to_numpy()                       # (m, nk, 5)
-        n_res = 0.5 * t * np.einsum("k,mkc->mc", w, sig[:, :, :3])
-        m_res = 0.25 * t * t * np.einsum("k,mkc->mc", w * zeta, sig[:, :, :3])
-        s = n_res / t
+        """Membrane forces N, bending moments M = int z sigma dz (per unit length), the
+        mid-surface von Mises stress of each element (local frame), its thickness and part."""
+        data, sections = self.model.element, self.model.sections
+        t = data.thickness
+        zeta, w = sections.zeta[data.section], sections.weight[data.section]     # (m, nk)
+        sig = self.state.fetch("points.stress")                                   # (m, nk, 5)
+        n_res = 0.5 * t[:, None] * np.einsum("mk,mkc->mc", w, sig[:, :, :3])
+        m_res = 0.25 * (t * t)[:, None] * np.einsum("mk,mkc->mc", w * zeta, sig[:, :, :3])
+        s = n_res / t[:, None]
         vm = np.sqrt(np.maximum(s[:, 0] ** 2 - s[:, 0] * s[:, 1] + s[:, 1] ** 2 + 3 * s[:, 2] ** 2, 0.0))
         out = {"membrane_force": n_res, "bending_moment": m_res, "von_mises_mid": vm,
-               "thickness": np.full(len(sig), t)}
-        if self.state.plastic_strain is not None:
-            ep = self.state.plastic_strain.to_numpy()
-            out["plastic_strain_max"] = ep.max(axis=1)
-            out["plastic_strain_mean"] = ep @ (w / w.sum())
+               "thickness": t.copy(), "part": data.part.astype(np.int32)}
+        if self.cfg.plastic:
+            ep = self.state.fetch("points.plastic_strain")
+            used = np.arange(sections.points)[None, :] < sections.point_count[data.section][:, None]
+            out["plastic_strain_max"] = np.where(used, ep, -np.inf).max(axis=1)
+            out["plastic_strain_mean"] = np.sum(ep * w, axis=1) / w.sum(axis=1)
         return out
 
     # ------------------------------------------------------------------ recording
@@ -245,20 +264,20 @@ class Simulation:
         self.history.probe_rows.append([key] + self.probe_values())
         e = self.energies()
         self.history.energy_rows.append([key] + [e[k] for k in ENERGY_COLUMNS])
-        s = self.state
-        self.history.force_rows.append([key] + s.reaction[None].to_numpy().tolist()
-                                       + s.reaction_impulse[None].to_numpy().tolist()
-                                       + [s.body_displacement[i] for i in range(len(self.model.rigid_bodies))]
-                                       + [s.body_force[i] for i in range(len(self.model.rigid_bodies))])
+        st, bd = self.state.step, self.state.bodies
+        nb = len(self.model.rigid_bodies)
+        self.history.force_rows.append([key] + st.reaction[None].to_numpy().tolist()
+                                       + st.reaction_impulse[None].to_numpy().tolist()
+                                       + [bd.displacement[i] for i in range(nb)] + [bd.force[i] for i in range(nb)])
         if frame:
             self.write_frame(key)
 
     def write_frame(self, key: float) -> None:
         if self.frames is None:
-            self.frames = FrameWriter(self.out_dir, self.model.quads)
+            self.frames = FrameWriter(self.out_dir, self.model.elements)
         u, rot = self.displacements()
-        self.frames.write(key, self.state.position.to_numpy(),
-                          {"displacement": u, "velocity": self.state.grid_velocity.to_numpy(), "rotation": rot},
+        self.frames.write(key, self.state.fetch("nodes.position"),
+                          {"displacement": u, "velocity": self.state.fetch("nodes.grid_velocity"), "rotation": rot},
                           self.element_results())
 
     def _compile(self) -> None:
@@ -268,14 +287,11 @@ class Simulation:
         if self.stepper.batched:
             self.stepper.advance(0)
         else:
-            from .checkpoint import state_fields
-            fields = state_fields(self.state)
-            saved = {name: f.to_numpy() for name, f in fields.items()}
+            saved = self.state.arrays()        # the scratch fields are rewritten before they are read
             if self.stepper.contact is not None:
                 self.stepper.rebuild_contact()
             self.stepper.advance_one()
-            for name, f in fields.items():
-                f.from_numpy(saved[name])
+            self.state.restore(saved)
         ti.sync()
 
     def _compile_readers(self) -> None:
@@ -285,16 +301,16 @@ class Simulation:
         self.energies()
         self.displacements()
         self.element_results()
-        self.state.reaction[None].to_numpy()
-        self.state.reaction_impulse[None].to_numpy()
-        self.state.grid_velocity.to_numpy()
+        self.state.step.reaction[None].to_numpy()
+        self.state.step.reaction_impulse[None].to_numpy()
+        self.state.fetch("nodes.grid_velocity")
         for i in range(len(self.model.rigid_bodies)):
-            _ = self.state.body_displacement[i], self.state.body_force[i]
+            _ = self.state.bodies.displacement[i], self.state.bodies.force[i]
         self.where()
         ti.sync()
 
     def where(self) -> str:
-        s = self.state
+        s = self.state.step
         level = f"load factor {s.load_factor[None]:.4g}, " if self.scene.solve.kind == "static" else ""
         return f"{level}t={s.time[None]:.6g}, step {s.step[None]}"
 
@@ -302,7 +318,7 @@ class Simulation:
         """Per element of the configuration `positions`: inside out (two or more corner angles
         >= 180 deg about the diagonals' normal: a bow-tie, stages/shell.tangled) and
         L_e = area / longest diagonal."""
-        x = positions[self.model.quads]
+        x = positions[self.model.elements]
         normal = np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])
         corner = np.cross(np.roll(x, -1, axis=1) - x, np.roll(x, 1, axis=1) - x)
         inside_out = (np.einsum("mai,mi->ma", corner, normal) <= 0.0).sum(axis=1) >= 2
@@ -313,14 +329,14 @@ class Simulation:
         """Raise SimulationError for a failure flagged in-kernel or found here between batches
         (non-finite nodes, elements inside out), then check the hourglass energy.  The kernel's
         flag is refined here: a later stage of the failing step may have overwritten it."""
-        code = self.state.status[None]
-        index = self.state.status_index[None]
+        code = self.state.step.status[None]
+        index = self.state.step.status_index[None]
         now = time.perf_counter()
         if code in FAILURES or self.stepper.batched or now - self._last_geometry_check >= 1.0:
             self._last_geometry_check = now
-            x = self.state.position.to_numpy()
-            speed = np.linalg.norm(self.state.grid_velocity.to_numpy(), axis=1)
-            bad = ~(np.isfinite(x).all(axis=1) & (speed <= RUNAWAY_SPEED * self.cfg.wave_speed))
+            x = self.state.fetch("nodes.position")
+            speed = np.linalg.norm(self.state.fetch("nodes.grid_velocity"), axis=1)
+            bad = ~(np.isfinite(x).all(axis=1) & (speed <= self.state.step.runaway_speed[None]))
             if bad.any():
                 code, index = STATUS_NONFINITE, int(np.argmax(bad))
             elif code != STATUS_NONFINITE:
@@ -353,7 +369,7 @@ class Simulation:
         """Warn once when the zero-energy-mode controls hold more than 10% of E_int (hourglass
         and drilling-spring energy: both are artificial stiffness), stop when > 20%, once the
         energies are meaningful."""
-        s = self.state
+        s = self.state.step
         e_int, e_hg = s.internal_energy[None], s.hourglass_energy[None] + s.drilling_energy[None]
         scale = max(abs(s.external_work[None]), self.initial_kinetic)
         if not (scale > 0.0 and max(e_int, e_hg) > HOURGLASS_ACTIVE * scale):
@@ -381,15 +397,14 @@ class Simulation:
         self.reporter.line(text)
 
     def state_is_finite(self) -> bool:
-        s = self.state
-        return all(np.all(np.isfinite(f.to_numpy())) for f in (s.position, s.grid_velocity, s.omega, s.rotation,
-                                                                 s.stress))
+        return all(np.all(np.isfinite(self.state.fetch(path))) for path in (
+            "nodes.position", "nodes.grid_velocity", "nodes.omega", "nodes.rotation", "points.stress"))
 
     def final_frame(self) -> bool:
         """After an interrupt: write the current state as the last frame if it is finite (never
         a frame with NaN) and not already the last one.  Returns True if written.  Not after a
         failure: the failing state is no result (cli._finish)."""
-        key = self.state.load_factor[None] if self.scene.solve.kind == "static" else self.state.time[None]
+        key = self.state.step.load_factor[None] if self.scene.solve.kind == "static" else self.state.step.time[None]
         if self.frames is not None and self.frames.entries and self.frames.entries[-1][0] == float(key):
             return False
         if not self.state_is_finite():
@@ -432,18 +447,18 @@ class Simulation:
             "scene": self.scene.info.name, "source": str(self.scene.source), "method": self.cfg.method,
             "transfer": self.cfg.transfer if self.cfg.method == "mpm" else None,
             "cell_size": self.model.grid.h if self.model.grid else None,
-            "elements": len(self.model.quads), "nodes": len(self.model.points), "arch": self.arch,
+            "elements": len(self.model.elements), "nodes": len(self.model.points), "arch": self.arch,
             **({"arch_requested": self.arch_requested} if self.arch_requested else {}),
             "launch": self.cfg.launch,
             "steps": self.total_steps, "compile_seconds": self.compile_seconds, "run_seconds": self.run_seconds,
-            "us_per_element_step": 1e6 * self.run_seconds / max(1, self.total_steps * len(self.model.quads)),
+            "us_per_element_step": 1e6 * self.run_seconds / max(1, self.total_steps * len(self.model.elements)),
             "energies": e, "mesh_warnings": list(self.mesh.warnings), "warnings": list(self.warnings),
         }
         if extra:
             summary.update(extra)
-        if self.state.contact:
-            summary["contact"] = {"max_penetration_over_thickness": float(self.state.max_penetration[None]),
-                                  "pairs_last_step": int(self.state.contact_pairs[None])}
+        if self.state.contact is not None:
+            summary["contact"] = {"max_penetration_over_thickness": float(self.state.contact.max_penetration[None]),
+                                  "pairs_last_step": int(self.state.contact.pairs[None])}
         stopped = bool(extra and extra.get("error"))
         try:
             if self.scene.crush is not None and self.history.force_rows:

@@ -1,220 +1,490 @@
-"""The one owner of Taichi fields: shell nodes, elements (with through-thickness points),
-the background grid and the scalar step state.  Allocated from an assembled
-:class:`~taichi_shell_mpm.assembly.Model`; nothing else allocates fields.
+"""The one owner of Taichi fields, grouped by role (as Genesis's MPM solver groups its state):
 
-Sign convention (method.md 0): ``force_int``/``moment_int`` are *resisting* nodal
-forces; m a = f_ext - f_int through the grid.
+=============  ============================================================================
+``nodes``      shell nodes (= particle-domain corners, method.md 1): kinematics, mass,
+               loads, constraints, energy accumulators
+``elements``   element topology and state: corners, hourglass and drilling resultants,
+               energy accumulators, the parallel launches' corner-load slots
+``sections``   per-element section and material data (thickness, shear factor, hourglass
+               and drilling factors, wave speed, material and section ids) and the tables they
+               index (through-thickness rules per section, parameters per material)
+``points``     through-thickness point state: stress, equivalent plastic strain
+``grid``       the background grid (mpm) and its geometry
+``contact``    self-contact: forces, candidate lists, side memory, spatial hash
+``bodies``     rigid bodies and walls
+``step``       the scalars of the step: dt, time, load factor, relaxation, energies, status,
+               and the run-time parameters of the step (safety factor, reference length ...)
+=============  ============================================================================
+
+Compiled once per feature set and size class [choice, issue 17; shared/design/compile_once.md]:
+every group is an SNode tree of its own (FieldsBuilder).  A per-entity field is dense over a
+*capacity*, the model's count rounded up to a power of 4 (at least CAPACITY_MIN), and kernels
+loop to the run-time counts (``nodes.count``, ``elements.count``); every value is run-time
+data.  So a model of another size in the same class, or with other values, loads every
+kernel from Taichi's offline cache; a size in another class compiles once more.  Measured
+(compile_probe-style, 2-core CPU): a kernel over a field of fixed shape is a cache hit for
+any count; an unrelated field of another size in another tree does not force a recompile.
+
+What was tried first, and why not: pointer SNodes (a fixed virtual capacity, memory only
+for the blocks touched, one class for every size) ran a gather-heavy element loop as fast as
+dense (5.1-5.3 ns per element against 5.3-5.7), but the step crashed at random
+(segmentation faults in 3 of 4 identical runs of the cantilever with the offline cache off;
+none with dense fields); a dense field of fixed large capacity is zeroed and resident
+(2^26 vectors: 1.5 GB), so the capacity follows the model.
+
+Taichi keys a cached kernel by the SNodes it touches, each by its own structure and id but
+not by its place in the tree: when the set of fields varied with the features, a kernel
+cached by an fem run was loaded by an mpm run for another field at the same SNode id and
+wrote the wrong memory (a segmentation fault).  So every run creates every field, in the
+same order (a field the features do not use has the minimal size), and the cache folder is
+per build of the package (simulation.kernel_cache_dir).  The points' count and the grid's
+layout, which depend on the features, come last.
+
+Host access goes through :meth:`State.read` / :meth:`State.write` (the first ``count``
+entries; ``field.to_numpy()`` would return the whole virtual capacity).
+
+Sign convention (method.md 0): ``nodes.force_int``/``nodes.moment_int`` are *resisting*
+nodal forces; m a = f_ext - f_int through the grid.
 """
-from __future__ import annotations
+from types import SimpleNamespace
 
 import numpy as np
 import taichi as ti
 
-from .assembly import Model
+from .materials import MATERIAL_PARAMETERS
 
 (STATUS_OK, STATUS_CONVERGED, STATUS_INVERTED, STATUS_LEFT_GRID, STATUS_NONFINITE, STATUS_DT_COLLAPSE,
  STATUS_CONTACT_FULL, STATUS_ENERGY, STATUS_RETURN_FAILED) = range(9)
 CANDIDATES_PER_NODE = 64     # capacity of the contact candidate lists, on average per node
 
+CAPACITY_MIN = 4096          # the smallest size class of a per-entity field
+MAX_MATERIALS = 64
+MAX_SECTIONS = 64
+MAX_BODIES = 16
+MAX_WALLS = 16
+MAX_SLAB_PLANES = 1 << 16
+
+
+def grid_capacity(cells: int) -> int:
+    """The size class of the grid: a power of 2 (the grid is the largest field)."""
+    return 1 << max(12, (max(1, cells) - 1).bit_length())
+
+
+def capacity(size: int) -> int:
+    """The size class of a per-entity field of `size` entries: a power of 4, >= CAPACITY_MIN."""
+    out = CAPACITY_MIN
+    while out < size:
+        out *= 4
+    return out
+
+
+@ti.kernel
+def _read_field(f: ti.template(), out: ti.types.ndarray(), n: ti.i32):
+    for I in ti.grouped(ti.ndrange(n, *ti.static(f.shape[1:]))):
+        v = f[I]
+        if ti.static(isinstance(f, ti.MatrixField)):
+            if ti.static(f.m == 1):
+                for j in ti.static(range(f.n)):
+                    out[I, j] = v[j]
+            else:
+                for j, k in ti.static(ti.ndrange(f.n, f.m)):
+                    out[I, j, k] = v[j, k]
+        else:
+            out[I] = v
+
+
+@ti.kernel
+def _write_field(f: ti.template(), src: ti.types.ndarray(), n: ti.i32):
+    for I in ti.grouped(ti.ndrange(n, *ti.static(f.shape[1:]))):
+        if ti.static(isinstance(f, ti.MatrixField)):
+            if ti.static(f.m == 1):
+                for j in ti.static(range(f.n)):
+                    f[I][j] = src[I, j]
+            else:
+                for j, k in ti.static(ti.ndrange(f.n, f.m)):
+                    f[I][j, k] = src[I, j, k]
+        else:
+            f[I] = src[I]
+
+
+class Group(SimpleNamespace):
+    """The fields of one role (module docstring), in an SNode tree of their own; each entry
+    remembers how many of its entries the model uses."""
+
+    def __init__(self, role: str):
+        super().__init__()
+        self._role = role
+        self._builder = ti.FieldsBuilder()
+        self._entries: dict[str, tuple] = {}       # name -> (field, host size, persistent)
+
+    def entity(self, name: str, field, size: int, tail: tuple = (), persistent: bool = True, used: bool = True,
+               host: bool = True):
+        """Place `field` with one entry per entity (+ a fixed `tail` shape) over capacity(size);
+        `size` entries are used.  A field the features do not use is placed all the same, at
+        the smallest class (``used`` False), so that every run builds the same trees; only
+        used fields with ``host`` are read, written and checkpointed by the host."""
+        axes = ti.i if not tail else (ti.ij if len(tail) == 1 else ti.ijk)
+        self._builder.dense(axes, (capacity(size if used else 0), *tail)).place(field)
+        setattr(self, name, field)
+        if used and host:
+            self._entries[name] = (field, size, persistent)
+        return field
+
+    def table(self, name: str, field, shape: tuple, size: int | None = None, persistent: bool = True,
+              used: bool = True):
+        """(``used`` False: not read, written or checkpointed by the host.)"""
+        """Place a small dense table of fixed `shape` (0-d when shape is ())."""
+        if shape:
+            self._builder.dense(ti.i if len(shape) == 1 else ti.ij, shape).place(field)
+        else:
+            self._builder.place(field)
+        setattr(self, name, field)
+        if used:
+            self._entries[name] = (field, shape[0] if shape and size is None else size, persistent)
+        return field
+
+    def finalize(self) -> None:
+        self._tree = self._builder.finalize()
+
+    def fields(self, persistent_only: bool = True) -> dict:
+        return {n: (f, s) for n, (f, s, p) in self._entries.items() if p or not persistent_only}
+
 
 @ti.data_oriented
 class State:
-    """All fields of a run (SOA layout, except the grid: one node's data together).
-    ``n_nodes``, ``n_elements``, ``n_points`` and the grid dimensions are fixed at
-    construction; sizes are compile-time constants of the kernels.  ``launch`` (config.py)
-    decides the scratch fields of the parallel launches, ``grid_force``
-    (StepConfig.grid_force) whether the grid keeps its force apart from the momentum."""
+    """All fields of a run, grouped by role (module docstring).  Sizes are data (the count
+    fields), not kernel constants; ``features`` (config.Features) decides which fields exist."""
 
-    def __init__(self, model: Model, transfer: str, plastic: bool, contact: bool, launch: str = "batched",
-                 grid_force: bool = True, drilling_spring: bool = False):
-        n, m = len(model.points), len(model.quads)
-        nk = len(model.zeta)
-        self.n_nodes, self.n_elements, self.n_points = n, m, nk
-        vec3, f64 = ti.types.vector(3, ti.f64), ti.f64
+    def __init__(self, model, features):
+        n, m = len(model.points), len(model.elements)
+        f64, i32, vec3 = ti.f64, ti.i32, 3
+        fx = features
+        self.n_nodes, self.n_elements = n, m
+        self.features = fx
+        nk = fx.points
+
         # --- shell nodes (= particle-domain corners), method.md 1
-        self.position = ti.Vector.field(3, f64, n)        # x_c
-        self.position_ref = ti.Vector.field(3, f64, n)    # X_c
-        self.velocity = ti.Vector.field(3, f64, n)        # carried v_c (FLIP memory / APIC velocity)
-        self.grid_velocity = ti.Vector.field(3, f64, n)   # v~_c: the velocity that moved the node
-        self.omega = ti.Vector.field(3, f64, n)           # nodal angular velocity
-        self.rotation = ti.Vector.field(4, f64, n)        # accumulated orientation quaternion (output only)
-        self.corner_mass = ti.field(f64, n)
-        self.corner_inertia = ti.field(f64, n)
-        self.force_int = ti.Vector.field(3, f64, n)       # resisting internal force
-        self.moment_int = ti.Vector.field(3, f64, n)
-        self.load_force = ti.Vector.field(3, f64, n)      # external force at load factor 1
-        self.load_moment = ti.Vector.field(3, f64, n)
-        self.fix_mask = ti.field(ti.i32, n)               # bits ux uy uz rx ry rz
-        # sum_e A_e e3 and sum_e A_e: the nodal normal of the drilling projection (method.md
-        # 2.3); nothing reads them with the drilling spring (stages/drilling.py)
-        self.normal_sum = ti.Vector.field(3, f64, n) if not drilling_spring else None
-        self.area_sum = ti.field(f64, n) if not drilling_spring else None
-        self.node_body = ti.field(ti.i32, n)              # rigid body of the node, -1 = none
-        self.affine = ti.Matrix.field(3, 3, f64, n) if transfer == "apic" else None   # C_c (method.md 2.2)
-        # --- elements (= material points)
-        self.corners = ti.Vector.field(4, ti.i32, m)
-        self.stress = ti.Vector.field(5, f64, (m, nk))    # local (sxx, syy, sxy, txz, tyz) per point
-        self.hourglass_resultant = ti.Vector.field(5, f64, m)   # Q = (QMx, QMy, QW, QBx, QBy), local
-        self.plastic_strain = ti.field(f64, (m, nk)) if plastic else None   # equivalent plastic strain
-        # corner moments M_a of the drilling spring about e3 (stages/shell.py), penalty drilling only
-        self.drilling_moment = ti.Vector.field(4, f64, m) if drilling_spring else None
-        # --- scalar step state
-        self.dt = ti.field(f64, ())
-        self.dt_next = ti.field(f64, ())
-        self.dt_first = ti.field(f64, ())
-        self.dt_stable = ti.field(f64, ())               # last stable dt before clipping to time_limit
-        self.time = ti.field(f64, ())
-        self.step = ti.field(ti.i64, ())
-        self.load_factor = ti.field(f64, ())
-        self.restart_factor = ti.field(f64, ())          # 0.5 on a central-difference restart from rest, else 1
-        self.velocity_keep = ti.field(f64, ())           # 0 right after a kinetic-damping reset, else 1
-        self.fire_mix = ti.field(f64, ())                # FIRE: v += fire_mix * F / m (a time)
-        self.fire_alpha = ti.field(f64, ())              # FIRE: current mixing parameter alpha
-        self.fire_uphill = ti.field(ti.i32, ())          # FIRE: steps since the power was last <= 0
-        self.fire_power = ti.field(f64, ())              # FIRE scratch: P = F.v, |v|_M^2, |F|_M^-1^2
-        self.fire_speed_sq = ti.field(f64, ())
-        self.fire_force_sq = ti.field(f64, ())
-        self.residual_target_sq = ti.field(f64, ())      # (tolerance * |F_ext|)^2 of the current load level
-        self.time_limit = ti.field(f64, ())              # advance() stops here exactly (next output time)
-        # --- energy bookkeeping (energy.py): per-entity accumulators (what is reported) and
-        # the step's 0-d running totals (its in-kernel decisions)
-        self.element_energy = ti.Vector.field(5, f64, m)  # internal, plastic work, hourglass, drilling; stagger (this step)
-        self.node_energy = ti.Vector.field(3, f64, n)     # external work, contact, wall
-        self.kinetic = ti.field(f64, ())                 # KE of this step (half-step velocities)
-        self.kinetic_prev = ti.field(f64, ())
-        self.kinetic_initial = ti.field(f64, ())         # KE_0 of the balance
-        self.energy_limit = ti.field(f64, ())            # balance guard: stop above this x absorbed (0: off)
-        self.internal_energy = ti.field(f64, ())
-        self.hourglass_energy = ti.field(f64, ())
-        self.drilling_energy = ti.field(f64, ())         # stored in the drilling springs (stages/drilling.py)
-        self.plastic_work = ti.field(f64, ())            # plastic dissipation (part of internal_energy)
-        self.external_work = ti.field(f64, ())
-        self.damped_energy = ti.field(f64, ())
-        self.stagger_energy = ti.field(f64, ())          # this step's stagger term (energy.py)
-        self.contact_energy = ti.field(f64, ())          # work done against contact forces
-        self.residual_sq = ti.field(f64, ())
-        self.load_norm_sq = ti.field(f64, ())
-        self.max_speed = ti.field(f64, ())
-        self.reaction = ti.Vector.field(3, f64, ())      # force the supports (clamped nodes, fixed walls) exert on the shell
-        self.reaction_impulse = ti.Vector.field(3, f64, ())   # its time integral since the start
-        self.wall_energy = ti.field(f64, ())             # energy taken out by (inelastic) rigid walls
-        self.status = ti.field(ti.i32, ())
-        self.status_index = ti.field(ti.i32, ())
-        # --- rigid bodies (method.md 2.5c): speed and displacement along their direction
-        nb = max(1, len(model.rigid_bodies))
-        self.body_velocity = ti.field(f64, nb)
-        self.body_velocity_start = ti.field(f64, nb)      # V^(n-1/2) of the current step
-        self.body_wall_energy = ti.field(f64, nb)         # work of the walls moving with the body, on it
-        self.body_displacement = ti.field(f64, nb)
-        self.body_force = ti.field(f64, nb)               # force on the body from its slave nodes
-        self.body_impulse = ti.field(f64, nb)             # wall impulse on the body this step
-        self.slave_nodes = ti.field(ti.i32, max(1, sum(len(b.nodes) for b in model.rigid_bodies)))
-        if launch == "threads" and any(w.body >= 0 for w in model.walls):
-            # each node's impulse on each wall-carrying body, summed in node order (stages/bodies.py)
-            self.node_wall_impulse = ti.field(f64, (n, nb))
-        # --- self-contact (method.md 7.3), only when the scene asks for it
-        self.contact = contact
-        if contact:
-            self.force_contact = ti.Vector.field(3, f64, n)
-            self.max_penetration = ti.field(f64, ())     # largest g / t_c seen
-            self.contact_pairs = ti.field(ti.i32, ())
-            # per-axis largest and smallest nodal velocity of the step: their spread bounds the
-            # approach speed of any two nodes (the contact limit on dt, stages/timestep.py)
-            self.velocity_high = ti.Vector.field(3, f64, ())
-            self.velocity_low = ti.Vector.field(3, f64, ())
-            # candidate (Verlet) lists, stages/contact.py: per node, the elements that can come
-            # within t_c before any node moves skin/2 from where the lists were built
-            self.contact_rebuild = ti.field(ti.i32, ())               # 1: rebuild at the next step
-            self.contact_skin = ti.field(f64, ())                     # s (contact.skin_width); a field: one kernel for any s
-            self.contact_build_position = ti.Vector.field(3, f64, n)  # x_c when the lists were built
-            self.candidate_start = ti.field(ti.i32, n + 1)            # CSR into candidate_elements
-            self.candidate_elements = ti.field(ti.i32, CANDIDATES_PER_NODE * n)
-            # side memory (method.md 7.3): the element a node touched last step, and on which
-            # side of its facet normal
-            self.contact_last_element = ti.field(ti.i32, n)
-            self.contact_last_side = ti.field(f64, n)
-            # this step's pair of each node (element: contact_last_element): force on the
-            # node and barycentric weights of the segment point, scattered after the search
-            self.contact_pair_force = ti.Vector.field(3, f64, n)
-            self.contact_pair_weight = ti.Vector.field(4, f64, n)
-            # exclusion ring (method.md 7.3), CSR: the nodes sharing an element with node c
-            self.neighbor_start = ti.field(ti.i32, n + 1)
-            self.neighbor_nodes = ti.field(ti.i32, len(model.neighbor_nodes))
-            # spatial hash of element centroids, scratch of a rebuild (checkpoint.TRANSIENT_FIELDS)
-            table = 1 << int(np.ceil(np.log2(2 * m)))
-            self.hash_cell = ti.field(f64, ())
-            self.hash_count = ti.field(ti.i32, table)
-            self.hash_start = ti.field(ti.i32, table + 1)
-            self.hash_elements = ti.field(ti.i32, m)
-            self.element_slot = ti.field(ti.i32, m)
-            self.element_radius = ti.field(f64, m)
-        # --- element loads gathered at the nodes (parallel launches, stages/accumulate.py):
-        # each element writes its four corners' (force, moment[, A e3, A]) to its own slots;
-        # the normal sums only for the drilling projection (no drilling spring)
-        self.gather_loads = launch != "batched"
-        if self.gather_loads:
-            self.corner_loads = ti.Vector.field(6 if drilling_spring else 10, f64, (m, 4))
-            self.node_slot_start = ti.field(ti.i32, n + 1)        # CSR node -> 4 e + a, e ascending
-            self.node_slots = ti.field(ti.i32, 4 * m)
-        # --- background grid (mpm only), flattened; only the nodes around shell nodes are
-        # written, read and cleared
-        self.grid = model.grid
-        if model.grid is not None:
-            g = model.grid.n_nodes
-            self.grid_mass = ti.field(f64)
-            self.grid_momentum = ti.Vector.field(3, f64)   # without grid_force: p + dt f (stages/grid.py)
-            # array of structures: one grid node's data share a cache line (the grid is much
-            # larger than the cache and is touched at scattered places)
-            if grid_force:
-                self.grid_force = ti.Vector.field(3, f64)
-                ti.root.dense(ti.i, g).place(self.grid_mass, self.grid_momentum, self.grid_force)
-            else:
-                self.grid_force = None
-                ti.root.dense(ti.i, g).place(self.grid_mass, self.grid_momentum)
-            # P2G order (stages/mapping.py): the free nodes binned by the grid plane of their
-            # stencil's base across the slab axis (counting sort, rebuilt every step)
-            planes = model.grid.dims[model.grid.slab_axis] - 1
-            self.node_cell = ti.field(ti.i32, n)          # flat index of the stencil base, -1: not on the grid
-            self.slab_start = ti.field(ti.i32, planes + 1)
-            self.slab_fill = ti.field(ti.i32, planes)
-            self.slab_nodes = ti.field(ti.i32, n)
-        self._load(model)
+        g = self.nodes = Group("nodes")
+        g.table("count", ti.field(i32), ())
+        for name, size in (("position", vec3), ("position_ref", vec3), ("velocity", vec3), ("grid_velocity", vec3),
+                           ("omega", vec3), ("rotation", 4), ("force_int", vec3), ("moment_int", vec3),
+                           ("load_force", vec3), ("load_moment", vec3)):
+            g.entity(name, ti.Vector.field(size, f64), n)
+        # position_ref: X_c; velocity: carried v_c (FLIP memory / APIC velocity); grid_velocity:
+        # v~_c, the velocity that moved the node; rotation: accumulated orientation quaternion
+        # (output only); force_int/moment_int: resisting internal loads; load_*: at load factor 1
+        g.entity("mass", ti.field(f64), n)
+        g.entity("inertia", ti.field(f64), n)          # scalar rotary inertia J_c
+        g.entity("thickness", ti.field(f64), n)        # the thickest adjacent element's
+        g.entity("fix_mask", ti.field(i32), n)         # bits ux uy uz rx ry rz
+        g.entity("body", ti.field(i32), n)             # rigid body of the node, -1 = none
+        g.entity("energy", ti.Vector.field(3, f64), n)  # external work, contact, wall (energy.py)
+        g.entity("affine", ti.Matrix.field(3, 3, f64), n,   # C_c (method.md 2.2)
+                 used=fx.transfer == "apic" and fx.method == "mpm")
+        # sum_e A_e e3 and sum_e A_e: the nodal normal of the drilling projection (method.md 2.3)
+        g.entity("normal_sum", ti.Vector.field(3, f64), n, used=not fx.drilling_spring)
+        g.entity("area_sum", ti.field(f64), n, used=not fx.drilling_spring)
 
-    def _load(self, model: Model) -> None:
-        self.position.from_numpy(model.points)
-        self.position_ref.from_numpy(model.points)
-        self.velocity.from_numpy(model.velocity0)
-        self.grid_velocity.from_numpy(model.velocity0)
-        self.omega.from_numpy(model.omega0)
-        q = np.zeros((self.n_nodes, 4))
+        # --- elements (= material points): topology and element-level state
+        g = self.elements = Group("elements")
+        g.table("count", ti.field(i32), ())
+        g.entity("corners", ti.Vector.field(4, i32), m)    # corner 3 = -1: triangle
+        g.entity("hourglass_resultant", ti.Vector.field(5, f64), m)  # (QMx, QMy, QW, QBx, QBy), local
+        # corner moments M_a of the drilling spring about e3 (stages/drilling.py)
+        g.entity("drilling_moment", ti.Vector.field(4, f64), m, used=fx.drilling_spring)
+        # internal, plastic work, hourglass, drilling; stagger (this step's, energy.py)
+        g.entity("energy", ti.Vector.field(5, f64), m)
+        # element loads gathered at the nodes (parallel launches, stages/accumulate.py): each
+        # element writes its corners' (force, moment, A e3, A) to its own slots (the normal sums
+        # only for the drilling projection); CSR node -> 4 e + a, e ascending
+        gathered = fx.launch != "batched"
+        g.entity("corner_loads", ti.Vector.field(10, f64), m, (4,), persistent=False,
+                 used=gathered)
+        g.entity("node_slot_start", ti.field(i32), n + 1, used=gathered)
+        g.entity("node_slots", ti.field(i32), 4 * m, used=gathered)
+
+        # --- section and material data of each element, and the tables they index
+        g = self.sections = Group("sections")
+        for name in ("thickness", "shear_factor", "wave_speed", "rotational_frequency",
+                     "hourglass_membrane", "hourglass_bending", "hourglass_transverse", "drilling_factor"):
+            g.entity(name, ti.field(f64), m)
+        # wave_speed: plane-stress c_e of its stiffest material; rotational_frequency:
+        # sqrt(12 kappa G / rho) / t with physical rotary inertia, else 0 (stages/timestep.py);
+        # hourglass_*: r E t / 8, r E t^3 / 192, r kappa G t^3 / 12 (stages/hourglass.py);
+        # drilling_factor: alpha E t^3 / 48 (stages/drilling.py)
+        g.entity("section", ti.field(i32), m)
+        g.table("point_count", ti.field(i32), (MAX_SECTIONS,))                 # points of each section's rule
+        g.table("zeta", ti.field(f64), (MAX_SECTIONS, nk))                      # point positions, -1..1
+        g.table("weight", ti.field(f64), (MAX_SECTIONS, nk))                    # and weights (sum 2)
+        g.table("point_material", ti.field(i32), (MAX_SECTIONS, nk))            # material of each point
+        g.table("material_kind", ti.field(i32), (MAX_MATERIALS,))              # index into Features.materials
+        g.table("material", ti.field(f64), (MAX_MATERIALS, MATERIAL_PARAMETERS))   # parameters (stages/material.py)
+
+        # --- the scalars of the step and its run-time parameters
+        g = self.step = Group("step")
+        for name, dtype in (("dt", f64), ("dt_next", f64), ("dt_first", f64), ("dt_stable", f64), ("time", f64),
+                            ("step", ti.i64), ("load_factor", f64), ("restart_factor", f64),
+                            ("velocity_keep", f64), ("fire_mix", f64), ("fire_alpha", f64), ("fire_uphill", i32),
+                            ("fire_power", f64), ("fire_speed_sq", f64), ("fire_force_sq", f64),
+                            ("residual_target_sq", f64), ("time_limit", f64), ("kinetic", f64),
+                            ("kinetic_prev", f64), ("kinetic_initial", f64), ("energy_limit", f64),
+                            ("internal_energy", f64), ("hourglass_energy", f64), ("drilling_energy", f64),
+                            ("plastic_work", f64), ("external_work", f64), ("damped_energy", f64),
+                            ("stagger_energy", f64), ("contact_energy", f64), ("wall_energy", f64),
+                            ("residual_sq", f64), ("max_speed", f64), ("status", i32), ("status_index", i32),
+                            ("dt_safety", f64), ("length_ref", f64), ("mass_floor", f64), ("runaway_speed", f64),
+                            ("flip_blend", f64), ("dilatational_speed", f64)):
+            g.table(name, ti.field(dtype), ())
+        # restart_factor: 0.5 on a central-difference restart from rest, else 1; velocity_keep:
+        # 0 right after a kinetic-damping reset, else 1; fire_*: FIRE state and scratch
+        # (solvers/stepper.py); time_limit: advance() stops there exactly; kinetic...:
+        # the 0-d running totals of energy.py; dt_safety, length_ref (the rotational residual's
+        # L_ref), mass_floor (grid nodes below it are massless), runaway_speed, flip_blend:
+        # the step's run-time parameters
+        g.table("reaction", ti.Vector.field(3, f64), ())           # force the supports exert on the shell
+        g.table("reaction_impulse", ti.Vector.field(3, f64), ())   # its time integral since the start
+
+        # --- rigid bodies and walls (method.md 2.5c, 7.5)
+        g = self.bodies = Group("bodies")
+        nb, nw = len(model.rigid_bodies), len(model.walls)
+        g.table("count", ti.field(i32), ())
+        g.table("wall_count", ti.field(i32), ())
+        for name in ("velocity", "velocity_start", "displacement", "force", "impulse", "wall_energy",
+                     "total_mass", "added_mass"):
+            g.table(name, ti.field(f64), (MAX_BODIES,), nb)
+        # velocity, displacement: along the direction; velocity_start: V^(n-1/2) of the step;
+        # force: from the slave nodes; impulse: of the walls this step; wall_energy: work of
+        # the walls moving with it, on it
+        g.table("direction", ti.Vector.field(3, f64), (MAX_BODIES,), nb)
+        g.table("first_slave", ti.field(i32), (MAX_BODIES,), nb)
+        g.table("slave_count", ti.field(i32), (MAX_BODIES,), nb)
+        g.entity("slave_nodes", ti.field(i32), sum(len(b.nodes) for b in model.rigid_bodies))
+        g.table("wall_point", ti.Vector.field(3, f64), (MAX_WALLS,), nw)
+        g.table("wall_normal", ti.Vector.field(3, f64), (MAX_WALLS,), nw)
+        g.table("wall_body", ti.field(i32), (MAX_WALLS,), nw)          # -1: fixed
+        # each node's impulse on each wall-carrying body, summed in node order (threads, stages/bodies.py)
+        g.entity("node_wall_impulse", ti.field(f64), n, (MAX_BODIES,),
+                 used=fx.launch == "threads" and fx.moving_walls)
+
+        # --- self-contact (method.md 7.3), used only when the scene asks for it
+        g = contact = Group("contact")
+        self.contact = g if fx.contact else None
+        for name, dtype in (("max_penetration", f64), ("pairs", i32), ("rebuild", i32), ("skin", f64),
+                            ("thickness", f64), ("stiffness", f64), ("damping", f64), ("friction", f64),
+                            ("slip_speed", f64), ("hash_cell", f64), ("hash_size", i32), ("candidate_capacity", i32)):
+            g.table(name, ti.field(dtype), (), used=fx.contact)
+        # max_penetration: largest g / t_c seen; rebuild: 1 = rebuild the candidate lists at the
+        # next step; skin: s (contact.skin_width); thickness ... slip_speed: the contact law
+        g.table("velocity_high", ti.Vector.field(3, f64), (), used=fx.contact)   # per-axis extremes of the
+        g.table("velocity_low", ti.Vector.field(3, f64), (), used=fx.contact)    # nodal velocities: their
+        # spread bounds any approach speed (stages/timestep.py)
+        on = fx.contact
+        g.entity("force", ti.Vector.field(3, f64), n, used=on)
+        # candidate (Verlet) lists: per node, the elements that can come within t_c before any
+        # node moves skin/2 from where the lists were built (stages/contact.py)
+        g.entity("build_position", ti.Vector.field(3, f64), n, used=on)
+        g.entity("candidate_start", ti.field(i32), n + 1, used=on)
+        g.entity("candidate_elements", ti.field(i32), CANDIDATES_PER_NODE * n, used=on)
+        # side memory: the element a node touched last step, and on which side of its normal
+        g.entity("last_element", ti.field(i32), n, used=on)
+        g.entity("last_side", ti.field(f64), n, used=on)
+        # this step's pair of each node: force on it and barycentric weights of the segment point
+        g.entity("pair_force", ti.Vector.field(3, f64), n, persistent=False, used=on)
+        g.entity("pair_weight", ti.Vector.field(4, f64), n, persistent=False, used=on)
+        # exclusion ring, CSR: the nodes sharing an element with node c
+        g.entity("neighbor_start", ti.field(i32), n + 1, used=on)
+        g.entity("neighbor_nodes", ti.field(i32),
+                 len(model.neighbor_nodes) if on else 0, used=on)
+        # spatial hash of element centroids: scratch of a rebuild
+        table = 1 << int(np.ceil(np.log2(2 * m)))
+        g.entity("hash_count", ti.field(i32), table, persistent=False, used=on)
+        g.entity("hash_start", ti.field(i32), table + 1, persistent=False, used=on)
+        g.entity("hash_elements", ti.field(i32), m, persistent=False, used=on)
+        g.entity("element_slot", ti.field(i32), m, persistent=False, used=on)
+        g.entity("element_radius", ti.field(f64), m, persistent=False, used=on)
+
+        # --- through-thickness point state (stages/material.py); after every group whose shape does
+        # not depend on the features, so that only its own SNodes change with the points' count
+        g = self.points = Group("points")
+        g.entity("stress", ti.Vector.field(5, f64), m, (nk,))   # local (sxx, syy, sxy, txz, tyz)
+        g.entity("plastic_strain", ti.field(f64), m, (nk,),    # equivalent plastic strain
+                 used=fx.plastic)
+
+        # --- background grid (mpm), flattened; only the nodes around shell nodes are written,
+        # read and cleared.  Last in the tree: its layout depends on Features.grid_force.
+        g = grid = Group("grid")
+        self.grid = g if model.grid is not None else None
+        on = model.grid is not None
+        for name in ("h", "inv_h"):
+            g.table(name, ti.field(f64), (), used=on)
+        for name in ("lo", "dims", "strides"):
+            g.table(name, ti.Vector.field(3, i32), (), used=on)
+        g.table("slab_stride", ti.field(i32), (), used=on)        # stride and size of the slab axis
+        g.table("slab_dim", ti.field(i32), (), used=on)
+        g.table("planes", ti.field(i32), (), used=on)                 # symmetry grid planes: count,
+        g.table("plane_axis", ti.field(i32), (3,), used=on)           # their axes
+        g.table("plane_index", ti.field(i32), (3,), used=on)          # and absolute grid indices
+        # P2G order (stages/mapping.py): the free nodes binned by the grid plane of their
+        # stencil's base across the slab axis (counting sort, rebuilt every step); scratch
+        g.entity("node_cell", ti.field(i32), n, used=on, host=False)   # -1: not on the grid
+        g.table("slab_start", ti.field(i32), (MAX_SLAB_PLANES + 1,), used=False)
+        g.table("slab_fill", ti.field(i32), (MAX_SLAB_PLANES,), used=False)
+        g.entity("slab_nodes", ti.field(i32), n, used=on, host=False)
+        # mass, momentum (without grid_force: p + dt f, stages/grid.py), force: an array of
+        # structures, one grid node's data in one cache line (the grid is much larger than the
+        # cache and is touched at scattered places).  Never read or written by the host: zero
+        # between steps.
+        g.mass = ti.field(f64)
+        g.momentum = ti.Vector.field(3, f64)
+        placed = [g.mass, g.momentum]
+        if fx.grid_force:
+            g.force = ti.Vector.field(3, f64)
+            placed.append(g.force)
+        cells = model.grid.n_nodes if on else 0
+        g._builder.dense(ti.i, grid_capacity(cells)).place(*placed)
+        for group in (self.nodes, self.elements, self.sections, self.step, self.bodies, contact, self.points, grid):
+            group.finalize()
+    
+    # ------------------------------------------------------------ the model's data
+    def load(self, model) -> None:
+        """Write the model (assembly.Model) into the fields: the initial state, the tables and
+        the step's run-time parameters."""
+        w, n, m = self.write, self.n_nodes, self.n_elements
+        nd, el, sec, st, bd = self.nodes, self.elements, self.sections, self.step, self.bodies
+        nd.count[None], el.count[None] = n, m
+        for name, array in (("position", model.points), ("position_ref", model.points),
+                            ("velocity", model.velocity0), ("grid_velocity", model.velocity0),
+                            ("omega", model.omega0), ("mass", model.node_mass), ("inertia", model.node_inertia),
+                            ("thickness", model.node_thickness),
+                            ("load_force", model.load_force), ("load_moment", model.load_moment),
+                            ("fix_mask", model.fix_mask), ("body", model.node_body)):
+            w(getattr(nd, name), array)
+        q = np.zeros((n, 4))
         q[:, 0] = 1.0
-        self.rotation.from_numpy(q)
-        self.corner_mass.from_numpy(model.node_mass)
-        self.corner_inertia.from_numpy(model.node_inertia)
-        self.load_force.from_numpy(model.load_force)
-        self.load_moment.from_numpy(model.load_moment)
-        self.fix_mask.from_numpy(model.fix_mask)
-        self.corners.from_numpy(model.quads.astype(np.int32))
-        self.node_body.from_numpy(model.node_body)
+        w(nd.rotation, q)
+        w(el.corners, model.elements)
+        data = model.element
+        for name in ("thickness", "shear_factor", "wave_speed", "rotational_frequency", "hourglass_membrane",
+                     "hourglass_bending", "hourglass_transverse", "drilling_factor", "section"):
+            w(getattr(sec, name), getattr(data, name))
+        tables = model.sections
+        ns = len(tables.names)
+        pad = np.zeros((MAX_SECTIONS - ns, tables.points))
+        w(sec.point_count, np.concatenate([tables.point_count, np.zeros(MAX_SECTIONS - ns, np.int32)]))
+        w(sec.zeta, np.concatenate([tables.zeta, pad]))
+        w(sec.weight, np.concatenate([tables.weight, pad]))
+        w(sec.point_material, np.concatenate([tables.point_material, pad.astype(np.int32)]))
+        mats = model.materials
+        nm = len(mats.names)
+        w(sec.material_kind, np.concatenate([mats.kind, np.zeros(MAX_MATERIALS - nm, np.int32)]))
+        w(sec.material, np.concatenate([mats.rows, np.zeros((MAX_MATERIALS - nm, MATERIAL_PARAMETERS))]))
+        if self.features.launch != "batched":
+            flat = model.elements.ravel()
+            slots = np.argsort(np.where(flat >= 0, flat, n), kind="stable")[:int((flat >= 0).sum())]
+            w(el.node_slots, slots.astype(np.int32))
+            counts = np.bincount(flat[flat >= 0], minlength=n)
+            w(el.node_slot_start, np.concatenate([[0], np.cumsum(counts)]).astype(np.int32))
+        # rigid bodies and walls
+        bd.count[None], bd.wall_count[None] = len(model.rigid_bodies), len(model.walls)
+        start = 0
+        for i, b in enumerate(model.rigid_bodies):
+            bd.velocity[i], bd.total_mass[i], bd.added_mass[i] = b.velocity0, b.total_mass, b.added_mass
+            bd.direction[i], bd.first_slave[i], bd.slave_count[i] = b.direction, start, len(b.nodes)
+            start += len(b.nodes)
         if model.rigid_bodies:
-            self.body_velocity.from_numpy(np.array([b.velocity0 for b in model.rigid_bodies]))
-            self.slave_nodes.from_numpy(np.concatenate([b.nodes for b in model.rigid_bodies]).astype(np.int32))
-        if self.gather_loads:
-            slots = np.argsort(model.quads.ravel(), kind="stable").astype(np.int32)
-            self.node_slots.from_numpy(slots)
-            counts = np.bincount(model.quads.ravel(), minlength=self.n_nodes)
-            self.node_slot_start.from_numpy(np.concatenate([[0], np.cumsum(counts)]).astype(np.int32))
-        if self.contact:
-            self.neighbor_start.from_numpy(model.neighbor_start)
-            self.neighbor_nodes.from_numpy(model.neighbor_nodes)
-            self.contact_last_element.fill(-1)
-            self.contact_rebuild[None] = 1
-        self.restart_factor[None] = 1.0
-        self.velocity_keep[None] = 1.0
-        self.time_limit[None] = np.inf
+            w(bd.slave_nodes, np.concatenate([b.nodes for b in model.rigid_bodies]).astype(np.int32))
+        for i, wall in enumerate(model.walls):
+            bd.wall_point[i], bd.wall_normal[i], bd.wall_body[i] = wall.point, wall.normal, wall.body
+        # the step's run-time parameters
+        p = model.parameters
+        c_max = float(data.wave_speed.max())
+        st.dt_safety[None], st.flip_blend[None] = p.dt_safety, p.flip_blend
+        st.length_ref[None] = model.mean_edge
+        st.mass_floor[None] = 1e-12 * float(model.node_mass.mean())
+        st.runaway_speed[None] = 10.0 * c_max
+        st.restart_factor[None] = 1.0
+        st.velocity_keep[None] = 1.0
+        st.time_limit[None] = np.inf
+        if self.contact is not None:
+            ct = self.contact
+            w(ct.neighbor_start, model.neighbor_start)
+            w(ct.neighbor_nodes, model.neighbor_nodes)
+            w(ct.last_element, np.full(n, -1, np.int32))
+            ct.rebuild[None] = 1
+            ct.thickness[None], ct.stiffness[None] = p.contact_thickness, p.contact_stiffness
+            ct.damping[None], ct.friction[None] = p.contact_damping, p.contact_friction
+            ct.slip_speed[None] = 1e-6 * c_max
+            ct.hash_size[None] = 1 << int(np.ceil(np.log2(2 * m)))
+            ct.candidate_capacity[None] = CANDIDATES_PER_NODE * n
+        if self.grid is not None:
+            gg, geo = self.grid, model.grid
+            gg.h[None], gg.inv_h[None] = geo.h, 1.0 / geo.h
+            gg.lo[None], gg.dims[None], gg.strides[None] = geo.lo, geo.dims, geo.strides
+            gg.slab_stride[None] = geo.strides[geo.slab_axis]
+            gg.slab_dim[None] = geo.dims[geo.slab_axis]
+            gg.planes[None] = len(geo.planes)
+            for i, (axis, index) in enumerate(geo.planes):
+                gg.plane_axis[i], gg.plane_index[i] = axis, index
+            st.dilatational_speed[None] = model.materials.dilatational_speed
 
-    # ------------------------------------------------------------ snapshots for output/restart
-    def node_arrays(self) -> dict[str, np.ndarray]:
-        return {"position": self.position.to_numpy(), "position_ref": self.position_ref.to_numpy(),
-                "velocity": self.grid_velocity.to_numpy(), "omega": self.omega.to_numpy(),
-                "rotation": self.rotation.to_numpy()}
+    # ------------------------------------------------------------ host access
+    def groups(self) -> dict[str, Group]:
+        return {name: g for name, g in (("nodes", self.nodes), ("elements", self.elements),
+                                        ("sections", self.sections), ("points", self.points),
+                                        ("step", self.step), ("bodies", self.bodies), ("contact", self.contact),
+                                        ("grid", self.grid)) if g is not None}
+
+    @staticmethod
+    def read(field, size: int) -> np.ndarray:
+        """The first `size` entries of `field` (all of a 0-d or fixed table) as a numpy array."""
+        if len(field.shape) == 0:
+            return np.array(field.to_numpy())
+        shape = (size, *field.shape[1:]) + ((field.n,) if isinstance(field, ti.MatrixField) and field.m == 1 else
+                                            (field.n, field.m) if isinstance(field, ti.MatrixField) else ())
+        out = np.zeros(shape, dtype=_numpy_dtype(field.dtype))
+        if size > 0:
+            _read_field(field, out, size)
+        return out
+
+    @staticmethod
+    def write(field, array, size: int | None = None) -> None:
+        """Set the first len(array) entries of `field` (0-d: the value)."""
+        array = np.asarray(array)
+        if len(field.shape) == 0:
+            field.from_numpy(array.astype(_numpy_dtype(field.dtype)))
+            return
+        n = len(array) if size is None else size
+        if n > 0:
+            _write_field(field, np.ascontiguousarray(array, dtype=_numpy_dtype(field.dtype)), n)
+
+    def arrays_index(self) -> set[str]:
+        """The ``group.name`` of every field the host reads and writes."""
+        return {f"{g}.{n}" for g, group in self.groups().items() for n in group._entries}
+
+    def fetch(self, path: str) -> np.ndarray:
+        """The used entries of the field ``group.name`` (e.g. "nodes.position")."""
+        group, name = path.split(".")
+        field, size, _ = self.groups()[group]._entries[name]
+        return self.read(field, size) if size is not None else field.to_numpy()
+
+    def put(self, path: str, array) -> None:
+        """Set the field ``group.name`` from `array` (its used entries)."""
+        group, name = path.split(".")
+        self.write(self.groups()[group]._entries[name][0], array)
+
+    def arrays(self, persistent_only: bool = True) -> dict[str, np.ndarray]:
+        """Every field's used entries, keyed ``group.name`` (checkpoints)."""
+        out = {}
+        for gname, g in self.groups().items():
+            for name, (field, size) in g.fields(persistent_only).items():
+                out[f"{gname}.{name}"] = self.read(field, size) if size is not None else field.to_numpy()
+        return out
+
+    def restore(self, arrays: dict[str, np.ndarray], persistent_only: bool = True) -> None:
+        for gname, g in self.groups().items():
+            for name, (field, size) in g.fields(persistent_only).items():
+                self.write(field, arrays[f"{gname}.{name}"])
+
+
+def _numpy_dtype(dtype):
+    return {ti.f64: np.float64, ti.f32: np.float32, ti.i32: np.int32, ti.i64: np.int64}[dtype]

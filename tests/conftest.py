@@ -199,13 +199,14 @@ def element_stage(sim: Simulation, end, velocity, omega, dt: float, steps: int =
     element and point, nodal internal forces, nodal internal moments, hourglass resultant per
     element, drilling corner moments per element or None)."""
     s = sim.state
-    s.position.from_numpy(np.asarray(end, dtype=float))
-    s.grid_velocity.from_numpy(np.asarray(velocity, dtype=float))
-    s.omega.from_numpy(np.asarray(omega, dtype=float))
-    for f in (s.stress, s.plastic_strain, s.hourglass_resultant, s.drilling_moment, s.force_int, s.moment_int):
-        if f is not None:
-            f.fill(0)
-    s.dt[None] = dt
+    s.put("nodes.position", np.asarray(end, dtype=float))
+    s.put("nodes.grid_velocity", np.asarray(velocity, dtype=float))
+    s.put("nodes.omega", np.asarray(omega, dtype=float))
+    for path in ("points.stress", "points.plastic_strain", "elements.hourglass_resultant", "elements.drilling_moment",
+                 "nodes.force_int", "nodes.moment_int"):
+        if path in s.arrays_index():
+            s.put(path, np.zeros_like(s.fetch(path)))
+    s.step.dt[None] = dt
 
     @ti.kernel
     def run():
@@ -214,8 +215,9 @@ def element_stage(sim: Simulation, end, velocity, omega, dt: float, steps: int =
 
     for _ in range(steps):
         run()
-    return (s.stress.to_numpy(), s.force_int.to_numpy(), s.moment_int.to_numpy(),
-            s.hourglass_resultant.to_numpy(), None if s.drilling_moment is None else s.drilling_moment.to_numpy())
+    return (s.fetch("points.stress"), s.fetch("nodes.force_int"), s.fetch("nodes.moment_int"),
+            s.fetch("elements.hourglass_resultant"),
+            s.fetch("elements.drilling_moment") if "elements.drilling_moment" in s.arrays_index() else None)
 
 
 def element_pass(sim: Simulation, end, velocity, omega, dt: float, steps: int = 1):

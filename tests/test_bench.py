@@ -189,7 +189,7 @@ def test_peer_case_row(tmp_path, monkeypatch):
         tip = np.arange(1, 21)[:, None] / 20 * np.array([-3.3, 6.7])
         return {"probes": tip, "header": ["tip.ux", "tip.uz"], "load_factors": np.arange(1, 21) / 20,
                 "solve_seconds": 0.5, "setup_seconds": 0.1, "newton_iterations": 100, "nodes": len(model.points),
-                "elements": len(model.quads), "element": "fake", "kratos_version": "0"}
+                "elements": len(model.elements), "element": "fake", "kratos_version": "0"}
     monkeypatch.setattr(kratos, "solve_static", fake_solve)
     assert bench.peer_child(str(case.scene_file), str(tmp_path), list(case.overrides)) == 0
     summary = json.loads((tmp_path / "summary.json").read_text())

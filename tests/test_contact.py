@@ -45,7 +45,7 @@ def contact_simulation(tmp_path):
     scene = load_scene(write_scene(tmp_path, TWO_SHEETS))
     sim = unwarmed_simulation(scene, tmp_path)
     s = sim.state
-    s.dt[None] = s.dt_stable[None] = DT
+    s.step.dt[None] = s.step.dt_stable[None] = DT
 
     @ti.kernel
     def contact_forces():
@@ -55,12 +55,12 @@ def contact_simulation(tmp_path):
     def force_on_node(x):
         points = POINTS.copy()
         points[NODE] = x
-        s.position.from_numpy(points)
-        s.contact_rebuild[None] = 1
+        s.put("nodes.position", points)
+        s.contact.rebuild[None] = 1
         contact_forces()
-        return s.contact_pair_force.to_numpy()[NODE], int(s.contact_last_element[NODE])
+        return s.fetch("contact.pair_force")[NODE], int(s.contact.last_element[NODE])
 
-    m = s.corner_mass.to_numpy()
+    m = s.fetch("nodes.mass")
     k = sim.scene.contact.stiffness * (m[NODE] * m[0] / (m[NODE] + m[0])) / DT ** 2
     return force_on_node, k
 
@@ -119,9 +119,9 @@ def test_the_skin_changes_the_rebuilds_not_the_contacts(tmp_path, monkeypatch):
         scene = load_scene(ROOT / "scenes" / "square_tube.toml",
                            [*SHORT[:5], "method.kind=fem", "solve.end_time=2.0", "output.times=[]"])
         sim = simulation(scene, tmp_path / f"skin{skin}")
-        assert sim.state.contact_skin[None] == pytest.approx(skin * sim.cfg.contact_thickness)
+        assert sim.state.contact.skin[None] == pytest.approx(skin * sim.model.parameters.contact_thickness)
         run_dynamic(sim)
-        runs.append((sim.state.position.to_numpy(), sim.state.contact_energy[None], sim.total_steps))
+        runs.append((sim.state.fetch("nodes.position"), sim.state.step.contact_energy[None], sim.total_steps))
     (x1, e1, n1), (x2, e2, n2) = runs
     print(f"\ncontact energy {e1:.6g} / {e2:.6g} J, {n1} / {n2} steps, max |dx| {np.abs(x1 - x2).max():.3g} mm")
     assert e1 > 0.0 and n1 == n2

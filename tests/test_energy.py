@@ -86,10 +86,10 @@ def test_moving_wall_that_carries_load_balances(tmp_path, method):
     run_dynamic(sim)
     e = sim.energies()
     body = sim.model.rigid_bodies[0]
-    v_end = sim.state.body_velocity[0]
+    v_end = sim.state.bodies.velocity[0]
     work = 0.5 * body.total_mass * (speed ** 2 - v_end ** 2)
     plate = e["internal"] + e["hourglass"] + e["drilling"] + (e["kinetic"] - 0.5 * body.total_mass * v_end ** 2)
-    strain = sim.state.body_displacement[0]
+    strain = sim.state.bodies.displacement[0]
     print(f"{method}: pushed {strain:.4f}, wall work {work:.4e}, plate energy {plate:.4e}, wall column "
           f"{e['wall']:.3e}; balance error {abs(e['balance_error']) / work:.2e} of the work")
     assert abs(e["balance_error"]) < 1e-6 * work        # the issue asks < 1 %
@@ -138,7 +138,7 @@ SAFETY = 1.6
 
 def test_unstable_run_stops_on_the_energy_guard(tmp_path, monkeypatch):
     """A clamped flap under a tip load with the time step forced past the stability limit
-    (StepConfig.dt_safety = 1.6, which a scene cannot ask for; 1.4 is still stable, the element
+    (the model's dt_safety = 1.6, which a scene cannot ask for; 1.4 is still stable, the element
     rule being conservative): energy grows from round-off, and the in-kernel balance guard
     (energy.EnergyLedger.guard) stops the run once the error exceeds 5 % of the absorbed
     energy, before any velocity is non-finite.  Exit 3, one line, the frames written so far
@@ -146,10 +146,10 @@ def test_unstable_run_stops_on_the_energy_guard(tmp_path, monkeypatch):
     (measured: guard at step 29, inversion at step 73)."""
     import dataclasses
     import xml.etree.ElementTree as ET
-    from taichi_shell_mpm import simulation
-    from_scene = simulation.StepConfig.from_scene
-    monkeypatch.setattr(simulation.StepConfig, "from_scene",
-                        staticmethod(lambda scene, model: dataclasses.replace(from_scene(scene, model), dt_safety=SAFETY)))
+    from taichi_shell_mpm import assembly
+    assemble = assembly.assemble
+    monkeypatch.setattr(assembly, "assemble", lambda scene, mesh: dataclasses.replace(
+        assemble(scene, mesh), parameters=dataclasses.replace(assemble(scene, mesh).parameters, dt_safety=SAFETY)))
     scene = write_scene(tmp_path, FLAP)
     r = cli_run("run", str(scene), "--out", str(tmp_path / "a"), "--quiet")
     print(r.err)

@@ -41,7 +41,7 @@ def test_partition_of_unity_and_linear_completeness(tmp_path):
             for i, j, k in ti.static(ti.ndrange(2, 2, 2)):
                 w, grad = mapping.weight(w_axis, i, j, k)
                 total += w
-                node = ti.cast(base + ti.Vector([i, j, k]) + ti.Vector(mapping.lo), ti.f64) * mapping.h
+                node = ti.cast(base + ti.Vector([i, j, k]) + sim.state.grid.lo[None], ti.f64) * sim.state.grid.h[None]
                 first += w * node
                 grad_sum += grad
                 grad_first += node.outer_product(grad)
@@ -56,7 +56,7 @@ def test_partition_of_unity_and_linear_completeness(tmp_path):
     grads = grad_out.to_numpy()
     err_unity = np.abs(res[:, 0] - 1).max()
     err_linear = np.abs(res[:, 1:] - pts.to_numpy()).max()
-    err_grad = max(np.abs(grads[:, 0]).max() * mapping.h, np.abs(grads[:, 1:] - np.eye(3)).max())
+    err_grad = max(np.abs(grads[:, 0]).max() * sim.model.grid.h, np.abs(grads[:, 1:] - np.eye(3)).max())
     print(f"partition of unity error {err_unity:.1e}, linear completeness error {err_linear:.1e}, "
           f"gradient (sum, linear) error {err_grad:.1e}")
     assert err_unity < 1e-14 and err_linear < 1e-13 and err_grad < 1e-12
@@ -66,12 +66,12 @@ def test_p2g_g2p_conserve_mass_and_momentum(tmp_path):
     sim = simulation(plate_scene(tmp_path, nx=5, ny=3, method_extra="cell_size = 0.5"), tmp_path)
     s = sim.state
     rng = np.random.default_rng(2)
-    s.position.from_numpy(sim.model.points + rng.normal(0, 0.05, sim.model.points.shape))
-    s.velocity.from_numpy(rng.normal(0, 1, (s.n_nodes, 3)))
-    s.affine.from_numpy(rng.normal(0, 1, (s.n_nodes, 3, 3)))
-    s.dt[None] = 1e-4
+    s.put("nodes.position", sim.model.points + rng.normal(0, 0.05, sim.model.points.shape))
+    s.put("nodes.velocity", rng.normal(0, 1, (s.n_nodes, 3)))
+    s.put("nodes.affine", rng.normal(0, 1, (s.n_nodes, 3, 3)))
+    s.step.dt[None] = 1e-4
     m = sim.model.node_mass
-    momentum = (m[:, None] * s.velocity.to_numpy()).sum(axis=0)
+    momentum = (m[:, None] * s.fetch("nodes.velocity")).sum(axis=0)
     stepper = sim.stepper
     grid_totals = ti.field(ti.f64, 4)
 
@@ -79,24 +79,24 @@ def test_p2g_g2p_conserve_mass_and_momentum(tmp_path):
     def transfer():
         stepper.begin()
         stepper.mapping.particles_to_grid()
-        for g in range(s.grid_mass.shape[0]):
-            grid_totals[0] += s.grid_mass[g]
+        for g in range(s.grid.mass.shape[0]):
+            grid_totals[0] += s.grid.mass[g]
             for d in ti.static(range(3)):
-                grid_totals[1 + d] += s.grid_momentum[g][d]
+                grid_totals[1 + d] += s.grid.momentum[g][d]
         stepper.mapping.grid_to_particles()
         stepper.mapping.clear_grid()
 
-    s.force_int.fill(0)
+    s.put("nodes.force_int", np.zeros((s.n_nodes, 3)))
     transfer()
     g = grid_totals.to_numpy()
-    after = (m[:, None] * s.grid_velocity.to_numpy()).sum(axis=0)
-    scale = np.sum(m * np.linalg.norm(s.velocity.to_numpy(), axis=1))
+    after = (m[:, None] * s.fetch("nodes.grid_velocity")).sum(axis=0)
+    scale = np.sum(m * np.linalg.norm(s.fetch("nodes.velocity"), axis=1))
     print(f"mass error {abs(g[0] - m.sum()):.1e}; P2G momentum error {np.abs(g[1:] - momentum).max():.1e}; "
           f"G2P momentum error {np.abs(after - momentum).max():.1e} (scale {scale:.2f})")
     assert abs(g[0] - m.sum()) < 1e-14 * m.sum()
     # clearing around the nodes leaves the whole grid empty for the next step
-    assert not s.grid_mass.to_numpy().any() and not s.grid_momentum.to_numpy().any()
-    assert s.grid_force is None or not s.grid_force.to_numpy().any()
+    assert not s.grid.mass.to_numpy().any() and not s.grid.momentum.to_numpy().any()
+    assert getattr(s.grid, "force", None) is None or not s.grid.force.to_numpy().any()
     assert np.abs(g[1:] - momentum).max() < 1e-13 * scale
     assert np.abs(after - momentum).max() < 1e-13 * scale
 
@@ -114,11 +114,11 @@ def test_fine_grid_reproduces_fem(tmp_path):
                                   "[[boundary]]\nnodes='clamp'\nfix='all'\n"
                                   "[[load]]\nnodes='tip'\nforce=[0.0, 0.0, 0.5]\n")
         sim = simulation(scene, d)
-        sim.state.load_factor[None] = 1.0
+        sim.state.step.load_factor[None] = 1.0
         positions = []
         for _ in range(3):
             sim.stepper.advance(1 if not positions else 500)
-            positions.append(sim.state.position.to_numpy())
+            positions.append(sim.state.fetch("nodes.position"))
         runs[method] = np.array(positions)
     diff = np.abs(runs["mpm"] - runs["fem"]).max(axis=(1, 2))
     moved = np.abs(runs["fem"][-1] - runs["fem"][0]).max()

@@ -7,7 +7,9 @@ import numpy as np
 import pytest
 import taichi as ti
 
+from taichi_shell_mpm.materials import MATERIAL_PARAMETERS, parameter_row
 from taichi_shell_mpm.quadrature import through_thickness_rule
+from taichi_shell_mpm.scene import Material
 from taichi_shell_mpm.simulation import init_taichi
 from taichi_shell_mpm.stages.material import PlaneStressJ2
 
@@ -40,18 +42,21 @@ class Points:
 
     def __init__(self, hardening):
         init_taichi("cpu")
-        self.mat = mat = PlaneStressJ2(E, NU, SY0, hardening)
+        self.mat = mat = PlaneStressJ2()
+        spec = Material(E=E, nu=NU, density=1.0, model="j2", yield_stress=SY0, hardening=hardening)
+        parameters = tuple(float(x) for x in parameter_row(spec, MATERIAL_PARAMETERS))   # its table row
 
         @ti.kernel
         def run(stress: ti.types.ndarray(ti.f64, 2), ebar: ti.types.ndarray(ti.f64, 1),
                 incr: ti.types.ndarray(ti.f64, 3), out_stress: ti.types.ndarray(ti.f64, 3),
                 out_ebar: ti.types.ndarray(ti.f64, 2), out_work: ti.types.ndarray(ti.f64, 2)):
+            row = ti.Vector(parameters, dt=ti.f64)
             for p in range(incr.shape[0]):
                 s = ti.Vector([stress[p, 0], stress[p, 1], stress[p, 2], stress[p, 3], stress[p, 4]])
                 ep = ebar[p]
                 for k in range(incr.shape[1]):
-                    s, ep, w, _ = mat.update(s, ep, ti.Vector([incr[p, k, 0], incr[p, k, 1], incr[p, k, 2]]),
-                                          ti.Vector([incr[p, k, 3], incr[p, k, 4]]))
+                    s, ep, w, _ = mat.update(row, s, ep, ti.Vector([incr[p, k, 0], incr[p, k, 1], incr[p, k, 2]]),
+                                             ti.Vector([incr[p, k, 3], incr[p, k, 4]]))
                     for i in ti.static(range(5)):
                         out_stress[p, k, i] = s[i]
                     out_ebar[p, k] = ep
@@ -239,7 +244,7 @@ def test_bending_limit_moment_through_bt_element(tmp_path):
         s = sim.state
         element_pass(sim, corners, np.zeros((4, 3)),
                      np.column_stack([np.zeros(4), kappa_dot * corners[:, 0], np.zeros(4)]), dt, steps=steps)
-        sig = s.stress.to_numpy()[0]
+        sig = s.fetch("points.stress")[0]
         zeta, w = through_thickness_rule("lobatto", points)
         ratio = np.sum(w * zeta * sig[:, 0]) / SY0                  # M_xx / (sigma_y t^2/4)
         ratio_yy = np.sum(w * zeta * sig[:, 1]) / SY0
@@ -247,7 +252,7 @@ def test_bending_limit_moment_through_bt_element(tmp_path):
         ratios.append(ratio)
         print(f"Lobatto {points}: M_xx/(sigma_y t^2/4) = {ratio:.10f}, predicted {predicted:.10f} "
               f"(sum w|zeta| = {np.sum(w * np.abs(zeta)):.6f}), rel. error {ratio / predicted - 1:.1e}; "
-              f"M_yy/M_xx = {ratio_yy / ratio:.8f}; ebar at the surface {s.plastic_strain.to_numpy()[0, -1]:.4e}; "
+              f"M_yy/M_xx = {ratio_yy / ratio:.8f}; ebar at the surface {s.fetch('points.plastic_strain')[0, -1]:.4e}; "
               f"continuum 2/sqrt(3) = {factor:.6f}")
         assert abs(ratio / predicted - 1) < 1e-6
         assert np.abs(sig[:, 3:]).max() < 1e-12 * SY0                 # no transverse shear

@@ -137,7 +137,7 @@ def test_file_quad9_lines_and_unused_nodes(tmp_path):
 
 
 def test_file_with_triangle(tmp_path):
-    """Issue 17: triangles are read (a -1 in column 3); the solver of this build refuses them."""
+    """Issue 17: triangles are read (a -1 in column 3)."""
     path = tmp_path / "t.vtu"
     points = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [2, 0, 0]], dtype=float)
     meshio.write(path, meshio.Mesh(points, [("quad", np.array([[0, 1, 2, 3]])),
@@ -145,8 +145,6 @@ def test_file_with_triangle(tmp_path):
     m = build_mesh(FileMesh(path=path))
     assert m.elements.tolist() == [[0, 1, 2, 3], [1, 4, 2, -1]]
     assert m.triangles.tolist() == [False, True] and m.warnings == () and m.element_sets == {}
-    with pytest.raises(SceneError, match="does not run triangles yet"):
-        m.quads
 
 
 def test_file_with_pentagon_and_four_node_polygon(tmp_path):

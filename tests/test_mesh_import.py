@@ -136,7 +136,6 @@ def test_generated_meshes_have_no_sets():
                  TubeMesh(width=2, depth=1, corner_radius=0, length=1, n_flat=2, n_corner=0, n_length=1)):
         m = build_mesh(spec)
         assert m.element_sets == {} and m.deck is None and not m.triangles.any()
-        assert m.quads is m.elements          # TEMPORARY (issue 17) compatibility property
 
 
 def test_second_order_triangles_linearised_with_one_warning(tmp_path):
@@ -386,8 +385,6 @@ def test_dyna_deck(tmp_path, variant):
         assert np.isnan(deck.element_thickness[1:]).all()
     else:
         assert deck.element_thickness is None
-    with pytest.raises(SceneError, match="does not run triangles yet"):
-        m.quads
 
 
 def test_dyna_mat_003_and_024_points(tmp_path):

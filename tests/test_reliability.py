@@ -204,8 +204,8 @@ def test_kernel_flags_the_guard_itself(tmp_path, guard, status):
     host_check = sim.check_status
 
     def record():
-        if sim.state.status[None] != state_module.STATUS_OK and not raw:
-            raw.append((sim.state.status[None], sim.state.status_index[None], sim.state.step[None]))
+        if sim.state.step.status[None] != state_module.STATUS_OK and not raw:
+            raw.append((sim.state.step.status[None], sim.state.step.status_index[None], sim.state.step.step[None]))
         host_check()
 
     sim.check_status = record
@@ -224,17 +224,17 @@ def test_hourglass_warning_then_stop(tmp_path, capsys):
     init_taichi("cpu")
     sim = Simulation(load_scene(plate(tmp_path, "hg", extra=CLAMP)), tmp_path / "out", quiet=True)
     s = sim.state
-    s.external_work[None] = 1.0
-    s.internal_energy[None], s.hourglass_energy[None] = 1e-7, 1e-7       # E_int not yet meaningful
+    s.step.external_work[None] = 1.0
+    s.step.internal_energy[None], s.step.hourglass_energy[None] = 1e-7, 1e-7       # E_int not yet meaningful
     sim.check_status()
-    s.internal_energy[None], s.hourglass_energy[None] = 1.0, 0.05
+    s.step.internal_energy[None], s.step.hourglass_energy[None] = 1.0, 0.05
     sim.check_status()
     assert not sim.warnings
-    s.hourglass_energy[None] = 0.15
+    s.step.hourglass_energy[None] = 0.15
     sim.check_status()
     sim.check_status()
     assert len(sim.warnings) == 1 and "15% of the internal energy" in sim.warnings[0]
-    s.hourglass_energy[None] = 0.25
+    s.step.hourglass_energy[None] = 0.25
     with pytest.raises(SimulationError, match="hourglass and drilling energy is 25% of the internal energy"):
         sim.check_status()
     printed = capsys.readouterr().out
@@ -249,8 +249,8 @@ def test_ctrl_c_stops_cleanly(tmp_path, monkeypatch):
     sent = []
 
     def press_ctrl_c(sim):
-        if sim.state.time[None] > 1.2 and not sent:
-            sent.append(sim.state.step[None])
+        if sim.state.step.time[None] > 1.2 and not sent:
+            sent.append(sim.state.step.step[None])
             os.kill(os.getpid(), signal.SIGINT)
         return False
 

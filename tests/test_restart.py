@@ -103,7 +103,7 @@ def restart_roundtrip(tmp_path, monkeypatch, scene_args, stop_step, every, batch
                 timeout=COMPILE_TIMEOUT)
     assert r.code == 0, r.err
     steps = json.loads((a / "summary.json").read_text())["steps"]
-    monkeypatch.setattr(checkpoint, "stop_hook", lambda sim: sim.state.step[None] >= stop_step)
+    monkeypatch.setattr(checkpoint, "stop_hook", lambda sim: sim.state.step.step[None] >= stop_step)
     r = cli_run("run", *scene_args, "--out", str(b), "--quiet", timeout=COMPILE_TIMEOUT)
     monkeypatch.setattr(checkpoint, "stop_hook", None)
     assert r.code == 130, r.err

@@ -83,7 +83,7 @@ def test_static_failure_keeps_the_last_converged_frame_and_counts_its_steps(tmp_
     original = Simulation.check_status
 
     def failing(sim):
-        if sim.state.load_factor[None] == 1.0:
+        if sim.state.step.load_factor[None] == 1.0:
             raise SimulationError(f"a test failure at {sim.where()}")
         original(sim)
 

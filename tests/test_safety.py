@@ -19,12 +19,12 @@ def shadow_energy(sim, check: bool = True) -> float:
     swings by a factor 1 / (1 - (omega dt / 2)^2) in modes near the stability limit (measured
     here: 1.0-2.4 x the initial energy at dt_safety = 0.9), so it cannot show a slow growth."""
     s, m, inertia = sim.state, sim.model.node_mass, sim.model.node_inertia
-    v1, w1 = s.grid_velocity.to_numpy(), s.omega.to_numpy()
+    v1, w1 = s.fetch("nodes.grid_velocity"), s.fetch("nodes.omega")
     e = sim.energies()
     assert sim.stepper.advance(1) == 1
     if check:
         sim.check_status()
-    v2, w2 = s.grid_velocity.to_numpy(), s.omega.to_numpy()
+    v2, w2 = s.fetch("nodes.grid_velocity"), s.fetch("nodes.omega")
     kinetic = 0.5 * np.sum(m * np.sum(v1 * v2, axis=1)) + 0.5 * np.sum(inertia * np.sum(w1 * w2, axis=1))
     return float(kinetic + e["internal"] + e["hourglass"] + e["drilling"])
 
@@ -44,18 +44,18 @@ def test_physical_rotary_inertia_is_stable(tmp_path, method, t):
     sim.hourglass_limit = 0           # a random spin excites every mode: measure, don't stop
     sim.energy_limit = 0              # (the half-step kinetic energy swings 1-2.4x here, see shadow_energy)
     rng = np.random.default_rng(7)
-    sim.state.omega.from_numpy(rng.normal(size=(len(sim.model.points), 3)))
+    sim.state.put("nodes.omega", rng.normal(size=(len(sim.model.points), 3)))
     sim.initial_kinetic = sim.kinetic_energy()
-    dt_host = sim.state.dt[None]                 # stages/timestep.initial_dt, the host twin
+    dt_host = sim.state.step.dt[None]                 # stages/timestep.initial_dt, the host twin
     e0 = shadow_energy(sim)
-    assert abs(sim.state.dt_stable[None] / dt_host - 1.0) < 1e-6     # the kernel's rule after one step
+    assert abs(sim.state.step.dt_stable[None] / dt_host - 1.0) < 1e-6     # the kernel's rule after one step
     done, worst = 1, 0.0
     while done < SPIN_STEPS:
         done += sim.stepper.advance(SPIN_STEPS // 10 - 1)
         sim.check_status()
         worst = max(worst, abs(shadow_energy(sim) / e0 - 1.0))
         done += 1
-    print(f"{method}, t = {t}: {done} steps at dt {sim.state.dt[None]:.3e}, energy (central-difference "
+    print(f"{method}, t = {t}: {done} steps at dt {sim.state.step.dt[None]:.3e}, energy (central-difference "
           f"invariant) within {worst:.1e} of the initial")
     assert done >= SPIN_STEPS
     assert worst < (1e-7 if t < 0.1 else 2e-4)    # measured 3.6e-8 (t = 0.01), 1e-4 (t = 0.165: large rotations)

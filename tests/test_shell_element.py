@@ -149,8 +149,8 @@ def test_artificial_loads_are_the_transpose_of_the_rates(part):
     from taichi_shell_mpm.stages.hourglass import Hourglass
     from taichi_shell_mpm.stages.shell import gradient_operators
     init_taichi("cpu")
-    hourglass = Hourglass(E, E / (2 * (1 + NU)), T, 5.0 / 6.0, 0.05, part == "kirchhoff")
-    drilling = DrillingSpring(E, T, 1.0)
+    hourglass = Hourglass(None, part == "kirchhoff")       # rates and loads only: no state needed
+    drilling = DrillingSpring(None)
     rng = np.random.default_rng(7)
     xh, yh, zh = (WARPED - WARPED.mean(axis=0)).T
     v, w, q = rng.normal(size=(4, 3)), rng.normal(size=(4, 3)), rng.normal(size=5)
@@ -228,8 +228,8 @@ def element_kinematics(x, v, w):
 
 def resultants(sim, stress):
     """N, M' = -int z sigma (paper sign) and Q of one element's point stresses (method.md 3.5)."""
-    t = sim.cfg.thickness
-    zeta, weight = np.array(sim.cfg.zeta), np.array(sim.cfg.zeta_weight)
+    t = float(sim.model.element.thickness[0])
+    zeta, weight = sim.model.sections.zeta[0], sim.model.sections.weight[0]
     return (0.5 * t * weight @ stress[:, :3], -0.25 * t * t * (weight * zeta) @ stress[:, :3],
             0.5 * t * weight @ stress[:, 3:5])
 
@@ -260,14 +260,14 @@ def test_element_power_identity(tmp_path, corners):
                                  section="points = 5\nrule = \"gauss\"", element=ARTIFICIAL)
         v, w = rng.normal(size=(4, 3)), rng.normal(size=(4, 3))
         s = sim.state
-        before = s.internal_energy[None] + s.hourglass_energy[None] + s.drilling_energy[None]
+        before = s.step.internal_energy[None] + s.step.hourglass_energy[None] + s.step.drilling_energy[None]
         stress, force, moment, q_hg, drill = element_stage(sim, corners, v, w, dt)
-        energy = s.internal_energy[None] + s.hourglass_energy[None] + s.drilling_energy[None] - before
+        energy = s.step.internal_energy[None] + s.step.hourglass_energy[None] + s.step.drilling_energy[None] - before
         area, membrane, curvature, shear, hourglass_rate, drilling_rate = element_kinematics(corners, v, w)
         n_res, m_res, q_res = resultants(sim, stress[0])
         parts = area * np.array([n_res @ membrane, -m_res @ curvature, kappa * q_res @ shear])
         bt = parts.sum()
-        zeta, weight = np.array(sim.cfg.zeta), np.array(sim.cfg.zeta_weight)
+        zeta, weight = sim.model.sections.zeta[0], sim.model.sections.weight[0]
         pointwise = area * 0.5 * t * sum(
             wk * (stress[0, k, :3] @ (membrane + 0.5 * t * zeta[k] * curvature) + kappa * stress[0, k, 3:5] @ shear)
             for k, wk in enumerate(weight))
@@ -335,7 +335,7 @@ def test_constant_curvature_patch(tmp_path, kind):
     t, dt = T, 1e-13
     sim = element_simulation(tmp_path, points, E=E, nu=NU, t=t, quads=quads)
     bending = E * t ** 3 / (12 * (1 - NU ** 2)) * np.array([[1, NU, 0], [NU, 1, 0], [0, 0, (1 - NU) / 2]])
-    cfg = sim.cfg
+    hourglass_r = sim.scene.element.hourglass
     for name, (a, b, c) in {"bending": (0.7, 0.0, 0.0), "twist": (0.0, 1.0, 0.0),
                             "mixed": (0.3, -0.5, 0.9)}.items():
         x, y = (points - centre)[:, :2].T
@@ -362,8 +362,8 @@ def test_constant_curvature_patch(tmp_path, kind):
             b2 = np.array([xh[3] - xh[1], xh[0] - xh[2], xh[1] - xh[3], xh[2] - xh[0]]) / (2 * area)
             beta = b1 @ b1 + b2 @ b2
             g = E / (2 * (1 + NU))
-            size = dt * max(cfg.hourglass * 5 / 6 * g * t ** 3 * beta / 12 * np.abs(velocity[quad]).max(),
-                            cfg.hourglass * E * t ** 3 * area * beta / 192 * np.abs(omega[quad]).max())
+            size = dt * max(hourglass_r * 5 / 6 * g * t ** 3 * beta / 12 * np.abs(velocity[quad]).max(),
+                            hourglass_r * E * t ** 3 * area * beta / 192 * np.abs(omega[quad]).max())
             stage_hourglass = max(stage_hourglass, np.abs(q_hg[e]).max() / size)
         residual = max(np.abs(moment[interior]).max(), np.abs(force).max() * 0.3) / np.abs(moment).max()
         print(f"\n{kind} {name}: moments vs D kappa {moment_error:.1e}; hourglass rates {hourglass:.1e} "

@@ -20,17 +20,17 @@ def spin(tmp_path, method, transfer):
                         extra="[[initial]]\nangular_velocity = [0.0, 0.0, 1.0]\ncenter = [0.5, 0.5, 0.0]\n")
     sim = simulation(scene, tmp_path)
     sim.hourglass_limit = 0      # PIC wrecks the spin into hourglass modes: measure it, don't stop
-    dt = sim.state.dt[None]
+    dt = sim.state.step.dt[None]
     omega = 3 * np.pi / (STEPS * dt)
     s = sim.state
-    s.velocity.from_numpy(sim.model.velocity0 * omega)
-    s.grid_velocity.from_numpy(sim.model.velocity0 * omega)
-    s.omega.from_numpy(sim.model.omega0 * omega)      # the nodes spin with the plate (drilling kept)
+    s.put("nodes.velocity", sim.model.velocity0 * omega)
+    s.put("nodes.grid_velocity", sim.model.velocity0 * omega)
+    s.put("nodes.omega", sim.model.omega0 * omega)      # the nodes spin with the plate (drilling kept)
     sim.initial_kinetic = sim.kinetic_energy()          # KE_0 of the balance guard
     m = sim.model.node_mass
 
     def invariants():
-        x, v = s.position.to_numpy(), s.grid_velocity.to_numpy()
+        x, v = s.fetch("nodes.position"), s.fetch("nodes.grid_velocity")
         ke = 0.5 * np.sum(m * np.sum(v * v, axis=1))
         centre = (m[:, None] * x).sum(axis=0) / m.sum()
         L = np.sum(m[:, None] * np.cross(x - centre, v), axis=0)[2]
@@ -70,9 +70,9 @@ def land_on_output_times(sim, steps: int, every: float) -> None:
     s = sim.state
     done = 0
     while done < steps:
-        if s.dt[None] <= 0.0 or s.time_limit[None] - s.time[None] > 1.5 * every * s.dt_stable[None]:
-            s.time_limit[None] = s.time[None] + every * s.dt_stable[None]
-            s.dt[None] = landing_step(s.time_limit[None] - s.time[None], s.dt_stable[None])
+        if s.step.dt[None] <= 0.0 or s.step.time_limit[None] - s.step.time[None] > 1.5 * every * s.step.dt_stable[None]:
+            s.step.time_limit[None] = s.step.time[None] + every * s.step.dt_stable[None]
+            s.step.dt[None] = landing_step(s.step.time_limit[None] - s.step.time[None], s.step.dt_stable[None])
         done += sim.stepper.advance(steps - done)
         sim.check_status()
 
@@ -90,9 +90,9 @@ def leapfrog_energy(sim, advance_one) -> float:
     m, inertia = sim.model.node_mass, sim.model.node_inertia
     e = sim.energies()
     stored = e["internal"] + e["hourglass"] + e["drilling"]
-    va, wa = s.grid_velocity.to_numpy(), s.omega.to_numpy()
+    va, wa = s.fetch("nodes.grid_velocity"), s.fetch("nodes.omega")
     advance_one()
-    vb, wb = s.grid_velocity.to_numpy(), s.omega.to_numpy()
+    vb, wb = s.fetch("nodes.grid_velocity"), s.fetch("nodes.omega")
     return (0.5 * np.sum(m * np.sum(va * vb, axis=1)) + 0.5 * np.sum(inertia * np.sum(wa * wb, axis=1))
             + stored)
 
@@ -120,8 +120,8 @@ def test_landing_on_output_times_keeps_the_energy(tmp_path, method):
     velocity = np.zeros_like(x)
     velocity[:, 2] = 1e-2 * np.sin(np.pi * x[:, 0]) * np.sin(2 * np.pi * x[:, 1])
     velocity[:, 0] = 1e-2 * np.sin(2 * np.pi * x[:, 1])
-    s.velocity.from_numpy(velocity)
-    s.grid_velocity.from_numpy(velocity)
+    s.put("nodes.velocity", velocity)
+    s.put("nodes.grid_velocity", velocity)
     sim.initial_kinetic = sim.kinetic_energy()
     step = lambda: land_on_output_times(sim, 1, 5.3)     # noqa: E731
     energy0 = leapfrog_energy(sim, step)
@@ -130,9 +130,9 @@ def test_landing_on_output_times_keeps_the_energy(tmp_path, method):
         land_on_output_times(sim, 299, 5.3)
         drift = max(drift, abs(leapfrog_energy(sim, step) - energy0) / energy0)
         swing.append(sim.energies()["balance_error"] / sim.initial_kinetic)
-    print(f"\n{method}: {int(s.step[None])} steps: energy drift {drift:.2e} of the initial energy; "
+    print(f"\n{method}: {int(s.step.step[None])} steps: energy drift {drift:.2e} of the initial energy; "
           f"energy.csv balance error {min(swing):.2e} .. {max(swing):.2e} of the initial KE")
-    assert int(s.step[None]) == 3001
+    assert int(s.step.step[None]) == 3001
     assert drift < 1.8e-4
 
 
@@ -179,7 +179,7 @@ def test_a_spinning_curved_shell_stays_unstrained(tmp_path, drilling, bound):
     sim = simulation(load_scene(write_scene(tmp_path, CAP + f'[element]\ndrilling = "{drilling}"\n')), tmp_path)
     sim.hourglass_limit = 0      # the strain energy is round-off: measure, do not stop
     s = sim.state
-    steps = int(0.25 * 2 * np.pi / 0.1 / s.dt[None])
+    steps = int(0.25 * 2 * np.pi / 0.1 / s.step.dt[None])
     done = sim.stepper.advance(steps)
     sim.check_status()
     e = sim.energies()
@@ -262,23 +262,23 @@ def ring_strip(tmp_path, nx, periods=10.0, chunk=40):
     velocity, omega = np.zeros_like(x), np.zeros_like(x)
     velocity[:, 2] = amplitude * np.sin(k * x[:, 0])
     omega[:, 1] = -amplitude * k * np.cos(k * x[:, 0])        # omega = (dw'/dy, -dw'/dx, 0)
-    s.velocity.from_numpy(velocity)
-    s.grid_velocity.from_numpy(velocity)
-    s.omega.from_numpy(omega)
+    s.put("nodes.velocity", velocity)
+    s.put("nodes.grid_velocity", velocity)
+    s.put("nodes.omega", omega)
     sim.initial_kinetic = sim.kinetic_energy()
     mid = np.nonzero(np.abs(x[:, 0] - 0.5 * L) < 1e-9)[0]
     step = lambda: sim.stepper.advance(1)                     # noqa: E731
     energy0 = leapfrog_energy(sim, step)
     times, deflection, drift, balance = [], [], 0.0, 0.0
-    while s.time[None] < periods * 2 * np.pi / scheme + 0.25 * chunk * s.dt[None]:
+    while s.step.time[None] < periods * 2 * np.pi / scheme + 0.25 * chunk * s.step.dt[None]:
         assert sim.stepper.advance(chunk - 1) == chunk - 1
         sim.check_status()
         drift = max(drift, abs(leapfrog_energy(sim, step) - energy0) / energy0)
         balance = max(balance, abs(sim.energies()["balance_error"]) / sim.initial_kinetic)
-        times.append(s.time[None])
-        deflection.append(s.position.to_numpy()[mid, 2].mean())
+        times.append(s.step.time[None])
+        deflection.append(s.fetch("nodes.position")[mid, 2].mean())
     return (np.array(times), np.array(deflection), euler_bernoulli, scheme, physical, drift, balance,
-            s.dt[None], int(s.step[None]))
+            s.step.dt[None], int(s.step.step[None]))
 
 
 def test_free_vibration_period_and_energy(tmp_path):

@@ -110,7 +110,9 @@ def _check_supported(scene, model) -> None:
     problems = []
     if scene.solve.kind != "static":
         problems.append(f"[solve].kind is '{scene.solve.kind}', only 'static' is mapped")
-    if scene.material.model != "elastic":
+    if scene.material is None:
+        problems.append("the scene has several parts ([[part]]): only one [material] and [section] are mapped")
+    elif scene.material.model != "elastic":
         problems.append(f"[material].model is '{scene.material.model}', only 'elastic' is mapped")
     if scene.rigid_bodies or scene.walls or scene.contact is not None:
         problems.append("rigid bodies, walls and contact are not mapped")
@@ -145,7 +147,7 @@ def _build(KM, SMA, scene, model, linear_solver: str, rel_tol: float, abs_tol: f
             (KM.ROTATION_Y, KM.REACTION_MOMENT_Y), (KM.ROTATION_Z, KM.REACTION_MOMENT_Z)]
     for var, reaction in dofs:
         KM.VariableUtils().AddDof(var, reaction, mp)
-    for e, quad in enumerate(model.quads):
+    for e, quad in enumerate(model.elements):
         mp.CreateNewElement(ELEMENT, e + 1, [int(c) + 1 for c in quad], prop)
 
     # Dirichlet: bit d of fix_mask = DOF d of (ux uy uz rx ry rz); prescribed value 0.
@@ -244,7 +246,7 @@ def solve_static(scene, mesh=None, model=None, *, load_steps: int | None = None,
     return {"probes": np.array(rows, dtype=float).reshape(len(rows), -1), "header": probe_header(model),
             "load_factors": np.array(lambdas), "solve_seconds": solve_seconds, "setup_seconds": setup_seconds,
             "newton_iterations": int(sum(iterations)), "iterations_per_step": iterations, "element": ELEMENT,
-            "linear_solver": linear_solver, "nodes": int(len(model.points)), "elements": int(len(model.quads)),
+            "linear_solver": linear_solver, "nodes": int(len(model.points)), "elements": int(len(model.elements)),
             "kratos_version": version()}
 
 

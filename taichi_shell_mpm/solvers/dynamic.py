@@ -21,7 +21,7 @@ def events_of(sim: Simulation) -> tuple[list[float], set[float]]:
 
 def run_dynamic(sim: Simulation, control: RunControl | None = None) -> dict:
     control = control or RunControl()
-    scene, s, stepper = sim.scene, sim.state, sim.stepper
+    scene, s, stepper = sim.scene, sim.state.step, sim.stepper
     out, end = scene.output, scene.solve.end_time
     every = out.every_steps
     chunk = every if every > 0 else batch_size(sim, 5_000)

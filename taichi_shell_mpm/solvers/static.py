@@ -27,7 +27,7 @@ BATCH_ELEMENT_STEPS = 1_000_000   # one batch ~ 1 s at most, so a Ctrl-C is answ
 
 def load_norm(sim: Simulation, lam: float) -> float:
     f = sim.model.load_force
-    m = sim.model.load_moment / sim.cfg.length_ref
+    m = sim.model.load_moment / sim.model.mean_edge
     return lam * float(np.sqrt(np.sum(f * f) + np.sum(m * m)))
 
 
@@ -35,12 +35,12 @@ def batch_size(sim: Simulation, cap: int) -> int:
     """Steps per batch: `cap` for small scenes, fewer for large ones (deterministic)."""
     if not sim.stepper.batched:
         return min(cap, 200)
-    return int(max(10, min(cap, BATCH_ELEMENT_STEPS // max(1, len(sim.model.quads)))))
+    return int(max(10, min(cap, BATCH_ELEMENT_STEPS // max(1, len(sim.model.elements)))))
 
 
 def run_static(sim: Simulation, control: RunControl | None = None) -> dict:
     control = control or RunControl()
-    scene, s, stepper = sim.scene, sim.state, sim.stepper
+    scene, s, stepper = sim.scene, sim.state.step, sim.stepper
     n_levels = scene.solve.load_steps
     budget = scene.solve.max_steps_per_load_step
     chunk = batch_size(sim, 20_000)

@@ -45,41 +45,40 @@ FIRE_DELAY = 5
 
 @ti.data_oriented
 class Stepper:
-    def __init__(self, state: State, cfg, material, model):
+    def __init__(self, state: State, cfg, model):
         self.s = state
-        self.cfg = cfg
+        self.cfg = cfg                  # config.Features
         self.batched = cfg.serial
-        mass_ref = float(model.node_mass.mean())
-        self.energy = EnergyLedger(state, cfg, material.plastic)
+        self.energy = EnergyLedger(state, cfg, cfg.plastic)
         self.bodies = RigidBodies(state, cfg, self.energy)
         self.nodes = NodeUpdate(state, cfg, self.bodies, self.energy)
-        self.contact = SelfContact(state, cfg, model) if cfg.contact is not None else None
-        self.shell = ShellElement(state, cfg, material, self.energy)
+        self.contact = SelfContact(state, cfg, model) if cfg.contact else None
+        self.shell = ShellElement(state, cfg, self.energy)
         self.timestep = TimeStep(state, cfg)
         self.acc = Accumulator(cfg.serial)
         self.mpm = cfg.method == "mpm"
         if self.mpm:
-            self.grid = GridUpdate(state, cfg, 1e-12 * mass_ref)
-            self.mapping = Mapping(state, cfg, self.nodes, self.grid, 1e-12 * mass_ref)
+            self.grid = GridUpdate(state, cfg)
+            self.mapping = Mapping(state, cfg, self.nodes, self.grid)
 
     # ------------------------------------------------------------------ one step
     @ti.func
     def begin(self):
-        self.s.kinetic[None] = 0.0
-        self.s.stagger_energy[None] = 0.0
-        self.s.residual_sq[None] = 0.0
-        self.s.max_speed[None] = 0.0
-        self.s.reaction[None] = ti.Vector([0.0, 0.0, 0.0])
-        if ti.static(self.cfg.has_contact):
-            self.s.contact_pairs[None] = 0
-            self.s.velocity_high[None] = ti.Vector([-1e300, -1e300, -1e300])
-            self.s.velocity_low[None] = ti.Vector([1e300, 1e300, 1e300])
+        self.s.step.kinetic[None] = 0.0
+        self.s.step.stagger_energy[None] = 0.0
+        self.s.step.residual_sq[None] = 0.0
+        self.s.step.max_speed[None] = 0.0
+        self.s.step.reaction[None] = ti.Vector([0.0, 0.0, 0.0])
+        if ti.static(self.cfg.contact):
+            self.s.contact.pairs[None] = 0
+            self.s.contact.velocity_high[None] = ti.Vector([-1e300, -1e300, -1e300])
+            self.s.contact.velocity_low[None] = ti.Vector([1e300, 1e300, 1e300])
             self.contact.forces()
 
     @ti.func
     def velocity_update(self):
         """S2-S6: new nodal velocities, positions and rotations (grid or direct FE)."""
-        if ti.static(len(self.cfg.bodies) > 0):
+        if ti.static(self.cfg.bodies):
             self.bodies.update()
         if ti.static(self.mpm):
             self.mapping.particles_to_grid()
@@ -92,38 +91,38 @@ class Stepper:
     def end(self):
         """S8: time, dynamic-relaxation reset and convergence (static), next dt, and whether
         the contact candidate lists are due for a rebuild."""
-        if ti.static(self.cfg.has_contact):
+        if ti.static(self.cfg.contact):
             self.contact.check_skin()
-        shell_kinetic = self.s.kinetic[None]     # the nodes' (the bodies' is added below)
-        if ti.static(len(self.cfg.bodies) > 0):
+        shell_kinetic = self.s.step.kinetic[None]     # the nodes' (the bodies' is added below)
+        if ti.static(self.cfg.bodies):
             self.bodies.apply_wall_impulses()
-            self.s.kinetic[None] += self.bodies.kinetic_energy()
+            self.bodies.add_kinetic_energy()
         self.energy.guard(shell_kinetic)         # before a relaxation reset books the KE as damped
-        self.s.reaction_impulse[None] += self.s.dt[None] * self.s.reaction[None]
-        self.s.time[None] += self.s.dt[None]
-        self.s.step[None] += 1
-        self.s.velocity_keep[None] = 1.0
-        self.s.restart_factor[None] = 1.0
+        self.s.step.reaction_impulse[None] += self.s.step.dt[None] * self.s.step.reaction[None]
+        self.s.step.time[None] += self.s.step.dt[None]
+        self.s.step.step[None] += 1
+        self.s.step.velocity_keep[None] = 1.0
+        self.s.step.restart_factor[None] = 1.0
         if ti.static(self.cfg.static):
-            if self.s.status[None] == STATUS_OK and self.s.residual_sq[None] <= self.s.residual_target_sq[None] \
-                    and self.s.kinetic[None] <= KINETIC_CONVERGED * self.s.external_work[None]:
-                self.s.status[None] = STATUS_CONVERGED
+            if self.s.step.status[None] == STATUS_OK and self.s.step.residual_sq[None] <= self.s.step.residual_target_sq[None] \
+                    and self.s.step.kinetic[None] <= KINETIC_CONVERGED * self.s.step.external_work[None]:
+                self.s.step.status[None] = STATUS_CONVERGED
             if ti.static(self.cfg.fire):
                 self.fire()
-            elif self.s.kinetic[None] < self.s.kinetic_prev[None]:
+            elif self.s.step.kinetic[None] < self.s.step.kinetic_prev[None]:
                 self.restart_from_rest()         # kinetic damping: a KE peak has passed
             else:
-                self.s.kinetic_prev[None] = self.s.kinetic[None]
+                self.s.step.kinetic_prev[None] = self.s.step.kinetic[None]
         self.timestep.next_step()
 
     @ti.func
     def restart_from_rest(self):
         """Dynamic relaxation reset (method.md 6.2): drop the velocities and restart from rest
         with the central-difference half step; the kinetic energy goes to damped_energy."""
-        self.s.damped_energy[None] += self.s.kinetic[None]
-        self.s.kinetic_prev[None] = 0.0
-        self.s.velocity_keep[None] = 0.0
-        self.s.restart_factor[None] = 0.5
+        self.s.step.damped_energy[None] += self.s.step.kinetic[None]
+        self.s.step.kinetic_prev[None] = 0.0
+        self.s.step.velocity_keep[None] = 0.0
+        self.s.step.restart_factor[None] = 0.5
 
     @ti.func
     def fire(self):
@@ -134,29 +133,29 @@ class Stepper:
         v <- (1 - alpha) v + alpha |v|_M / |F|_M^-1 M^-1 F (mass-weighted norms, rotations
         with their inertia), and after FIRE_DELAY uphill steps alpha shrinks by
         FIRE_ALPHA_SHRINK per step."""
-        self.s.fire_power[None] = 0.0
-        self.s.fire_speed_sq[None] = 0.0
-        self.s.fire_force_sq[None] = 0.0
-        for c in range(self.s.n_nodes):
+        self.s.step.fire_power[None] = 0.0
+        self.s.step.fire_speed_sq[None] = 0.0
+        self.s.step.fire_force_sq[None] = 0.0
+        for c in range(self.s.nodes.count[None]):
             if not self.nodes.is_prescribed(c):
                 force, torque = self.nodes.residual_force(c), self.nodes.residual_torque(c)
-                v, w = self.s.grid_velocity[c], self.s.omega[c]
-                m, inertia = self.s.corner_mass[c], self.s.corner_inertia[c]
-                self.acc.total(self.s.fire_power, force.dot(v) + torque.dot(w))
-                self.acc.total(self.s.fire_speed_sq, m * v.norm_sqr() + inertia * w.norm_sqr())
-                self.acc.total(self.s.fire_force_sq, force.norm_sqr() / m + torque.norm_sqr() / inertia)
-        if self.s.fire_power[None] > 0.0:
-            self.s.fire_uphill[None] += 1
-            if self.s.fire_uphill[None] > FIRE_DELAY:
-                self.s.fire_alpha[None] *= FIRE_ALPHA_SHRINK
-            alpha = self.s.fire_alpha[None]
-            self.s.velocity_keep[None] = 1.0 - alpha
-            self.s.fire_mix[None] = alpha * ti.sqrt(self.s.fire_speed_sq[None] / ti.max(self.s.fire_force_sq[None], 1e-300))
+                v, w = self.s.nodes.grid_velocity[c], self.s.nodes.omega[c]
+                m, inertia = self.s.nodes.mass[c], self.s.nodes.inertia[c]
+                self.acc.total(self.s.step.fire_power, force.dot(v) + torque.dot(w))
+                self.acc.total(self.s.step.fire_speed_sq, m * v.norm_sqr() + inertia * w.norm_sqr())
+                self.acc.total(self.s.step.fire_force_sq, force.norm_sqr() / m + torque.norm_sqr() / inertia)
+        if self.s.step.fire_power[None] > 0.0:
+            self.s.step.fire_uphill[None] += 1
+            if self.s.step.fire_uphill[None] > FIRE_DELAY:
+                self.s.step.fire_alpha[None] *= FIRE_ALPHA_SHRINK
+            alpha = self.s.step.fire_alpha[None]
+            self.s.step.velocity_keep[None] = 1.0 - alpha
+            self.s.step.fire_mix[None] = alpha * ti.sqrt(self.s.step.fire_speed_sq[None] / ti.max(self.s.step.fire_force_sq[None], 1e-300))
         else:
             self.restart_from_rest()
-            self.s.fire_uphill[None] = 0
-            self.s.fire_alpha[None] = FIRE_ALPHA_START
-            self.s.fire_mix[None] = 0.0
+            self.s.step.fire_uphill[None] = 0
+            self.s.step.fire_alpha[None] = FIRE_ALPHA_START
+            self.s.step.fire_mix[None] = 0.0
 
     @ti.func
     def one_step(self):
@@ -170,7 +169,7 @@ class Stepper:
     def advance_batch(self, max_steps: ti.i32) -> ti.i32:
         """Up to max_steps steps in one launch; stops early on a status or the time limit."""
         done = 0
-        while done < max_steps and self.s.status[None] == STATUS_OK and self.s.dt[None] > 0.0:
+        while done < max_steps and self.s.step.status[None] == STATUS_OK and self.s.step.dt[None] > 0.0:
             self.one_step()
             done += 1
         return done
@@ -181,10 +180,10 @@ class Stepper:
         1, plus 1 when the contact candidate lists are due for a rebuild."""
         self.one_step()
         go = 0
-        if self.s.status[None] == STATUS_OK and self.s.dt[None] > 0.0:
+        if self.s.step.status[None] == STATUS_OK and self.s.step.dt[None] > 0.0:
             go = 1
-            if ti.static(self.cfg.has_contact):
-                go += self.s.contact_rebuild[None]
+            if ti.static(self.cfg.contact):
+                go += self.s.contact.rebuild[None]
         return go
 
     @ti.kernel
@@ -197,8 +196,8 @@ class Stepper:
         if self.batched:
             return int(self.advance_batch(max_steps))
         done = 0
-        if max_steps > 0 and self.s.status[None] == STATUS_OK and self.s.dt[None] > 0.0:
-            rebuild = self.contact is not None and self.s.contact_rebuild[None] == 1
+        if max_steps > 0 and self.s.step.status[None] == STATUS_OK and self.s.step.dt[None] > 0.0:
+            rebuild = self.contact is not None and self.s.contact.rebuild[None] == 1
             while done < max_steps:
                 if rebuild:
                     self.rebuild_contact()

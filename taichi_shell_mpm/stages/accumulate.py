@@ -81,28 +81,26 @@ class CornerLoads:
     @ti.func
     def add(self, e, a, node, force, moment, normal, area):
         if ti.static(self.serial):
-            self.s.force_int[node] = self.s.force_int[node] + force
-            self.s.moment_int[node] = self.s.moment_int[node] + moment
+            self.s.nodes.force_int[node] = self.s.nodes.force_int[node] + force
+            self.s.nodes.moment_int[node] = self.s.nodes.moment_int[node] + moment
             if ti.static(self.normals):
-                self.s.normal_sum[node] = self.s.normal_sum[node] + normal
-                self.s.area_sum[node] = self.s.area_sum[node] + area
-        elif ti.static(self.normals):
-            self.s.corner_loads[e, a] = ti.Vector([force[0], force[1], force[2], moment[0], moment[1], moment[2],
-                                                   normal[0], normal[1], normal[2], area])
-        else:
-            self.s.corner_loads[e, a] = ti.Vector([force[0], force[1], force[2], moment[0], moment[1], moment[2]])
+                self.s.nodes.normal_sum[node] = self.s.nodes.normal_sum[node] + normal
+                self.s.nodes.area_sum[node] = self.s.nodes.area_sum[node] + area
+        else:       # one slot layout (state.py); the normal sums stay 0 without the projection
+            self.s.elements.corner_loads[e, a] = ti.Vector([force[0], force[1], force[2], moment[0], moment[1], moment[2],
+                                                            normal[0], normal[1], normal[2], area])
 
     @ti.func
     def gather(self):
         """Parallel launches: the node sums of the slots written by :meth:`add` (one loop)."""
         if ti.static(not self.serial):
-            for c in range(self.s.n_nodes):
-                total = ti.Vector.zero(ti.f64, ti.static(10 if self.normals else 6))
-                for i in range(self.s.node_slot_start[c], self.s.node_slot_start[c + 1]):
-                    slot = self.s.node_slots[i]
-                    total += self.s.corner_loads[slot // 4, slot % 4]
-                self.s.force_int[c] = ti.Vector([total[0], total[1], total[2]])
-                self.s.moment_int[c] = ti.Vector([total[3], total[4], total[5]])
+            for c in range(self.s.nodes.count[None]):
+                total = ti.Vector.zero(ti.f64, 10)
+                for i in range(self.s.elements.node_slot_start[c], self.s.elements.node_slot_start[c + 1]):
+                    slot = self.s.elements.node_slots[i]
+                    total += self.s.elements.corner_loads[slot // 4, slot % 4]
+                self.s.nodes.force_int[c] = ti.Vector([total[0], total[1], total[2]])
+                self.s.nodes.moment_int[c] = ti.Vector([total[3], total[4], total[5]])
                 if ti.static(self.normals):
-                    self.s.normal_sum[c] = ti.Vector([total[6], total[7], total[8]])
-                    self.s.area_sum[c] = total[9]
+                    self.s.nodes.normal_sum[c] = ti.Vector([total[6], total[7], total[8]])
+                    self.s.nodes.area_sum[c] = total[9]

@@ -19,75 +19,77 @@ from .timestep import impulse_time
 
 @ti.data_oriented
 class RigidBodies:
+    """Bodies and walls are run-time tables (state.bodies); Features.bodies / walls decide
+    whether their code is compiled."""
+
     def __init__(self, state, cfg, energy):
         self.s = state
         self.cfg = cfg
         self.energy = energy            # energy.EnergyLedger
         self.acc = Accumulator(cfg.serial)
-        self.half_thickness = 0.5 * cfg.thickness
         # threads launch: wall impulses summed in node order instead of by atomics (serial
         # and gpu launches add them directly)
-        self.impulses_in_node_order = cfg.launch == "threads" and any(w[2] >= 0 for w in cfg.walls)
+        self.impulses_in_node_order = cfg.launch == "threads" and cfg.moving_walls
 
     @ti.func
     def update(self):
         """V^{n+1/2} = V^{n-1/2} + dt F / M_tot with F = sum over slaves of (f_ext - f_int + f_con).dir."""
-        for b, body in ti.static(enumerate(self.cfg.bodies)):
-            d = ti.Vector(body[2], dt=ti.f64)
+        for b in range(self.s.bodies.count[None]):
+            d = self.s.bodies.direction[b]
             force = 0.0
-            for i in range(body[3], body[3] + body[4]):
-                c = self.s.slave_nodes[i]
-                f = self.s.load_factor[None] * self.s.load_force[c] - self.s.force_int[c]
-                if ti.static(self.cfg.has_contact):
-                    f += self.s.force_contact[c]
+            for i in range(self.s.bodies.first_slave[b], self.s.bodies.first_slave[b] + self.s.bodies.slave_count[b]):
+                c = self.s.bodies.slave_nodes[i]
+                f = self.s.step.load_factor[None] * self.s.nodes.load_force[c] - self.s.nodes.force_int[c]
+                if ti.static(self.cfg.contact):
+                    f += self.s.contact.force[c]
                 force += f.dot(d)
-            self.s.body_force[b] = force
+            self.s.bodies.force[b] = force
             if ti.static(self.cfg.static):      # the body's own equilibrium (its slaves are not free nodes)
-                self.s.residual_sq[None] += force * force
-            self.s.body_velocity_start[b] = self.s.velocity_keep[None] * self.s.body_velocity[b]
-            self.s.body_velocity[b] = self.s.velocity_keep[None] * self.s.body_velocity[b] + \
-                impulse_time(self.s) * force / body[0]
-            self.s.body_displacement[b] += self.s.dt[None] * self.s.body_velocity[b]
+                self.s.step.residual_sq[None] += force * force
+            self.s.bodies.velocity_start[b] = self.s.step.velocity_keep[None] * self.s.bodies.velocity[b]
+            self.s.bodies.velocity[b] = self.s.step.velocity_keep[None] * self.s.bodies.velocity[b] + impulse_time(self.s.step) * force / self.s.bodies.total_mass[b]
+            self.s.bodies.displacement[b] += self.s.step.dt[None] * self.s.bodies.velocity[b]
 
     @ti.func
     def slave_velocity(self, c):
-        v = ti.Vector([0.0, 0.0, 0.0])
-        for b, body in ti.static(enumerate(self.cfg.bodies)):
-            if self.s.node_body[c] == b:
-                v = self.s.body_velocity[b] * ti.Vector(body[2], dt=ti.f64)
-        return v
+        b = self.s.nodes.body[c]
+        return self.s.bodies.velocity[b] * self.s.bodies.direction[b]
 
     @ti.func
     def walls(self, c, v):
-        """Correct the velocity of free node c so that it ends the step outside every wall."""
+        """Correct the velocity of free node c so that it ends the step outside every wall
+        (its mid-surface at least half the thickness of its thickest element away)."""
         out = v
-        for w in ti.static(self.cfg.walls):
-            n = ti.Vector(w[1], dt=ti.f64)
-            p = ti.Vector(w[0], dt=ti.f64)
+        half = 0.5 * self.s.nodes.thickness[c]
+        dt = self.s.step.dt[None]
+        for k in range(self.s.bodies.wall_count[None]):
+            n = self.s.bodies.wall_normal[k]
+            p = self.s.bodies.wall_point[k]
+            b = self.s.bodies.wall_body[k]
             wall_speed = 0.0
-            if ti.static(w[2] >= 0):
-                d = ti.Vector(self.cfg.bodies[w[2]][2], dt=ti.f64)
-                p += self.s.body_displacement[w[2]] * d          # at t^{n+1}
-                wall_speed = self.s.body_velocity[w[2]] * d.dot(n)
-            dt = self.s.dt[None]
-            gap = (self.s.position[c] + dt * out - p).dot(n) - self.half_thickness
+            if b >= 0:
+                d = self.s.bodies.direction[b]
+                p += self.s.bodies.displacement[b] * d          # at t^{n+1}
+                wall_speed = self.s.bodies.velocity[b] * d.dot(n)
+            gap = (self.s.nodes.position[c] + dt * out - p).dot(n) - half
             if gap < 0.0 and dt > 0.0:
                 # no further approach than the wall moves, plus a bounded push-out of a node
                 # already inside (at most 1% of the half thickness per step: an unbounded
                 # "land exactly" correction kicked folded nodes behind the moving wall)
-                push = ti.min((self.s.position[c] - p).dot(n) + dt * wall_speed - self.half_thickness, 0.0)   # at t^n
-                target = wall_speed + ti.min(-push, 0.01 * self.half_thickness) / dt
+                push = ti.min((self.s.nodes.position[c] - p).dot(n) + dt * wall_speed - half, 0.0)   # at t^n
+                target = wall_speed + ti.min(-push, 0.01 * half) / dt
                 dv = ti.max(0.0, target - out.dot(n))
                 out += dv * n
-                m = self.s.corner_mass[c]
-                if ti.static(w[2] >= 0):
-                    impulse = -m * dv * n.dot(ti.Vector(self.cfg.bodies[w[2]][2], dt=ti.f64))
-                    if ti.static(self.impulses_in_node_order):   # summed by apply_wall_impulses
-                        self.s.node_wall_impulse[c, w[2]] += impulse
-                    else:
-                        self.acc.add(self.s.body_impulse, w[2], impulse)
+                m = self.s.nodes.mass[c]
+                if b >= 0:
+                    if ti.static(self.cfg.moving_walls):
+                        impulse = -m * dv * n.dot(self.s.bodies.direction[b])
+                        if ti.static(self.impulses_in_node_order):   # summed by apply_wall_impulses
+                            self.s.bodies.node_wall_impulse[c, b] += impulse
+                        else:
+                            self.acc.add(self.s.bodies.impulse, b, impulse)
                 else:        # a fixed wall is a support: its force on the shell is reaction
-                    self.acc.total(self.s.reaction, (m * dv / dt) * n)
+                    self.acc.total(self.s.step.reaction, (m * dv / dt) * n)
         return out
 
     @ti.func
@@ -98,22 +100,21 @@ class RigidBodies:
         way, so a wall that only carries load books nothing)."""
         if ti.static(self.impulses_in_node_order):         # no atomics, the serial sum's bits
             ti.loop_config(serialize=True)
-            for c in range(self.s.n_nodes):
-                for b in ti.static(range(len(self.cfg.bodies))):
-                    self.s.body_impulse[b] += self.s.node_wall_impulse[c, b]
-                    self.s.node_wall_impulse[c, b] = 0.0
-        for b, body in ti.static(enumerate(self.cfg.bodies)):
-            impulse = self.s.body_impulse[b]
-            self.s.body_velocity[b] += impulse / body[0]
-            v_mid = 0.5 * (self.s.body_velocity_start[b] + self.s.body_velocity[b])
+            for c in range(self.s.nodes.count[None]):
+                for b in range(self.s.bodies.count[None]):
+                    self.s.bodies.impulse[b] += self.s.bodies.node_wall_impulse[c, b]
+                    self.s.bodies.node_wall_impulse[c, b] = 0.0
+        ti.loop_config(serialize=True)
+        for b in range(self.s.bodies.count[None]):
+            impulse = self.s.bodies.impulse[b]
+            self.s.bodies.velocity[b] += impulse / self.s.bodies.total_mass[b]
+            v_mid = 0.5 * (self.s.bodies.velocity_start[b] + self.s.bodies.velocity[b])
             self.energy.body(b, -impulse * v_mid)
-            self.s.body_impulse[b] = 0.0
+            self.s.bodies.impulse[b] = 0.0
 
     @ti.func
-    def kinetic_energy(self):
-        """KE of the bodies, slave nodes and added mass together (1/2 M_tot V^2 with the
-        velocity after the wall impulses; the node update leaves the slaves out)."""
-        ke = 0.0
-        for b, body in ti.static(enumerate(self.cfg.bodies)):
-            ke += 0.5 * body[0] * self.s.body_velocity[b] ** 2
-        return ke
+    def add_kinetic_energy(self):
+        """Add the bodies' KE (slave nodes and added mass together: 1/2 M_tot V^2 with the
+        velocity after the wall impulses; the node update leaves the slaves out) to the step's."""
+        for b in range(self.s.bodies.count[None]):
+            self.s.step.kinetic[None] += 0.5 * self.s.bodies.total_mass[b] * self.s.bodies.velocity[b] ** 2

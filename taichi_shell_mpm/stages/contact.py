@@ -100,38 +100,29 @@ class SelfContact:
         self.cfg = cfg
         self.acc = Accumulator(cfg.serial)
         self.scatter_acc = Accumulator(not cfg.atomic_scatter)
-        spec = cfg.contact
-        self.t_c = cfg.contact_thickness
-        state.contact_skin[None] = skin_width(self.t_c, model.min_edge)
-        self.alpha = spec.stiffness
-        self.damping = spec.damping
-        self.friction = spec.friction
-        self.slip_eps = 1e-6 * cfg.wave_speed
-        self.n_elements = len(model.quads)
-        self.table = state.hash_count.shape[0]           # power of 2
-        self.capacity = state.candidate_elements.shape[0]
+        state.contact.skin[None] = skin_width(model.parameters.contact_thickness, model.min_edge)
 
     @ti.func
     def hash(self, cell):
         h = (cell[0] * 73856093) ^ (cell[1] * 19349663) ^ (cell[2] * 83492791)
-        return h & (self.table - 1)
+        return h & (self.s.contact.hash_size[None] - 1)
 
     @ti.func
     def cell_of(self, x):
-        return ti.floor(x / self.s.hash_cell[None], ti.i32)
+        return ti.floor(x / self.s.contact.hash_cell[None], ti.i32)
 
     @ti.func
     def centroid(self, e):
-        c = self.s.corners[e]
-        return 0.25 * (self.s.position[c[0]] + self.s.position[c[1]] + self.s.position[c[2]] + self.s.position[c[3]])
+        c = self.s.elements.corners[e]
+        return 0.25 * (self.s.nodes.position[c[0]] + self.s.nodes.position[c[1]] + self.s.nodes.position[c[2]] + self.s.nodes.position[c[3]])
 
     @ti.func
     def excluded(self, c, e):
         """True if element e touches the one-ring of node c (its own or adjacent elements)."""
-        corners = self.s.corners[e]
+        corners = self.s.elements.corners[e]
         out = False
-        for i in range(self.s.neighbor_start[c], self.s.neighbor_start[c + 1]):
-            q = self.s.neighbor_nodes[i]
+        for i in range(self.s.contact.neighbor_start[c], self.s.contact.neighbor_start[c + 1]):
+            q = self.s.contact.neighbor_nodes[i]
             for a in ti.static(range(4)):
                 if corners[a] == q:
                     out = True
@@ -140,73 +131,73 @@ class SelfContact:
     @ti.func
     def reach(self):
         """t_c + s: how close an element must be at a build to enter a node's list."""
-        return self.t_c + self.s.contact_skin[None]
+        return self.s.contact.thickness[None] + self.s.contact.skin[None]
 
     @ti.func
     def check_skin(self):
         """Ask for a rebuild once some node has moved more than skin/2 since the last one."""
-        for c in range(self.s.n_nodes):
-            moved = self.s.position[c] - self.s.contact_build_position[c]
-            if moved.norm_sqr() > (0.5 * self.s.contact_skin[None]) ** 2:
-                self.s.contact_rebuild[None] = 1
+        for c in range(self.s.nodes.count[None]):
+            moved = self.s.nodes.position[c] - self.s.contact.build_position[c]
+            if moved.norm_sqr() > (0.5 * self.s.contact.skin[None]) ** 2:
+                self.s.contact.rebuild[None] = 1
 
     @ti.func
     def build_hash(self):
         """Counting sort of element centroids into hash slots (when a rebuild is due); the
         cell size, max R_e + t_c + skin, follows the current configuration."""
-        rebuild = self.s.contact_rebuild[None]
+        rebuild = self.s.contact.rebuild[None]
         if rebuild:
-            self.s.hash_cell[None] = 0.0
-        for e in range(self.n_elements):
+            self.s.contact.hash_cell[None] = 0.0
+        for e in range(self.s.elements.count[None]):
             if rebuild:
                 centre = self.centroid(e)
                 radius = 0.0
-                c = self.s.corners[e]
+                c = self.s.elements.corners[e]
                 for a in ti.static(range(4)):
-                    radius = ti.max(radius, (self.s.position[c[a]] - centre).norm())
-                self.s.element_radius[e] = radius
-                self.acc.maximum(self.s.hash_cell, radius)
+                    radius = ti.max(radius, (self.s.nodes.position[c[a]] - centre).norm())
+                self.s.contact.element_radius[e] = radius
+                self.acc.maximum(self.s.contact.hash_cell, radius)
         if rebuild:
-            self.s.hash_cell[None] += self.reach()
-        for h in range(self.table):
+            self.s.contact.hash_cell[None] += self.reach()
+        for h in range(self.s.contact.hash_size[None]):
             if rebuild:
-                self.s.hash_count[h] = 0
-        for e in range(self.n_elements):
+                self.s.contact.hash_count[h] = 0
+        for e in range(self.s.elements.count[None]):
             if rebuild:
                 slot = self.hash(self.cell_of(self.centroid(e)))
-                self.s.element_slot[e] = slot
-                self.acc.add(self.s.hash_count, slot, 1)
+                self.s.contact.element_slot[e] = slot
+                self.acc.add(self.s.contact.hash_count, slot, 1)
         ti.loop_config(serialize=True)
-        for h in range(self.table):          # hash_start[0] stays 0
+        for h in range(self.s.contact.hash_size[None]):          # hash_start[0] stays 0
             if rebuild:
-                self.s.hash_start[h + 1] = self.s.hash_start[h] + self.s.hash_count[h]
-                self.s.hash_count[h] = 0
-        for e in range(self.n_elements):
+                self.s.contact.hash_start[h + 1] = self.s.contact.hash_start[h] + self.s.contact.hash_count[h]
+                self.s.contact.hash_count[h] = 0
+        for e in range(self.s.elements.count[None]):
             if rebuild:
-                slot = self.s.element_slot[e]
+                slot = self.s.contact.element_slot[e]
                 k = 0
                 if ti.static(self.cfg.serial):
-                    k = self.s.hash_count[slot]
-                    self.s.hash_count[slot] = k + 1
+                    k = self.s.contact.hash_count[slot]
+                    self.s.contact.hash_count[slot] = k + 1
                 else:
-                    k = ti.atomic_add(self.s.hash_count[slot], 1)
-                self.s.hash_elements[self.s.hash_start[slot] + k] = e
+                    k = ti.atomic_add(self.s.contact.hash_count[slot], 1)
+                self.s.contact.hash_elements[self.s.contact.hash_start[slot] + k] = e
 
     @ti.func
     def scan_neighbours(self, c, store: ti.template()):
         """Elements that may come within t_c of node c before the next rebuild; counted, or
         written from candidate_start[c] on when `store`."""
-        x = self.s.position[c]
+        x = self.s.nodes.position[c]
         home = self.cell_of(x)
         found = 0
         for off in ti.grouped(ti.ndrange((-1, 2), (-1, 2), (-1, 2))):
             slot = self.hash(home + off)
-            for i in range(self.s.hash_start[slot], self.s.hash_start[slot + 1]):
-                e = self.s.hash_elements[i]
-                if (x - self.centroid(e)).norm() <= self.s.element_radius[e] + self.reach():
+            for i in range(self.s.contact.hash_start[slot], self.s.contact.hash_start[slot + 1]):
+                e = self.s.contact.hash_elements[i]
+                if (x - self.centroid(e)).norm() <= self.s.contact.element_radius[e] + self.reach():
                     if not self.excluded(c, e):
                         if ti.static(store):
-                            self.s.candidate_elements[self.s.candidate_start[c] + found] = e
+                            self.s.contact.candidate_elements[self.s.contact.candidate_start[c] + found] = e
                         found += 1
         return found
 
@@ -214,27 +205,28 @@ class SelfContact:
     def build_candidates(self):
         """Rebuild the candidate lists (when asked): hash, count, prefix sum, fill."""
         self.build_hash()
-        rebuild = self.s.contact_rebuild[None]
-        for c in range(self.s.n_nodes):
+        rebuild = self.s.contact.rebuild[None]
+        for c in range(self.s.nodes.count[None]):
             if rebuild:
-                self.s.candidate_start[c + 1] = self.scan_neighbours(c, False)
+                self.s.contact.candidate_start[c + 1] = self.scan_neighbours(c, False)
         ti.loop_config(serialize=True)
-        for c in range(self.s.n_nodes):      # candidate_start[0] stays 0
+        for c in range(self.s.nodes.count[None]):      # candidate_start[0] stays 0
             if rebuild:
-                self.s.candidate_start[c + 1] += self.s.candidate_start[c]
+                self.s.contact.candidate_start[c + 1] += self.s.contact.candidate_start[c]
         full = 0
-        if rebuild and self.s.candidate_start[self.s.n_nodes] > self.capacity:
+        n = self.s.nodes.count[None]
+        if rebuild and self.s.contact.candidate_start[n] > self.s.contact.candidate_capacity[None]:
             full = 1
-            if self.s.status[None] == STATUS_OK:
-                self.s.status[None] = STATUS_CONTACT_FULL
-                self.s.status_index[None] = self.s.candidate_start[self.s.n_nodes]
-        for c in range(self.s.n_nodes):
+            if self.s.step.status[None] == STATUS_OK:
+                self.s.step.status[None] = STATUS_CONTACT_FULL
+                self.s.step.status_index[None] = self.s.contact.candidate_start[n]
+        for c in range(self.s.nodes.count[None]):
             if rebuild and not full:
                 self.scan_neighbours(c, True)
-                self.s.contact_build_position[c] = self.s.position[c]
+                self.s.contact.build_position[c] = self.s.nodes.position[c]
             if full:                         # empty lists: nothing past the capacity is read
-                self.s.candidate_start[c + 1] = 0
-        self.s.contact_rebuild[None] = 0
+                self.s.contact.candidate_start[c + 1] = 0
+        self.s.contact.rebuild[None] = 0
 
     @ti.func
     def forces(self):
@@ -244,36 +236,37 @@ class SelfContact:
         in node order (serial: no atomics, and the same sums on any number of threads)."""
         if ti.static(self.cfg.serial):
             self.build_candidates()
-        for c in range(self.s.n_nodes):
-            self.s.force_contact[c] = ti.Vector([0.0, 0.0, 0.0])
+        for c in range(self.s.nodes.count[None]):
+            self.s.contact.force[c] = ti.Vector([0.0, 0.0, 0.0])
             self.pair(c)
         if ti.static(not self.cfg.atomic_scatter):
             ti.loop_config(serialize=True)
-        for c in range(self.s.n_nodes):
-            e = self.s.contact_last_element[c]
+        for c in range(self.s.nodes.count[None]):
+            e = self.s.contact.last_element[c]
             if e >= 0:
-                corners = self.s.corners[e]
-                force = self.s.contact_pair_force[c]
-                w = self.s.contact_pair_weight[c]
-                self.scatter_acc.add(self.s.force_contact, c, force)
+                corners = self.s.elements.corners[e]
+                force = self.s.contact.pair_force[c]
+                w = self.s.contact.pair_weight[c]
+                self.scatter_acc.add(self.s.contact.force, c, force)
                 for a in ti.static(range(4)):
-                    self.scatter_acc.add(self.s.force_contact, corners[a], -w[a] * force)
+                    self.scatter_acc.add(self.s.contact.force, corners[a], -w[a] * force)
 
     @ti.func
     def pair(self, c):
         """Node c's closest segment within t_c among its candidates, and the penalty force
         (method.md 7.3) in contact_pair_force; contact_last_element[c] = -1 when none."""
-        dt = self.s.dt[None]
-        x = self.s.position[c]
-        best_dist = self.t_c
+        dt = self.s.step.dt[None]
+        x = self.s.nodes.position[c]
+        t_c = self.s.contact.thickness[None]
+        best_dist = t_c
         best_e = -1
         best_point = ti.Vector([0.0, 0.0, 0.0])
         best_w = ti.Vector([0.0, 0.0, 0.0, 0.0])
-        for i in range(self.s.candidate_start[c], self.s.candidate_start[c + 1]):
-            e = self.s.candidate_elements[i]
-            corners = self.s.corners[e]
-            p0, p1 = self.s.position[corners[0]], self.s.position[corners[1]]
-            p2, p3 = self.s.position[corners[2]], self.s.position[corners[3]]
+        for i in range(self.s.contact.candidate_start[c], self.s.contact.candidate_start[c + 1]):
+            e = self.s.contact.candidate_elements[i]
+            corners = self.s.elements.corners[e]
+            p0, p1 = self.s.nodes.position[corners[0]], self.s.nodes.position[corners[1]]
+            p2, p3 = self.s.nodes.position[corners[2]], self.s.nodes.position[corners[3]]
             qa, ba = closest_point_on_triangle(x, p0, p1, p2)
             qb, bb = closest_point_on_triangle(x, p0, p2, p3)
             da, db = (x - qa).norm(), (x - qb).norm()
@@ -284,41 +277,41 @@ class SelfContact:
                 best_dist, best_e, best_point = db, e, qb
                 best_w = ti.Vector([bb[0], 0.0, bb[1], bb[2]])
         if best_e >= 0 and best_dist > 0.0 and dt > 0.0:
-            corners = self.s.corners[best_e]
+            corners = self.s.elements.corners[best_e]
             normal = (x - best_point) / best_dist
-            gap = self.t_c - best_dist
-            facet = (self.s.position[corners[2]] - self.s.position[corners[0]]).cross(
-                self.s.position[corners[3]] - self.s.position[corners[1]]).normalized()
+            gap = t_c - best_dist
+            facet = (self.s.nodes.position[corners[2]] - self.s.nodes.position[corners[0]]).cross(
+                self.s.nodes.position[corners[3]] - self.s.nodes.position[corners[1]]).normalized()
             cosine = normal.dot(facet)
             side = 1.0 if cosine >= 0.0 else -1.0
-            if self.s.contact_last_element[c] == best_e and side != self.s.contact_last_side[c] \
+            if self.s.contact.last_element[c] == best_e and side != self.s.contact.last_side[c] \
                     and ti.abs(cosine) > CROSSING_COSINE:
                 # crossed the mid-surface since last step: push back to the side it came from
                 normal = -normal
-                gap = self.t_c + best_dist
+                gap = t_c + best_dist
                 side = -side
-            self.s.contact_last_element[c] = best_e
-            self.s.contact_last_side[c] = side
+            self.s.contact.last_element[c] = best_e
+            self.s.contact.last_side[c] = side
             m_seg = 0.0
             v_seg = ti.Vector([0.0, 0.0, 0.0])
             for a in ti.static(range(4)):
-                m_seg += best_w[a] * self.s.corner_mass[corners[a]]
-                v_seg += best_w[a] * self.s.grid_velocity[corners[a]]
-            m_node = self.s.corner_mass[c]
+                m_seg += best_w[a] * self.s.nodes.mass[corners[a]]
+                v_seg += best_w[a] * self.s.nodes.grid_velocity[corners[a]]
+            m_node = self.s.nodes.mass[c]
             m_eff = m_node * m_seg / (m_node + m_seg)
             # k from the stable step, not the current one: a step shortened to land on an
             # output time would otherwise make the spring arbitrarily stiff
-            k = self.alpha * m_eff / (self.s.dt_stable[None] ** 2)
-            v_rel = self.s.grid_velocity[c] - v_seg
+            k = self.s.contact.stiffness[None] * m_eff / (self.s.step.dt_stable[None] ** 2)
+            v_rel = self.s.nodes.grid_velocity[c] - v_seg
             closing = -v_rel.dot(normal)
-            f_n = ti.max(0.0, k * gap + self.damping * 2.0 * ti.sqrt(k * m_eff) * closing)
+            f_n = ti.max(0.0, k * gap + self.s.contact.damping[None] * 2.0 * ti.sqrt(k * m_eff) * closing)
             force = f_n * normal
-            if ti.static(self.friction > 0.0):
+            if ti.static(self.cfg.friction):
                 slip = v_rel - v_rel.dot(normal) * normal
-                force -= (self.friction * f_n / ti.sqrt(slip.norm_sqr() + self.slip_eps ** 2)) * slip
-            self.s.contact_pair_force[c] = force
-            self.s.contact_pair_weight[c] = best_w
-            self.acc.maximum(self.s.max_penetration, gap / self.t_c)
-            self.acc.total(self.s.contact_pairs, 1)
+                force -= (self.s.contact.friction[None] * f_n / ti.sqrt(slip.norm_sqr() + self.s.contact.slip_speed[None] ** 2)) * slip
+            self.s.contact.pair_force[c] = force
+            self.s.contact.pair_weight[c] = best_w
+            self.acc.maximum(self.s.contact.max_penetration, gap / t_c)
+            self.acc.total(self.s.contact.pairs, 1)
         else:
-            self.s.contact_last_element[c] = -1
+            self.s.contact.last_element[c] = -1

@@ -46,9 +46,10 @@ import taichi as ti
 
 @ti.data_oriented
 class DrillingSpring:
-    def __init__(self, E: float, thickness: float, alpha: float):
-        self.stiffness_factor = alpha * E * thickness ** 3 / 48.0    # alpha D / 4: x A beta -> k
-        self.thickness_sq_12 = thickness ** 2 / 12.0
+    """alpha D / 4 = alpha E t^3 / 48 is per element (state.sections.drilling_factor)."""
+
+    def __init__(self, state):
+        self.s = state
 
     @ti.func
     def rates(self, g1, g2, vx, vy, tz):
@@ -57,8 +58,9 @@ class DrillingSpring:
         return tz - spin
 
     @ti.func
-    def stiffness(self, area, beta):
-        return self.stiffness_factor * area * beta / (1.0 + beta * self.thickness_sq_12)
+    def stiffness(self, e, area, beta):
+        t = self.s.sections.thickness[e]
+        return self.s.sections.drilling_factor[e] * area * beta / (1.0 + beta * (t * t / 12.0))
 
     @ti.func
     def nodal_loads(self, moment, b1, b2):

@@ -22,51 +22,52 @@ from .timestep import impulse_time
 
 @ti.data_oriented
 class GridUpdate:
-    def __init__(self, state: State, cfg, mass_floor: float):
+    """The grid's geometry (h, lo, dims, strides, symmetry planes) and mass floor are run-time
+    data (state.grid, state.step.mass_floor)."""
+
+    def __init__(self, state: State, cfg):
         self.s = state
         self.cfg = cfg
-        self.strides = cfg.grid.strides
-        self.lo = cfg.grid.lo
-        self.planes = cfg.grid.planes
-        self.mass_floor = mass_floor
 
     @ti.func
     def velocities(self, g, idx):
         """(v-, v+, f, 1/m or 0 when massless) of grid node g at local index idx (method.md 2.4).
         Without a grid force field (see the module docstring) v- is v+ and f is zero."""
-        m = self.s.grid_mass[g]
-        p = self.s.grid_momentum[g]
+        m = self.s.grid.mass[g]
+        p = self.s.grid.momentum[g]
         f = ti.Vector([0.0, 0.0, 0.0])
         if ti.static(self.cfg.grid_force):
-            f = self.s.grid_force[g]
-        if ti.static(len(self.planes) > 0):
-            for axis, plane in ti.static(self.planes):
-                if idx[axis] + self.lo[axis] == plane:
-                    p[axis] = 0.0
-                    f[axis] = 0.0
+            f = self.s.grid.force[g]
+        if ti.static(self.cfg.grid_planes):
+            lo = self.s.grid.lo[None]
+            for q in range(self.s.grid.planes[None]):
+                for axis in ti.static(range(3)):
+                    if self.s.grid.plane_axis[q] == axis and idx[axis] + lo[axis] == self.s.grid.plane_index[q]:
+                        p[axis] = 0.0
+                        f[axis] = 0.0
         v_minus = ti.Vector([0.0, 0.0, 0.0])
         v_plus = ti.Vector([0.0, 0.0, 0.0])
         inv_mass = 0.0
-        if m > self.mass_floor:
+        if m > self.s.step.mass_floor[None]:
             inv_mass = 1.0 / m
             v_minus = inv_mass * p
             v_plus = v_minus
             if ti.static(self.cfg.grid_force):
-                v_plus += (impulse_time(self.s) * inv_mass) * f
+                v_plus += (impulse_time(self.s.step) * inv_mass) * f
         return v_minus, v_plus, f, inv_mass
 
     @ti.func
-    def corner_node(self, cell, i: ti.template(), j: ti.template(), k: ti.template()):
+    def corner_node(self, cell, strides, i: ti.template(), j: ti.template(), k: ti.template()):
         """Flat index of the cell corner (i, j, k) in {0,1}^3 of the stencil whose base node
         has flat index `cell` (GridGeometry.strides)."""
-        return cell + i * self.strides[0] + j * self.strides[1] + k * self.strides[2]
+        return cell + i * strides[0] + j * strides[1] + k * strides[2]
 
     @ti.func
-    def clear(self, cell):
+    def clear(self, cell, strides):
         """Zero the 8 grid nodes of the stencil whose base node has flat index `cell`."""
         for i, j, k in ti.static(ti.ndrange(2, 2, 2)):
-            g = self.corner_node(cell, i, j, k)
-            self.s.grid_mass[g] = 0.0
-            self.s.grid_momentum[g] = ti.Vector([0.0, 0.0, 0.0])
+            g = self.corner_node(cell, strides, i, j, k)
+            self.s.grid.mass[g] = 0.0
+            self.s.grid.momentum[g] = ti.Vector([0.0, 0.0, 0.0])
             if ti.static(self.cfg.grid_force):
-                self.s.grid_force[g] = ti.Vector([0.0, 0.0, 0.0])
+                self.s.grid.force[g] = ti.Vector([0.0, 0.0, 0.0])

@@ -34,12 +34,11 @@ HOURGLASS_SIGN = (1.0, -1.0, 1.0, -1.0)
 
 @ti.data_oriented
 class Hourglass:
-    def __init__(self, E: float, shear_modulus: float, thickness: float, shear_factor: float, r: float,
-                 kirchhoff_w: bool):
-        t = thickness
-        self.bending = r * E * t ** 3 / 192.0          # x A beta -> C1 (Q^B)
-        self.transverse = r * shear_factor * shear_modulus * t ** 3 / 12.0   # x beta -> C2 (Q^W)
-        self.membrane = r * E * t / 8.0                # x A beta -> C3 (Q^M)
+    """The element's coefficients are per element (state.sections: r E t / 8, r E t^3 / 192,
+    r kappa G t^3 / 12 from its part's section and material, assembly.py)."""
+
+    def __init__(self, state, kirchhoff_w: bool):
+        self.s = state
         self.kirchhoff_w = kirchhoff_w
 
     @ti.func
@@ -70,11 +69,11 @@ class Hourglass:
                           q_w, gam.dot(tx), gam.dot(ty)])
 
     @ti.func
-    def stiffness(self, area, beta):
-        """Per-component rate stiffness (C3, C3, C2, C1, C1) of Q = Q + C q dt."""
-        cm = self.membrane * area * beta
-        cb = self.bending * area * beta
-        return ti.Vector([cm, cm, self.transverse * beta, cb, cb])
+    def stiffness(self, e, area, beta):
+        """Per-component rate stiffness (C3, C3, C2, C1, C1) of Q = Q + C q dt of element e."""
+        cm = self.s.sections.hourglass_membrane[e] * area * beta
+        cb = self.s.sections.hourglass_bending[e] * area * beta
+        return ti.Vector([cm, cm, self.s.sections.hourglass_transverse[e] * beta, cb, cb])
 
     @ti.func
     def nodal_loads(self, gam, zw, q, moments, b1, b2):

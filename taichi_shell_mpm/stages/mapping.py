@@ -29,45 +29,38 @@ from .timestep import impulse_time
 
 @ti.data_oriented
 class Mapping:
-    def __init__(self, state: State, cfg, nodes: NodeUpdate, grid: GridUpdate, mass_floor: float):
+    def __init__(self, state: State, cfg, nodes: NodeUpdate, grid: GridUpdate):
         self.s = state
         self.cfg = cfg
         self.nodes = nodes
         self.grid = grid
         self.grid_acc = Accumulator(not cfg.atomic_scatter)
         self.acc = Accumulator(cfg.serial)
-        self.mass_floor = mass_floor
-        g = cfg.grid
-        self.h = g.h
-        self.inv_h = 1.0 / g.h
-        self.lo = g.lo
-        self.strides = g.strides
-        self.dims = g.dims
-        self.axis = g.slab_axis
-        self.n_planes = g.dims[g.slab_axis] - 1
 
     @ti.func
     def stencil(self, x):
         """Base grid index (local), fractional position and validity for trilinear weights."""
-        r = x * self.inv_h
+        r = x * self.s.grid.inv_h[None]
         base_abs = ti.floor(r, ti.i32)
         frac = r - base_abs
-        base = base_abs - ti.Vector(self.lo, dt=ti.i32)
+        base = base_abs - self.s.grid.lo[None]
+        dims = self.s.grid.dims[None]
         inside = True
         for d in ti.static(range(3)):
-            if base[d] < 0 or base[d] > self.dims[d] - 2:
+            if base[d] < 0 or base[d] > dims[d] - 2:
                 inside = False
         return base, frac, inside
 
     @ti.func
     def flat(self, idx):
         """Flat index of local grid index idx (slab axis innermost: GridGeometry.strides)."""
-        return idx[0] * self.strides[0] + idx[1] * self.strides[1] + idx[2] * self.strides[2]
+        strides = self.s.grid.strides[None]
+        return idx[0] * strides[0] + idx[1] * strides[1] + idx[2] * strides[2]
 
     @ti.func
     def plane_of(self, cell):
         """Index across the slab axis of the flat grid index `cell`."""
-        return (cell // self.strides[self.axis]) % self.dims[self.axis]
+        return (cell // self.s.grid.slab_stride[None]) % self.s.grid.slab_dim[None]
 
     @ti.func
     def axis_weights(self, frac):
@@ -79,7 +72,7 @@ class Mapping:
         """N_I = prod_d N^(r_d) and its gradient for the cell corner (i, j, k) in {0,1}^3, from
         the per-axis weights w (:meth:`axis_weights`); the corner is a compile-time constant."""
         n = w[i, 0] * w[j, 1] * w[k, 2]
-        grad = self.inv_h * ti.Vector([(2 * i - 1) * w[j, 1] * w[k, 2], (2 * j - 1) * w[i, 0] * w[k, 2],
+        grad = self.s.grid.inv_h[None] * ti.Vector([(2 * i - 1) * w[j, 1] * w[k, 2], (2 * j - 1) * w[i, 0] * w[k, 2],
                                        (2 * k - 1) * w[i, 0] * w[j, 1]])
         return n, grad
 
@@ -87,38 +80,39 @@ class Mapping:
     def locate(self):
         """The stencil base of every free node (node_cell, -1 for prescribed nodes); a node
         outside the grid stops the run."""
-        for c in range(self.s.n_nodes):
+        for c in range(self.s.nodes.count[None]):
             cell = -1
             if not self.nodes.is_prescribed(c):
-                base, _, inside = self.stencil(self.s.position[c])
+                base, _, inside = self.stencil(self.s.nodes.position[c])
                 if inside:
                     cell = self.flat(base)
                 else:
-                    self.s.status[None] = STATUS_LEFT_GRID
-                    self.s.status_index[None] = c
-            self.s.node_cell[c] = cell
+                    self.s.step.status[None] = STATUS_LEFT_GRID
+                    self.s.step.status_index[None] = c
+            self.s.grid.node_cell[c] = cell
 
     @ti.func
     def bin_nodes(self):
         """Counting sort of the located nodes by plane (serial: a few ns per node)."""
+        n_planes = self.s.grid.slab_dim[None] - 1
         ti.loop_config(serialize=True)
-        for p in range(self.n_planes + 1):
-            self.s.slab_start[p] = 0
+        for p in range(n_planes + 1):
+            self.s.grid.slab_start[p] = 0
         ti.loop_config(serialize=True)
-        for c in range(self.s.n_nodes):
-            if self.s.node_cell[c] >= 0:
-                p = self.plane_of(self.s.node_cell[c])
-                self.s.slab_start[p + 1] += 1
+        for c in range(self.s.nodes.count[None]):
+            if self.s.grid.node_cell[c] >= 0:
+                p = self.plane_of(self.s.grid.node_cell[c])
+                self.s.grid.slab_start[p + 1] += 1
         ti.loop_config(serialize=True)
-        for p in range(self.n_planes):
-            self.s.slab_fill[p] = self.s.slab_start[p]
-            self.s.slab_start[p + 1] += self.s.slab_start[p]
+        for p in range(n_planes):
+            self.s.grid.slab_fill[p] = self.s.grid.slab_start[p]
+            self.s.grid.slab_start[p + 1] += self.s.grid.slab_start[p]
         ti.loop_config(serialize=True)
-        for c in range(self.s.n_nodes):
-            if self.s.node_cell[c] >= 0:
-                p = self.plane_of(self.s.node_cell[c])
-                self.s.slab_nodes[self.s.slab_fill[p]] = c
-                self.s.slab_fill[p] += 1
+        for c in range(self.s.nodes.count[None]):
+            if self.s.grid.node_cell[c] >= 0:
+                p = self.plane_of(self.s.grid.node_cell[c])
+                self.s.grid.slab_nodes[self.s.grid.slab_fill[p]] = c
+                self.s.grid.slab_fill[p] += 1
 
     @ti.func
     def scatter(self, c):
@@ -126,70 +120,73 @@ class Mapping:
         (or p_I += N (m_c (v_c + C_c (X_I - x_c)) + dt f_c) without a grid force field).
         With APIC, v_c + C_c (X_I - x_c) = (v_c - h C_c r) + h C_c (i, j, k) for the cell
         corner (i, j, k) and fractional position r: one product per node, additions per corner."""
-        _base, frac, _inside = self.stencil(self.s.position[c])
+        _base, frac, _inside = self.stencil(self.s.nodes.position[c])
         w = self.axis_weights(frac)
-        cell = self.s.node_cell[c]
-        mass = self.s.corner_mass[c]
-        keep = self.s.velocity_keep[None]
+        cell = self.s.grid.node_cell[c]
+        mass = self.s.nodes.mass[c]
+        keep = self.s.step.velocity_keep[None]
         force = self.nodes.residual_force(c)
-        vel = keep * self.s.velocity[c]
+        vel = keep * self.s.nodes.velocity[c]
         if ti.static(self.cfg.fire):
-            vel += (self.s.fire_mix[None] / mass) * force    # FIRE mixing (solvers/stepper.py)
+            vel += (self.s.step.fire_mix[None] / mass) * force    # FIRE mixing (solvers/stepper.py)
         affine_h = ti.Matrix.zero(ti.f64, 3, 3)
         if ti.static(self.cfg.transfer == "apic"):
-            affine_h = (keep * self.h) * self.s.affine[c]
+            affine_h = (keep * self.s.grid.h[None]) * self.s.nodes.affine[c]
             vel -= affine_h @ frac
         momentum = mass * vel
         if ti.static(not self.cfg.grid_force):
-            momentum += impulse_time(self.s) * force      # p + dt f (stages/timestep.py)
+            momentum += impulse_time(self.s.step) * force      # p + dt f (stages/timestep.py)
         affine_m = mass * affine_h
+        strides = self.s.grid.strides[None]
         for i, j, k in ti.static(ti.ndrange(2, 2, 2)):
             n, _ = self.weight(w, i, j, k)
-            g = self.grid.corner_node(cell, i, j, k)
+            g = self.grid.corner_node(cell, strides, i, j, k)
             p = momentum
             if ti.static(self.cfg.transfer == "apic"):
                 for d, on in ti.static(enumerate((i, j, k))):
                     if ti.static(on):
                         p += ti.Vector([affine_m[0, d], affine_m[1, d], affine_m[2, d]])
-            self.grid_acc.add(self.s.grid_mass, g, n * mass)
-            self.grid_acc.add(self.s.grid_momentum, g, n * p)
+            self.grid_acc.add(self.s.grid.mass, g, n * mass)
+            self.grid_acc.add(self.s.grid.momentum, g, n * p)
             if ti.static(self.cfg.grid_force):
-                self.grid_acc.add(self.s.grid_force, g, n * force)
+                self.grid_acc.add(self.s.grid.force, g, n * force)
 
     @ti.func
     def particles_to_grid(self):
         """S2 over all free nodes (order: see the module docstring)."""
         self.locate()
         if ti.static(self.cfg.atomic_scatter):
-            for c in range(self.s.n_nodes):
-                if self.s.node_cell[c] >= 0:
+            for c in range(self.s.nodes.count[None]):
+                if self.s.grid.node_cell[c] >= 0:
                     self.scatter(c)
         else:
             self.bin_nodes()
+            n_planes = self.s.grid.slab_dim[None] - 1
             for parity in ti.static(range(2)):
-                for q in range((self.n_planes + 1 - parity) // 2):
+                for q in range((n_planes + 1 - parity) // 2):
                     p = 2 * q + parity
-                    for i in range(self.s.slab_start[p], self.s.slab_start[p + 1]):
-                        self.scatter(self.s.slab_nodes[i])
+                    for i in range(self.s.grid.slab_start[p], self.s.grid.slab_start[p + 1]):
+                        self.scatter(self.s.grid.slab_nodes[i])
 
     @ti.func
     def grid_to_particles(self):
         """S3 + S4: v~_c = sum N v+_I (moves the node), with the grid update evaluated at each
         node read (:meth:`GridUpdate.velocities`); carried v_c by the transfer rule; then
         the node-level BCs, position and rotation update (:meth:`NodeUpdate.finish`)."""
-        for c in range(self.s.n_nodes):
+        for c in range(self.s.nodes.count[None]):
             v_grid = ti.Vector([0.0, 0.0, 0.0])
-            if self.s.node_cell[c] >= 0:
-                base, frac, _inside = self.stencil(self.s.position[c])
+            if self.s.grid.node_cell[c] >= 0:
+                base, frac, _inside = self.stencil(self.s.nodes.position[c])
                 w = self.axis_weights(frac)
-                cell = self.s.node_cell[c]
-                mass = self.s.corner_mass[c]
+                cell = self.s.grid.node_cell[c]
+                mass = self.s.nodes.mass[c]
                 v_delta = ti.Vector([0.0, 0.0, 0.0])
                 affine = ti.Matrix.zero(ti.f64, 3, 3)
                 massive_grad = ti.Vector([0.0, 0.0, 0.0])
+                strides = self.s.grid.strides[None]
                 for i, j, k in ti.static(ti.ndrange(2, 2, 2)):
                     n, grad = self.weight(w, i, j, k)
-                    g = self.grid.corner_node(cell, i, j, k)
+                    g = self.grid.corner_node(cell, strides, i, j, k)
                     v_minus, v_plus, f, inv_mass = self.grid.velocities(g, base + ti.Vector([i, j, k]))
                     massive = inv_mass > 0.0
                     v_grid += n * v_plus
@@ -197,7 +194,7 @@ class Mapping:
                         # grid residual sum_I |f_I|^2 (method.md 6.4), shared out by the node's
                         # mass share N m_c / m_I of each grid node
                         if massive:
-                            self.acc.total(self.s.residual_sq, (n * mass * inv_mass) * f.norm_sqr())
+                            self.acc.total(self.s.step.residual_sq, (n * mass * inv_mass) * f.norm_sqr())
                     if ti.static(self.cfg.transfer == "flip"):
                         v_delta += n * (v_plus - v_minus)
                     if ti.static(self.cfg.transfer == "apic"):
@@ -212,16 +209,16 @@ class Mapping:
                     affine -= v_grid.outer_product(massive_grad)
                 carried = v_grid
                 if ti.static(self.cfg.transfer == "flip"):
-                    a = self.cfg.flip_blend
-                    carried = a * (self.s.velocity_keep[None] * self.s.velocity[c] + v_delta) + (1.0 - a) * v_grid
+                    a = self.s.step.flip_blend[None]
+                    carried = a * (self.s.step.velocity_keep[None] * self.s.nodes.velocity[c] + v_delta) + (1.0 - a) * v_grid
                 if ti.static(self.cfg.transfer == "apic"):
-                    self.s.affine[c] = affine
-                self.s.velocity[c] = carried
+                    self.s.nodes.affine[c] = affine
+                self.s.nodes.velocity[c] = carried
             self.nodes.finish(c, v_grid)
 
     @ti.func
     def clear_grid(self):
         """Zero the grid nodes written this step (those around the located nodes)."""
-        for c in range(self.s.n_nodes):
-            if self.s.node_cell[c] >= 0:
-                self.grid.clear(self.s.node_cell[c])
+        for c in range(self.s.nodes.count[None]):
+            if self.s.grid.node_cell[c] >= 0:
+                self.grid.clear(self.s.grid.node_cell[c], self.s.grid.strides[None])

@@ -14,6 +14,7 @@ import taichi as ti
 from ..state import STATUS_INVERTED, STATUS_OK, STATUS_RETURN_FAILED, State
 from . import warping
 from .accumulate import Accumulator, CornerLoads
+from .material import ConstitutiveUpdate
 from .drilling import DrillingSpring
 from .hourglass import Hourglass
 from .timestep import element_limit
@@ -108,15 +109,13 @@ def tangled(xh, yh):
 class ShellElement:
     """Element stage: strain rates -> stress at each point -> resultants -> nodal forces."""
 
-    def __init__(self, state: State, cfg, material, energy):
+    def __init__(self, state: State, cfg, energy):
         self.s = state
-        self.cfg = cfg
-        self.material = material
+        self.cfg = cfg                  # config.Features
+        self.material = ConstitutiveUpdate(state, cfg.materials)
         self.energy = energy            # energy.EnergyLedger
-        self.hourglass = Hourglass(cfg.E, cfg.shear_modulus, cfg.thickness, cfg.shear_factor, cfg.hourglass,
-                                   cfg.kirchhoff_w_hourglass)
-        self.drilling = DrillingSpring(cfg.E, cfg.thickness, cfg.drilling_stiffness)
-        self.points = tuple(zip(self.cfg.zeta, self.cfg.zeta_weight))
+        self.hourglass = Hourglass(state, cfg.kirchhoff_w_hourglass)
+        self.drilling = DrillingSpring(state)
         self.acc = Accumulator(cfg.serial)
         self.loads = CornerLoads(state, cfg.serial, normals=not cfg.drilling_spring)
 
@@ -128,23 +127,27 @@ class ShellElement:
         w = ti.Matrix.zero(ti.f64, 4, 3)
         for a in ti.static(range(4)):
             for d in ti.static(range(3)):
-                x[a, d] = self.s.position[c[a]][d]
-                v[a, d] = self.s.grid_velocity[c[a]][d]
-                w[a, d] = self.s.omega[c[a]][d]
+                x[a, d] = self.s.nodes.position[c[a]][d]
+                v[a, d] = self.s.nodes.grid_velocity[c[a]][d]
+                w[a, d] = self.s.nodes.omega[c[a]][d]
         return x, v, w
 
     @ti.func
     def element_pass(self):
-        for e in range(self.s.n_elements):
+        for e in range(self.s.elements.count[None]):
             self.update(e)
         self.loads.gather()
 
     @ti.func
     def update(self, e):
-        t = self.cfg.thickness
-        kappa = self.cfg.shear_factor
-        dt = self.s.dt[None]
-        c = self.s.corners[e]
+        t = self.s.sections.thickness[e]
+        kappa = self.s.sections.shear_factor[e]
+        section = self.s.sections.section[e]
+        material = self.s.sections.point_material[section, 0]
+        kind = self.material.kind(material)
+        row = self.material.row(material)
+        dt = self.s.step.dt[None]
+        c = self.s.elements.corners[e]
         x, v, w = self.gather(c)
         # --- rates (method.md 3.2) on the mid-step geometry x^(n+1/2) = x^(n+1) - dt/2 v~
         # [choice]: frame, B and hourglass vectors of the mid-step make the strain increment
@@ -169,39 +172,40 @@ class ShellElement:
         # inside out: two corner Jacobians <= 0 in the element's own frame (e3 along d13 x d24).
         # `area` is (d13 x d24).e3 / 2 >= 0 by construction, so it cannot flag a fold.
         # The first problem of a step wins (later stages check status == OK as well).
-        if self.s.status[None] == STATUS_OK and tangled(xh, yh):
-            self.s.status[None] = STATUS_INVERTED
-            self.s.status_index[None] = e
+        if self.s.step.status[None] == STATUS_OK and tangled(xh, yh):
+            self.s.step.status[None] = STATUS_INVERTED
+            self.s.step.status_index[None] = e
         # --- through-thickness points: stress update, resultants (paper eq 28-29)
         n_res = ti.Vector([0.0, 0.0, 0.0])
         m_res = ti.Vector([0.0, 0.0, 0.0])       # M' = -int z sigma (paper sign)
         q_res = ti.Vector([0.0, 0.0])
         power = 0.0
         plastic_work = 0.0
-        for k, zw_k in ti.static(enumerate(self.points)):
-            zeta, weight = zw_k
-            d_inplane = membrane_rate + (0.5 * t * zeta) * curvature_rate
-            old = self.s.stress[e, k]
-            new = old
-            if ti.static(self.material.plastic):
-                updated, ep, work, converged = self.material.update(old, self.s.plastic_strain[e, k],
-                                                                    dt * d_inplane, dt * shear_rate)
-                new = updated
-                self.s.plastic_strain[e, k] = ep
-                plastic_work += weight * work
-                if not converged and self.s.status[None] == STATUS_OK:
-                    self.s.status[None] = STATUS_RETURN_FAILED
-                    self.s.status_index[None] = e
-            else:
-                updated, _, _, _ = self.material.update(old, 0.0, dt * d_inplane, dt * shear_rate)
-                new = updated
-            self.s.stress[e, k] = new
-            mid = 0.5 * (old + new)
-            power += weight * (mid[0] * d_inplane[0] + mid[1] * d_inplane[1] + mid[2] * d_inplane[2]
-                               + kappa * (mid[3] * shear_rate[0] + mid[4] * shear_rate[1]))
-            n_res += weight * ti.Vector([new[0], new[1], new[2]])
-            m_res -= (weight * zeta) * ti.Vector([new[0], new[1], new[2]])
-            q_res += weight * ti.Vector([new[3], new[4]])
+        for k in ti.static(range(self.cfg.points)):
+            if k < self.s.sections.point_count[section]:
+                zeta, weight = self.s.sections.zeta[section, k], self.s.sections.weight[section, k]
+                d_inplane = membrane_rate + (0.5 * t * zeta) * curvature_rate
+                old = self.s.points.stress[e, k]
+                new = old
+                if ti.static(self.material.plastic):
+                    updated, ep, work, converged = self.material.update(kind, row, old, self.s.points.plastic_strain[e, k],
+                                                                        dt * d_inplane, dt * shear_rate)
+                    new = updated
+                    self.s.points.plastic_strain[e, k] = ep
+                    plastic_work += weight * work
+                    if not converged and self.s.step.status[None] == STATUS_OK:
+                        self.s.step.status[None] = STATUS_RETURN_FAILED
+                        self.s.step.status_index[None] = e
+                else:
+                    updated, _, _, _ = self.material.update(kind, row, old, 0.0, dt * d_inplane, dt * shear_rate)
+                    new = updated
+                self.s.points.stress[e, k] = new
+                mid = 0.5 * (old + new)
+                power += weight * (mid[0] * d_inplane[0] + mid[1] * d_inplane[1] + mid[2] * d_inplane[2]
+                                   + kappa * (mid[3] * shear_rate[0] + mid[4] * shear_rate[1]))
+                n_res += weight * ti.Vector([new[0], new[1], new[2]])
+                m_res -= (weight * zeta) * ti.Vector([new[0], new[1], new[2]])
+                q_res += weight * ti.Vector([new[3], new[4]])
         n_res *= 0.5 * t
         q_res *= 0.5 * t
         m_res *= 0.25 * t * t
@@ -213,18 +217,18 @@ class ShellElement:
         gam = self.hourglass.shape_vector(xh, yh, b1, b2)
         zw = self.hourglass.warp_height(zh)
         beta = b1.dot(b1) + b2.dot(b2)
-        q_old = self.s.hourglass_resultant[e]
-        q_new = q_old + dt * self.hourglass.stiffness(area, beta) * q_rate
-        self.s.hourglass_resultant[e] = q_new
+        q_old = self.s.elements.hourglass_resultant[e]
+        q_new = q_old + dt * self.hourglass.stiffness(e, area, beta) * q_rate
+        self.s.elements.hourglass_resultant[e] = q_new
         fh, mh = self.hourglass.nodal_loads(gam, zw, q_new, self.hourglass.quadratic_moments(gam, xh, yh), b1, b2)
         f += fh
         m += mh
         drill_energy = 0.0
         if ti.static(self.cfg.drilling_spring):      # stages/drilling.py
             drill_rate = self.drilling.rates(g1, g2, vx, vy, tz)
-            drill_old = self.s.drilling_moment[e]
-            drill_new = drill_old + dt * self.drilling.stiffness(area, beta) * drill_rate
-            self.s.drilling_moment[e] = drill_new
+            drill_old = self.s.elements.drilling_moment[e]
+            drill_new = drill_old + dt * self.drilling.stiffness(e, area, beta) * drill_rate
+            self.s.elements.drilling_moment[e] = drill_new
             fd, md = self.drilling.nodal_loads(drill_new, b1, b2)
             f += fd
             m += md
@@ -245,4 +249,4 @@ class ShellElement:
         # --- element time-step limit (method.md 5, stages/timestep.element_limit)
         d13 = ti.Vector([x[2, 0] - x[0, 0], x[2, 1] - x[0, 1], x[2, 2] - x[0, 2]]).norm()
         d24 = ti.Vector([x[3, 0] - x[1, 0], x[3, 1] - x[1, 1], x[3, 2] - x[1, 2]]).norm()
-        self.acc.minimum(self.s.dt_next, element_limit(self.cfg, area, ti.max(d13, d24)))
+        self.acc.minimum(self.s.step.dt_next, element_limit(self.s, self.cfg, e, area, ti.max(d13, d24)))

@@ -37,7 +37,7 @@ def landing_step(remaining: float, dt_stable: float) -> float:
 
 
 @ti.func
-def element_limit(cfg: ti.template(), area, longest):
+def element_limit(s: ti.template(), cfg: ti.template(), e, area, longest):
     """Stable step of one element (method.md 5): alpha L_e / c_e, L_e = area / longest
     diagonal, and with the physical rotary inertia (m t^2 / 12) also the rotational limit
     alpha 2 / omega_rot, omega_rot = sqrt(12 kappa G / rho) / t: the transverse-shear-rotation
@@ -53,19 +53,20 @@ def element_limit(cfg: ti.template(), area, longest):
     t = 0.01, 0.1, 0.165 (where the two limits are equal), 0.3, and diverged within 40 steps
     at alpha = 1.0 for t = 0.1 and 0.165; adding the two frequencies as squares (an upper
     bound of the coupled modes) was 29 % more conservative than needed where they are
-    equal (tests/test_safety.py)."""
-    inv = cfg.wave_speed * longest / area
-    if ti.static(cfg.rotational_frequency > 0.0):
-        inv = ti.max(inv, 0.5 * cfg.rotational_frequency)
-    return cfg.dt_safety / inv
+    equal (tests/test_safety.py).  c_e and omega_rot are element e's (state.sections).
+    With uniform_dt mass scaling (statics) c_e stays the physical one: every element then
+    has the smallest element's step (assembly.uniform_dt_mass_factor)."""
+    inv = s.sections.wave_speed[e] * longest / area
+    if ti.static(cfg.physical_rotary_inertia):
+        inv = ti.max(inv, 0.5 * s.sections.rotational_frequency[e])
+    return s.step.dt_safety[None] / inv
 
 
-def element_limit_host(cfg, area: np.ndarray, longest: np.ndarray) -> np.ndarray:
-    """numpy twin of :func:`element_limit` (per element)."""
-    inv = cfg.wave_speed * longest / area
-    if cfg.rotational_frequency > 0.0:
-        inv = np.maximum(inv, 0.5 * cfg.rotational_frequency)
-    return cfg.dt_safety / inv
+def element_limit_host(model, area: np.ndarray, longest: np.ndarray) -> np.ndarray:
+    """numpy twin of :func:`element_limit` (per element of `model`)."""
+    inv = model.element.wave_speed * longest / area
+    inv = np.maximum(inv, 0.5 * model.element.rotational_frequency)
+    return model.parameters.dt_safety / inv
 
 
 def contact_step(stiffness: float) -> float:
@@ -84,14 +85,14 @@ def contact_step(stiffness: float) -> float:
 
 
 @ti.func
-def impulse_time(s):
+def impulse_time(step: ti.template()):
     """dt of the velocity kick v^(n+1/2) = v^(n-1/2) + dt a^n: dt^(n+1/2), halved on a
     restart from rest.  The equal landing steps (next_step) keep dt constant between
     outputs, so this equals the textbook (dt^(n-1/2) + dt^(n+1/2)) / 2 wherever outputs
     are dense; that average was tried (issue 4) and dropped: where dt shrinks fast (an
     element collapsing) its longer kick let a node run away before the time-step guard
     fired (tests/test_reliability.py, dt_collapse)."""
-    return s.restart_factor[None] * s.dt[None]
+    return step.restart_factor[None] * step.dt[None]
 
 
 @ti.data_oriented
@@ -99,51 +100,61 @@ class TimeStep:
     def __init__(self, state: State, cfg):
         self.s = state
         self.cfg = cfg
-        self.h = cfg.grid.h if cfg.grid is not None else 0.0
-        self.contact_step = contact_step(cfg.contact.stiffness) if cfg.contact is not None else 0.0
 
     @ti.func
     def grid_limit(self):
-        return self.cfg.dt_safety * self.h / (self.cfg.dilatational_speed + self.s.max_speed[None])
+        return self.s.step.dt_safety[None] * self.s.grid.h[None] / (self.s.step.dilatational_speed[None] + self.s.step.max_speed[None])
 
     @ti.func
     def contact_limit(self):
         """Self-contact: dt <= contact_step(alpha_c) t_c / v_rel, v_rel = the norm of the
         per-axis spread of the nodal velocities, an upper bound of any two nodes' approach
         speed (Galilean invariant: a shell flying as a whole does not pay)."""
-        spread = (self.s.velocity_high[None] - self.s.velocity_low[None]).norm()
-        return self.contact_step * self.cfg.contact_thickness / ti.max(spread, 1e-300)
+        spread = (self.s.contact.velocity_high[None] - self.s.contact.velocity_low[None]).norm()
+        step = CONTACT_STEP * ti.sqrt(self.s.contact.stiffness[None] / 0.1)
+        return step * self.s.contact.thickness[None] / ti.max(spread, 1e-300)
 
     @ti.func
     def next_step(self):
         """Set dt for the next step from this step's element, grid and contact limits."""
-        dt = self.s.dt_next[None]
+        dt = self.s.step.dt_next[None]
         if ti.static(self.cfg.grid_rule):
             dt = ti.min(dt, self.grid_limit())
-        if ti.static(self.cfg.has_contact):
+        if ti.static(self.cfg.contact):
             dt = ti.min(dt, self.contact_limit())
-        if dt < 1e-3 * self.s.dt_first[None] and self.s.status[None] == STATUS_OK:   # the first problem wins
-            self.s.status[None] = STATUS_DT_COLLAPSE
-            self.s.status_index[None] = -1   # the limiting element is found on the host (Simulation.check_status)
-        self.s.dt_stable[None] = dt
-        remaining = self.s.time_limit[None] - self.s.time[None]
+        if dt < 1e-3 * self.s.step.dt_first[None] and self.s.step.status[None] == STATUS_OK:   # the first problem wins
+            self.s.step.status[None] = STATUS_DT_COLLAPSE
+            self.s.step.status_index[None] = -1   # the limiting element is found on the host (Simulation.check_status)
+        self.s.step.dt_stable[None] = dt
+        remaining = self.s.step.time_limit[None] - self.s.step.time[None]
         if remaining < LANDING_STEPS * dt:   # equal steps that land on the output time
             dt = remaining / ti.ceil(remaining / dt - 1e-9) if remaining > 1e-9 * dt else 0.0
-        self.s.dt[None] = dt
-        self.s.dt_next[None] = DT_UNSET
+        self.s.step.dt[None] = dt
+        self.s.step.dt_next[None] = DT_UNSET
 
 
-def initial_dt(points: np.ndarray, quads: np.ndarray, velocity: np.ndarray, cfg) -> float:
-    """The same rules evaluated on the initial configuration (numpy, before the first step)."""
-    x = points[quads]
+def initial_dt(model, velocity: np.ndarray, cfg) -> float:
+    """The same rules evaluated on the initial configuration of `model` (numpy, before the
+    first step; triangles: stages/shell.py's length, assembly.element_length)."""
+    from ..assembly import element_length
+    points, elements = model.points, model.elements
+    x = points[np.where(elements >= 0, elements, elements[:, :1])]
     d13, d24 = x[:, 2] - x[:, 0], x[:, 3] - x[:, 1]
     area = 0.5 * np.linalg.norm(np.cross(d13, d24), axis=1)
     longest = np.maximum(np.linalg.norm(d13, axis=1), np.linalg.norm(d24, axis=1))
-    dt = float(np.min(element_limit_host(cfg, area, longest)))
+    tri = elements[:, 3] < 0
+    if tri.any():                      # L_e = 2 A / longest edge: area / (longest / 2)
+        tri_area = 0.5 * np.linalg.norm(np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), axis=1)
+        length = element_length(points, elements, tri_area)
+        area = np.where(tri, tri_area, area)
+        longest = np.where(tri, tri_area / np.where(tri, length, 1.0), longest)
+    dt = float(np.min(element_limit_host(model, area, longest)))
+    p = model.parameters
     if cfg.grid_rule:
-        dt = min(dt, cfg.dt_safety * cfg.grid.h / (cfg.dilatational_speed + float(np.max(np.abs(velocity)))))
-    if cfg.has_contact:
+        dt = min(dt, p.dt_safety * model.grid.h / (model.materials.dilatational_speed
+                                                   + float(np.max(np.abs(velocity)))))
+    if cfg.contact:
         spread = float(np.linalg.norm(velocity.max(axis=0) - velocity.min(axis=0)))
         if spread > 0.0:
-            dt = min(dt, contact_step(cfg.contact.stiffness) * cfg.contact_thickness / spread)
+            dt = min(dt, contact_step(p.contact_stiffness) * p.contact_thickness / spread)
     return dt
