@@ -18,7 +18,7 @@ import time
 import traceback
 from pathlib import Path
 
-from .preflight import STICKING_CELL_RATIO, assembly_problems, prepare, setup_warnings  # noqa: F401
+from .preflight import assembly_problems, prepare  # noqa: F401  (moved to preflight.py, still importable from here)
 
 EXIT_INTERNAL, EXIT_SCENE, EXIT_RUNTIME, EXIT_INTERRUPT = 1, 2, 3, 130
 
@@ -116,6 +116,46 @@ def _fail(code: int, lines) -> int:
     for line in lines:
         print(f"error: {_one_line(line)}", file=sys.stderr, flush=True)
     return code
+
+
+STICKING_CELL_RATIO = 0.75    # contact scenes: grid cell / longest edge above this sticks (docs/crush.md)
+
+
+def setup_warnings(scene, model) -> list[str]:
+    """Set-ups that run but are probably not what the user wants: loads whose set includes
+    nodes with all translations fixed (that share of the force does nothing; a set of only
+    such nodes is an error, see assembly.assemble), coincident nodes in mpm mode (they move
+    together with the grid, so a slit modelled by them stays closed), and self-contact on a
+    grid as coarse as the elements (layers stick through the grid: the tube at h = l gave
+    +28 % mean force)."""
+    import numpy as np
+
+    from .nodesets import select_nodes
+    lines = []
+    fixed = (model.fix_mask & 0b111) == 0b111
+    for i, ld in enumerate(scene.loads):
+        if not any(ld.force):
+            continue
+        ids = select_nodes(scene.nodeset(ld.nodes), model.points)
+        share = model.node_area[ids] if ld.distribute == "area" else np.ones(len(ids))
+        lost = float(share[fixed[ids]].sum() / share.sum())
+        if lost > 0.0:
+            lines.append(f"{scene.source.name}: [[load]][{i}] on '{ld.nodes}': {int(fixed[ids].sum())} of "
+                         f"{len(ids)} nodes have all translations fixed; the {100 * lost:.3g}% of the force "
+                         "spread onto them does nothing")
+    if model.grid is not None:
+        from .mesh import coincident_pairs
+        pairs = len(coincident_pairs(model.points))
+        if pairs:
+            lines.append(f"{scene.source.name}: [method].kind = \"mpm\": the {pairs} pair{'s' if pairs != 1 else ''} "
+                         "of coincident nodes move together (every node moves with the grid velocity at its "
+                         "position), so a slit or crack there does not open; use kind = \"fem\" to let it open")
+    if scene.contact is not None and model.grid is not None and model.grid.h > STICKING_CELL_RATIO * model.max_edge:
+        lines.append(f"{scene.source.name}: [method].cell_size: {model.grid.h:g} is more than "
+                     f"{STICKING_CELL_RATIO:g} x the longest element edge ({model.max_edge:.3g}); with [contact], "
+                     "shell layers within two cells stick through the grid (docs/crush.md, sticking check): "
+                     "use about half the element size")
+    return lines
 
 
 def _internal_error(exc: BaseException) -> int:
