@@ -20,7 +20,7 @@ from pathlib import Path
 import taichi as ti
 
 from taichi_shell_mpm.checkpoint import load_checkpoint, restore_checkpoint
-from taichi_shell_mpm.cli import prepare
+from taichi_shell_mpm.preflight import prepare
 from taichi_shell_mpm.simulation import Simulation, init_taichi
 
 

@@ -12,12 +12,13 @@ the results so far).
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import os
 import sys
 import time
 import traceback
 from pathlib import Path
+
+from .preflight import assembly_problems, prepare  # noqa: F401  (moved to preflight.py, still importable from here)
 
 EXIT_INTERNAL, EXIT_SCENE, EXIT_RUNTIME, EXIT_INTERRUPT = 1, 2, 3, 130
 
@@ -117,74 +118,6 @@ def _fail(code: int, lines) -> int:
     return code
 
 
-# ------------------------------------------------------------------ scene -> mesh -> model
-def _named(scene, messages) -> list[str]:
-    """Prefix the scene file's name to lines that do not name a file yet."""
-    names = [scene.source.name, str(scene.source)]
-    path = getattr(scene.mesh, "path", None)
-    if path is not None:
-        names += [str(path), Path(path).name]
-    return [m if any(m.startswith(n) for n in names) else f"{scene.source.name}: {m}" for m in messages]
-
-
-def assembly_problems(scene, mesh) -> tuple[list[str], object]:
-    """Every assembly-time problem of `scene` on `mesh` (empty node sets, loads on fixed
-    nodes, bad symmetry planes, rigid-body conflicts, a grid not covering the mesh ...),
-    found by assembling each item on its own; returns (messages, model or None)."""
-    from .assembly import assemble
-    from .nodesets import select_nodes
-    from .scene import SceneError
-    try:
-        return [], assemble(scene, mesh)
-    except SceneError as exc:
-        first = exc.messages
-    errors: list[str] = []
-    bad_sets = set()
-    names = {x.nodes for group in (scene.boundaries, scene.loads, scene.initial, scene.probes,
-                                   scene.rigid_bodies) for x in group}
-    for name in sorted(names):
-        try:
-            select_nodes(scene.nodeset(name), mesh.points)
-        except SceneError as exc:
-            errors += exc.messages
-            bad_sets.add(name)
-        except KeyError:
-            bad_sets.add(name)
-    replace = dataclasses.replace
-    keep = lambda items: tuple(x for x in items if x.nodes not in bad_sets)   # noqa: E731
-    bare = replace(scene, boundaries=(), loads=(), initial=keep(scene.initial), probes=keep(scene.probes),
-                   rigid_bodies=(), walls=(), contact=None, reference=None,
-                   method=replace(scene.method, kind="fem"))
-
-    def fails(candidate) -> bool:
-        try:
-            assemble(candidate, mesh)
-        except SceneError as exc:
-            errors.extend(exc.messages)
-            return True
-        return False
-
-    boundaries = tuple(b for b in keep(scene.boundaries) if not fails(replace(bare, boundaries=(b,))))
-    loads = tuple(ld for ld in keep(scene.loads) if not fails(replace(bare, boundaries=boundaries, loads=(ld,))))
-    bodies: tuple = ()
-    for rb in keep(scene.rigid_bodies):
-        if not fails(replace(bare, boundaries=boundaries, rigid_bodies=bodies + (rb,))):
-            bodies += (rb,)
-    names = {rb.name for rb in bodies}
-    walls = tuple(w for w in scene.walls if w.moves_with is None or w.moves_with in names)
-    final = replace(scene, boundaries=boundaries, loads=loads, initial=keep(scene.initial),
-                    probes=keep(scene.probes), rigid_bodies=bodies, walls=walls)
-    model = None
-    try:
-        model = assemble(final, mesh)
-    except SceneError as exc:
-        errors += exc.messages
-    if not errors:              # the isolation found nothing: report what the full assembly said
-        errors = list(first)
-    unique = list(dict.fromkeys(errors))
-    return unique, (model if not unique else None)
-
-
 STICKING_CELL_RATIO = 0.75    # contact scenes: grid cell / longest edge above this sticks (docs/crush.md)
 
 
@@ -223,32 +156,6 @@ def setup_warnings(scene, model) -> list[str]:
                      "shell layers within two cells stick through the grid (docs/crush.md, sticking check): "
                      "use about half the element size")
     return lines
-
-
-def prepare(path: Path, overrides) -> tuple:
-    """Scene, mesh and model of a scene file, or SceneError listing every problem found."""
-    from .mesh import build_mesh
-    from .scene import SceneError, load_scene
-    try:
-        scene = load_scene(path, overrides)
-    except SceneError as exc:         # the mesh is checked too when its own table is valid
-        if exc.mesh is None:
-            raise
-        try:
-            build_mesh(exc.mesh)
-        except SceneError as mesh_exc:
-            names = tuple(str(n) for n in (path.name, path, getattr(exc.mesh, "path", None)) if n is not None)
-            raise SceneError(exc.messages + [m if m.startswith(names) else f"{path.name}: {m}"
-                                             for m in mesh_exc.messages]) from None
-        raise
-    try:
-        mesh = build_mesh(scene.mesh)
-    except SceneError as exc:
-        raise SceneError(_named(scene, exc.messages)) from None
-    problems, model = assembly_problems(scene, mesh)
-    if problems:
-        raise SceneError(_named(scene, problems))
-    return scene, mesh, model
 
 
 def _internal_error(exc: BaseException) -> int:

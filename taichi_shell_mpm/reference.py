@@ -12,10 +12,12 @@ from __future__ import annotations
 import csv
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .scene import Reference
+if TYPE_CHECKING:        # annotations only: scene.py imports this module to check reference tables
+    from .scene import Reference
 
 MAX_CELL_PROBLEMS = 5
 """Most bad cells of a reference table reported one by one (then one line counts the rest)."""

@@ -1,4 +1,4 @@
-"""`bench`: the speed-against-error study (bench.py, cli.py; issue 4).
+"""`bench`: the speed-against-error study (taichi_shell_mpm/bench/, cli.py; issue 4).
 
 One ``bench --quick`` through the public CLI in a temporary directory (five small runs:
 cantilever 5x1 mpm, 10x1 mpm and fem, quarter hemisphere 8x8 with 10 load steps in mpm and
@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 
 from taichi_shell_mpm import bench
+from taichi_shell_mpm.bench import plot, report
 
 QUICK_CASES = ["cantilever_5x1_mpm_r0.5", "cantilever_10x1_mpm_r0.5", "cantilever_10x1_fem",
                "hemisphere_8x8_mpm_r0.5_ls10", "hemisphere_8x8_fem_ls10"]
@@ -165,8 +166,8 @@ def test_observed_order_is_the_log_log_slope():
 
 def test_plots_without_matplotlib(tmp_path, monkeypatch):
     """Without matplotlib the plots are drawn with pyvista's charts (as render does)."""
-    monkeypatch.setattr(bench, "have_matplotlib", lambda: False)
-    monkeypatch.setattr(bench, "_plot_matplotlib", None)
+    monkeypatch.setattr(plot, "have_matplotlib", lambda: False)
+    monkeypatch.setattr(plot, "_plot_matplotlib", None)
     x = np.array([1.0, 2.0, 4.0])
     panels = [bench.Panel("error", "time", "error (%)", [bench.Series(x, 1 / x ** 2, "mean", "#1f77b4"),
                                                          bench.Series(x, 2 / x ** 2, "max", "#1f77b4", dashed=True,
@@ -209,7 +210,7 @@ def test_empty_grid_ratios_pair_the_interleaved_runs():
                  {"case": f"empty_grid_wide_{k}", "scene": "empty_grid", "mesh": "10/2/60 wide grid",
                   "status": "ok" if k != 3 else "failed: x", "run_s": str(wide)}]
     assert bench.empty_grid_ratios(rows) == pytest.approx([1.10, 0.95])      # the failed pair left out
-    text = "\n".join(bench._empty_grid_section(rows))
+    text = "\n".join(report._empty_grid_section(rows))
     assert "1.100, 0.950; median 1.025" in text
 
 
@@ -243,12 +244,12 @@ def test_relaxation_variants_have_their_own_table():
                  overrides="mesh.n_around=16 method.kind=mpm solve.mass_scaling=none"),
             dict(base, case="hemisphere_8x8_mpm_r0.5", mesh="8x8q", element_size="1", elements="64",
                  steps="100000", overrides="")]
-    text = "\n".join(bench._relaxation_section(rows))
+    text = "\n".join(report._relaxation_section(rows))
     assert "| hemisphere_16x16_mpm_r0.5 | mpm h=0.5l | fire | uniform_dt | 200 000 | 1 |" in text
     assert "| hemisphere_16x16_mpm_r0.5_unscaled | mpm h=0.5l | fire | none | 500 000 | 2.5 |" in text
     (o,) = bench.observed_orders(rows)
     assert o["meshes"] == "8x8q 16x16q"
-    assert [r["case"] for r in bench._static_rows(rows, "hemisphere")["mpm h=0.5l"]] == [
+    assert [r["case"] for r in plot._static_rows(rows, "hemisphere")["mpm h=0.5l"]] == [
         "hemisphere_8x8_mpm_r0.5", "hemisphere_16x16_mpm_r0.5"]
 
 
