@@ -92,7 +92,7 @@ class TabulatedHardening:
 
     @ti.func
     def flow_stress(self, row, ebar):
-        strain, stress = self.s.sections.curve_strain, self.s.sections.curve_stress
+        strain, stress = ti.static(self.s.sections.curve_strain, self.s.sections.curve_stress)
         first = ti.cast(row[COL["curve_start"]], ti.i32)
         last = first + ti.cast(row[COL["curve_points"]], ti.i32) - 1
         sy, slope = stress[last], 0.0
