@@ -9,7 +9,8 @@ c12 = nu c11, c33 = G, the eigenvalues of the plane-stress return, lambda1 = E /
 lambda2 = 2 G, lambda_min; then the J2 flow stress sigma_y(ebar) R(rate) (issue 18):
 
 - the hardening law sigma_y(ebar) (``hardening_law``: its index into Features.hardening) and
-  its parameters: yield stress and linear modulus H (linear, Voce's linear term; Ludwik's A),
+  its parameters: yield stress (linear, Ludwik's A, Voce) and linear modulus H (the linear
+  law; the linear term of Swift, Ludwik and Voce),
   Swift's K, eps0 and Swift's and Ludwik's exponent n, Ludwik's B and cap max_stress (0: none),
   Voce's Q and b, the tabulated curve's first point and point count in the curve table
   (state.sections.curve_strain / curve_stress) and whether it is extrapolated beyond its

@@ -139,10 +139,11 @@ class Material:
     yield_stress: float = 0.0
     """Initial yield stress sigma_y0 (linear, ludwik: A, voce: sigma_0; required for these laws)."""
     hardening: float = 0.0
-    """Linear isotropic hardening modulus H (linear; voce's linear term; 0 = none)."""
+    """Linear isotropic hardening modulus H (linear; the linear term of swift, ludwik, voce; 0 = none)."""
     hardening_law: Literal["linear", "swift", "ludwik", "voce", "tabulated"] = "linear"
-    """sigma_y(ebar): linear sigma_y0 + H ebar; swift K (eps0 + ebar)^n; ludwik sigma_y0 + B ebar^n
-    (capped at max_stress); voce sigma_y0 + Q (1 - exp(-b ebar)) + H ebar; tabulated: `curve`."""
+    """sigma_y(ebar): linear sigma_y0 + H ebar; swift K (eps0 + ebar)^n + H ebar (eps0 given, or
+    (sigma_y0 / K)^(1/n) from yield_stress); ludwik sigma_y0 + B ebar^n + H ebar (capped at
+    max_stress); voce sigma_y0 + Q (1 - exp(-b ebar)) + H ebar; tabulated: `curve`."""
     K: float = 0.0
     eps0: float = 0.0
     n: float = 0.0
@@ -792,8 +793,9 @@ _MATERIAL = {"E": _positive, "nu": _number(-1, 0.5, lo_open=True, hi_open=True),
              "c": _non_negative, "reference_rate": _positive, "rate_measure": _choice("total", "plastic"),
              "rate_filter_time": _positive, "rate_cutoff_frequency": _positive}
 # The keys of each hardening and rate law: (required, optional); a key of another law is an error.
-_HARDENING_KEYS = {"linear": (("yield_stress",), ("hardening",)), "swift": (("K", "eps0", "n"), ()),
-                   "ludwik": (("yield_stress", "B", "n"), ("max_stress",)),
+_HARDENING_KEYS = {"linear": (("yield_stress",), ("hardening",)),
+                   "swift": (("K", "n"), ("eps0", "yield_stress", "hardening")),
+                   "ludwik": (("yield_stress", "B", "n"), ("max_stress", "hardening")),
                    "voce": (("yield_stress", "Q", "b"), ("hardening",)),
                    "tabulated": ((), ("curve", "curve_file", "beyond_curve"))}
 _RATE_KEYS = {"none": ((), ()), "cowper_symonds": (("C", "p"), ("rate_measure", "rate_filter_time",
@@ -1089,6 +1091,12 @@ class _SceneParser:
             for key, table in (("hardening_law", _HARDENING_KEYS), ("rate_law", _RATE_KEYS)):
                 if key in values:
                     self.law_keys(path, data, key, values[key], table)
+            if values.get("hardening_law") == "swift":
+                if ("eps0" in data) == ("yield_stress" in data):
+                    self.error(f"{path}.eps0", "expected exactly one of eps0 and yield_stress for hardening_law = "
+                                               "\"swift\" (yield_stress sets eps0 = (yield_stress / K)^(1/n))")
+                elif all(k in data and k in values for k in ("yield_stress", "K", "n")):
+                    values["eps0"] = (values["yield_stress"] / values["K"]) ** (1.0 / values["n"])
             if values.get("hardening_law") == "tabulated" and ("curve" in data) == ("curve_file" in data):
                 self.error(f"{path}.curve", "expected exactly one of curve and curve_file for "
                                             "hardening_law = \"tabulated\"")
@@ -1097,7 +1105,7 @@ class _SceneParser:
             if values.get("beyond_curve") == "extrapolate" and 0 < len(values.get("curve", ())) < 2:
                 self.error(f"{path}.beyond_curve", "\"extrapolate\" needs a curve of at least two points")
             cap, sy = values.get("max_stress"), values.get("yield_stress")
-            if cap is not None and sy is not None and cap <= sy:
+            if "max_stress" in data and "yield_stress" in data and cap is not None and sy is not None and cap <= sy:
                 self.error(f"{path}.max_stress", f"expected a number above yield_stress = {sy:g}, got {cap:g}")
             if "rate_filter_time" in data and "rate_cutoff_frequency" in data:
                 self.error(f"{path}.rate_cutoff_frequency", "give the rate filter either as rate_filter_time or "

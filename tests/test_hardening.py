@@ -35,7 +35,7 @@ E, NU, SY0 = 2.0e5, 0.3, 250.0
 INCREMENT, STEPS = 0.003, 100             # true strain increment per step, to 0.3
 RATES = (0.1, 1.0, 10.0)                  # 1/time: dt = INCREMENT / rate
 SWIFT = dict(K=500.0, eps0=0.01, n=0.2)
-LUDWIK = dict(B=400.0, n=0.4, max_stress=480.0)       # n < 1: infinite slope at ebar = 0; capped at 0.25
+LUDWIK = dict(B=400.0, n=0.4, hardening=50.0, max_stress=480.0)   # n < 1: infinite slope at ebar = 0; capped
 VOCE = dict(Q=150.0, b=15.0, H=200.0)
 LINEAR_H = 1000.0
 CS = dict(C=1.0, p=5.0)                   # Cowper-Symonds: rate / C = 0.1, 1, 10
@@ -69,7 +69,10 @@ HARDENING = {          # law: (scene keys, closed form sigma_y(ebar))
     "linear": (f'yield_stress = {SY0}\nhardening = {LINEAR_H}', lambda p: SY0 + LINEAR_H * p),
     "swift": ('hardening_law = "swift"\n' + "\n".join(f"{k} = {v}" for k, v in SWIFT.items()), swift),
     "ludwik": (f'hardening_law = "ludwik"\nyield_stress = {SY0}\n' + "\n".join(f"{k} = {v}" for k, v in LUDWIK.items()),
-               lambda p: np.minimum(SY0 + LUDWIK["B"] * p ** LUDWIK["n"], LUDWIK["max_stress"])),
+               lambda p: np.minimum(SY0 + LUDWIK["B"] * p ** LUDWIK["n"] + LUDWIK["hardening"] * p,
+                                    LUDWIK["max_stress"])),
+    "swift_from_yield": ('hardening_law = "swift"\nK = 500.0\nn = 0.2\nyield_stress = 250.0\nhardening = 100.0',
+                         lambda p: 500.0 * ((250.0 / 500.0) ** 5 + p) ** 0.2 + 100.0 * p),
     "voce": (f'hardening_law = "voce"\nyield_stress = {SY0}\nQ = {VOCE["Q"]}\nb = {VOCE["b"]}\nhardening = {VOCE["H"]}',
              lambda p: SY0 + VOCE["Q"] * (1 - np.exp(-VOCE["b"] * p)) + VOCE["H"] * p),
     "tabulated": ('hardening_law = "tabulated"\nbeyond_curve = "extrapolate"\ncurve = '
@@ -483,3 +486,151 @@ def test_random_paths_converge_on_the_flow_stress(name):
     assert ratio[~plastic].max() <= 1e-10
     assert np.abs(ratio[resolved]).max() <= 1e-10
     assert plastic.sum() > n * steps // 10 and (flow / static).max() > 1.1
+
+
+DECK = """*KEYWORD
+*NODE
+1,0.0,0.0,0.0
+2,1.0,0.0,0.0
+3,1.0,1.0,0.0
+4,0.0,1.0,0.0
+5,2.0,0.0,0.0
+6,2.0,1.0,0.0
+*ELEMENT_SHELL
+1,1,1,2,3,4
+2,2,2,5,6,3
+*PART
+kinematic
+1,1,1
+*PART
+curve
+2,1,2
+*SECTION_SHELL
+1,2,0.833,5
+1.0,1.0,1.0,1.0
+*MAT_PLASTIC_KINEMATIC
+1,7.85e-9,2.1e5,0.3,250.0,1000.0,1.0
+40.4,5.0,0.0,0.0
+*MAT_024
+2,7.85e-9,2.1e5,0.3,250.0
+40.4,5.0,7,0,1.0
+,
+,
+*DEFINE_CURVE
+7
+0.01,260.0
+0.1,300.0
+0.2,290.0
+*END
+"""
+
+
+def test_lsdyna_curve_and_cowper_symonds(tmp_path):
+    """*MAT_003: SIGY, ETAN -> linear H = E ETAN / (E - ETAN), SRC/SRP -> Cowper-Symonds on the
+    total rate (VP = 0); *MAT_024: its LCSS curve -> the tabulated law, extrapolated (a curve
+    from ebar 0.01 takes its first stress from 0, a falling point is held: notes), C/P with
+    VP = 1 -> Cowper-Symonds on the plastic rate."""
+    from taichi_shell_mpm.materials import COL
+    from taichi_shell_mpm.preflight import prepare
+    (tmp_path / "deck.k").write_text(DECK)
+    scene = write_scene(tmp_path, '[scene]\nname = "deck"\nunits = "N-mm-s"\n[mesh]\nkind = "file"\npath = "deck.k"\n'
+                                  '[solve]\nkind = "dynamic"\nend_time = 1.0\n')
+    _, _, model = prepare(scene, [])
+    mats = model.materials
+    assert mats.names == ("mat_1", "mat_2") and mats.hardening == ("linear", "tabulated")
+    assert mats.rate_laws == ("cowper_symonds",) and not mats.rate_filter
+    kin, cur = mats.rows
+    assert kin[COL["hardening_law"]] == 0 and kin[COL["yield_stress"]] == 250.0
+    assert kin[COL["hardening"]] == pytest.approx(2.1e5 * 1000.0 / (2.1e5 - 1000.0), rel=1e-15)
+    assert (kin[COL["rate_law"]], kin[COL["cowper_symonds_C"]], kin[COL["cowper_symonds_p"]],
+            kin[COL["rate_plastic"]]) == (0, 40.4, 5.0, 0.0)
+    assert cur[COL["hardening_law"]] == 1 and cur[COL["curve_extrapolate"]] == 1.0
+    assert (cur[COL["curve_start"]], cur[COL["curve_points"]], cur[COL["rate_plastic"]]) == (0, 4, 1.0)
+    assert mats.curve_strain.tolist() == [0.0, 0.01, 0.1, 0.2] and mats.curve_stress.tolist() == [260, 260, 300, 300]
+    notes = " | ".join(model.notes)
+    assert "*MAT_024 2: the curve starts at plastic strain 0.01" in notes
+    assert "*MAT_024 2: the curve falls at plastic strain 0.2 (300 -> 290): held at 300" in notes
+    assert "straight line" not in notes
+
+
+def test_cli_mistakes_are_one_line_each(tmp_path):
+    """`validate` of the rate-dependent tube with wrong hardening and rate keys: exit code 2,
+    one line per mistake naming the key, no traceback."""
+    proc = subprocess.run([sys.executable, "-m", "taichi_shell_mpm", "validate",
+                           str(ROOT / "scenes" / "tube_rate_dependent.toml"), "--set", "material.hardening_law=swift",
+                           "--set", "material.K=0.5", "--set", "material.Q=0.1", "--set", "material.rate_measure=viscous",
+                           "--set", "material.rate_filter_time=-1"], capture_output=True, text=True, timeout=300)
+    lines = proc.stderr.strip().splitlines()
+    print("\n" + proc.stderr)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    assert lines == [
+        "error: tube_rate_dependent.toml: [material].rate_measure: expected one of total, plastic, got 'viscous'",
+        "error: tube_rate_dependent.toml: [material].rate_filter_time: expected a number > 0, got -1",
+        'error: tube_rate_dependent.toml: [material].Q: not used by hardening_law = "swift" '
+        "(its keys: K, n, eps0, yield_stress, hardening)",
+        'error: tube_rate_dependent.toml: [material].n: missing required key for hardening_law = "swift"']
+    ok = subprocess.run([sys.executable, "-m", "taichi_shell_mpm", "validate",
+                         str(ROOT / "scenes" / "tube_rate_dependent.toml")], capture_output=True, text=True, timeout=300)
+    assert ok.returncode == 0, ok.stderr
+
+
+PLATE_RUN = """
+[scene]
+name = "impact"
+units = "kN-mm-ms-kg"
+[mesh]
+kind = "plate"
+lx = 20.0
+ly = 5.0
+nx = 8
+ny = 2
+[material]
+E = 200.0
+nu = 0.3
+density = 7.85e-6
+model = "j2"
+hardening_law = "swift"
+K = 0.55
+eps0 = 0.005
+n = 0.2
+rate_law = "cowper_symonds"
+C = 0.0404
+p = 5.0
+rate_cutoff_frequency = 10.0
+[section]
+thickness = 1.0
+points = 3
+rule = "gauss"
+[method]
+kind = "fem"
+[nodesets.clamped]
+plane = { point = [0.0, 0.0, 0.0], normal = [1.0, 0.0, 0.0] }
+[[boundary]]
+nodes = "clamped"
+fix = "all"
+[[initial]]
+velocity = [15.0, 0.0, 0.0]
+[solve]
+kind = "dynamic"
+end_time = 0.02
+[output]
+times = [0.02]
+"""
+
+
+def test_cli_run_with_swift_and_cowper_symonds(tmp_path):
+    """Through the CLI: a strip clamped at x = 0 and flying off along +x at 15 m/s (Swift
+    steel with a filtered Cowper-Symonds rate law): the clamped end yields, the run finishes
+    and the energy balances."""
+    scene = write_scene(tmp_path, PLATE_RUN)
+    proc = subprocess.run([sys.executable, "-m", "taichi_shell_mpm", "run", str(scene), "--out", str(tmp_path / "out"),
+                           "--quiet"], capture_output=True, text=True, timeout=900)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    energies = summary["energies"]
+    frame = meshio.read(sorted((tmp_path / "out" / "frames").glob("*.vtu"))[-1])
+    ebar = frame.cell_data["plastic_strain_max"][0]
+    print(f"\nsteps {summary['steps']}, plastic work {energies['plastic_work']:.4e}, internal "
+          f"{energies['internal']:.4e}, balance {energies['balance_error']:.2e}, largest ebar {ebar.max():.4f}")
+    assert energies["plastic_work"] > 0 and ebar.max() > 1e-3
+    assert abs(energies["balance_error"]) <= 0.01 * energies["internal"]

@@ -792,9 +792,11 @@ J2 = {"E": 200.0, "nu": 0.3, "density": 1.0, "model": "j2", "yield_stress": 0.25
 
 
 @pytest.mark.parametrize("table, expected", [
-    ({"hardening_law": "swift", "K": 0.5, "n": 0.2},
-     ['[material].yield_stress: not used by hardening_law = "swift" (its keys: K, eps0, n)',
-      '[material].eps0: missing required key for hardening_law = "swift"']),
+    ({"hardening_law": "swift", "K": 0.5, "eps0": 0.01, "B": 0.1},
+     ['[material].B: not used by hardening_law = "swift" (its keys: K, n, eps0, yield_stress, hardening)',
+      '[material].n: missing required key for hardening_law = "swift"',
+      '[material].eps0: expected exactly one of eps0 and yield_stress for hardening_law = "swift" (yield_stress '
+      'sets eps0 = (yield_stress / K)^(1/n))']),
     ({"hardening_law": "voce", "Q": 0.1, "B": 0.1},
      ['[material].B: not used by hardening_law = "voce" (its keys: yield_stress, Q, b, hardening)',
       '[material].b: missing required key for hardening_law = "voce"']),

@@ -33,35 +33,36 @@ class LinearHardening:
 
 @ti.data_oriented
 class SwiftHardening:
-    """sigma_y = K (eps0 + ebar)^n (eps0 > 0: a finite slope everywhere)."""
+    """sigma_y = K (eps0 + ebar)^n + H ebar (eps0 > 0: a finite slope everywhere)."""
     law = "swift"
 
     @ti.func
     def flow_stress(self, row, ebar):
-        n, strain = row[COL["n"]], row[COL["eps0"]] + ebar
-        sy = row[COL["K"]] * strain ** n
-        return sy, n * sy / strain
+        n, strain, H = row[COL["n"]], row[COL["eps0"]] + ebar, row[COL["hardening"]]
+        power = row[COL["K"]] * strain ** n
+        return power + H * ebar, n * power / strain + H
 
 
 @ti.data_oriented
 class LudwikHardening:
-    """sigma_y = sigma_y0 + B ebar^n (Ludwik; Johnson-Cook's strain term), capped at max_stress
-    when that is set.  For n < 1 the slope n B ebar^(n-1) is infinite at ebar = 0; it is taken
-    as 0 there [choice]: Newton's first step from a virgin point is then the perfectly plastic
-    one, which overshoots the root (the flow stress rises above sigma_y0) and becomes the upper
-    end of the bracket, and the iterates that follow have ebar > 0 and a finite slope."""
+    """sigma_y = sigma_y0 + B ebar^n + H ebar (Ludwik; Johnson-Cook's strain term), capped at
+    max_stress when that is set.  For n < 1 the slope n B ebar^(n-1) is infinite at ebar = 0;
+    it is taken as 0 there [choice]: Newton's first step from a virgin point is then the
+    perfectly plastic one, which overshoots the root (the flow stress rises above sigma_y0) and
+    becomes the upper end of the bracket, and the iterates that follow have ebar > 0 and a
+    finite slope."""
     law = "ludwik"
 
     @ti.func
     def flow_stress(self, row, ebar):
-        n, B, cap = row[COL["n"]], row[COL["B"]], row[COL["max_stress"]]
-        sy, slope = row[COL["yield_stress"]], 0.0
+        n, B, H, cap = row[COL["n"]], row[COL["B"]], row[COL["hardening"]], row[COL["max_stress"]]
+        sy, slope = row[COL["yield_stress"]] + H * ebar, H
         if ebar > 0.0:
             power = ebar ** n
             sy += B * power
-            slope = n * B * power / ebar
+            slope += n * B * power / ebar
         elif n == 1.0:
-            slope = B
+            slope += B
         if cap > 0.0 and sy > cap:
             sy, slope = cap, 0.0
         return sy, slope
