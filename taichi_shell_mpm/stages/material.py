@@ -246,6 +246,22 @@ class PlaneStressJ2(PlaneStressElastic):
         return sy, slope
 
     @ti.func
+    def regula_falsi(self, row):
+        """Whether the return's step outside its bracket is the Illinois one: for every law but
+        the rate-free linear one, which keeps the bisection of issue 17 (its runs stay the same
+        bit for bit; the linear law's Newton leaves the bracket only next to the root, where
+        either step does)."""
+        out = False
+        if ti.static(self.rates):
+            out = row[COL["rate_law"]] >= 0.0
+        law = ti.cast(row[COL["hardening_law"]], ti.i32)
+        for i, model in ti.static(enumerate(self.laws)):
+            if ti.static(model.law != "linear"):
+                if law == i:
+                    out = True
+        return out
+
+    @ti.func
     def flow_stress(self, row, ebar, rate, weight):
         """sigma_f = sigma_y(ebar) R(rate) and d sigma_f / d ebar along the return (rate =
         base + weight (ebar - ebar_n))."""
@@ -271,8 +287,10 @@ class PlaneStressJ2(PlaneStressElastic):
         xi = a1 * u1 * u1 / 6.0 + b * u2 * u2
         dxi = -lambda1 * a1 * u1 ** 3 / 3.0 - 2.0 * lambda2 * b * u2 ** 3
         flow_rate = ti.sqrt(2.0 * xi / 3.0)          # d ebar / d dlambda at fixed xi
-        increment = dlam * flow_rate
-        ebar = ebar_n + increment
+        ebar = ebar_n + dlam * flow_rate
+        increment = 0.0
+        if ti.static(self.rates):                    # (without, the rate-free arithmetic of issue 17)
+            increment = dlam * flow_rate
         sy, slope = self.flow_stress(row, ebar, base + weight * increment, weight)
         f = 0.5 * xi - sy * sy / 3.0
         df = 0.5 * dxi - 2.0 / 3.0 * sy * slope * (flow_rate + dlam * dxi / (3.0 * flow_rate))
@@ -308,13 +326,13 @@ class PlaneStressJ2(PlaneStressElastic):
             b = 0.5 * s_diff * s_diff + 2.0 * s12 * s12
             # F(0) = (q_trial^2 - sy_n^2)/3 > 0, and F <= 0 where xi(dlambda) <= xi(0)/(1 + lambda_min
             # dlambda)^2 reaches 2 sy_n^2/3: the root lies in [lo, hi].  Newton from 0; a Newton
-            # iterate outside the bracket is replaced by the Illinois regula falsi point of the
-            # bracket once F is known at both ends (F halved at the end that stayed twice), else
-            # by bisection.  [choice, measured] Bisection alone needed up to 60 iterations where a
-            # trial just above yield puts the root of a power-law rate within 1e-20 of 0 (Cowper-
-            # Symonds p = 5 on the plastic rate: Newton from the right lands below 0 every time);
-            # with the Illinois step at most 17 (a numpy copy of this loop, 20 000 random trials 1e-10
-            # to 10 above yield).
+            # iterate outside the bracket is replaced by bisection, or (regula_falsi) by the Illinois
+            # regula falsi point of the bracket once F is known at both ends (F halved at the end
+            # that stayed twice).  [choice, measured] Bisection alone needed up to 60 iterations
+            # where a trial just above yield puts the root of a power-law rate within 1e-20 of 0
+            # (Cowper-Symonds p = 5 on the plastic rate: Newton from the right lands below 0 every
+            # time); with the Illinois step at most 17 (a numpy copy of this loop, 20 000 random
+            # trials 1e-10 to 10 above yield).
             lo, hi, dlam, root = 0.0, (q_trial / sy_n - 1.0) / row[COL["lambda_min"]], 0.0, 0.0
             f_lo, f_hi, side = 0.0, 0.0, 0           # F at the ends; the end moved last (1: lo, -1: hi)
             converged = False
@@ -337,10 +355,9 @@ class PlaneStressJ2(PlaneStressElastic):
                     side = -1
                 dlam -= f / df
                 if dlam <= lo or dlam >= hi:
-                    if f_hi < 0.0:
+                    dlam = 0.5 * (lo + hi)
+                    if f_hi < 0.0 and self.regula_falsi(row):
                         dlam = lo + (hi - lo) * f_lo / (f_lo - f_hi)
-                    else:
-                        dlam = 0.5 * (lo + hi)
             u1 = 1.0 / (1.0 + row[COL["lambda1"]] * root)
             u2 = 1.0 / (1.0 + row[COL["lambda2"]] * root)
             new[0] = 0.5 * (s_sum * u1 + s_diff * u2)
