@@ -5,9 +5,9 @@
 
 Each case runs A, B, A, B, ... (``--repeats`` pairs), every run in a fresh process on a
 kernel cache warmed by a first run of its own (not counted), and reads
-``us_per_element_step`` from summary.json.  Prints each run, then per case the median of
-A and of B and the ratio B/A.  A shared machine is noisy: trust ratios within one sitting
-only, and the median over pairs.
+``us_per_element_step`` from summary.json.  Prints each run, then per case the median and
+the minimum of A and of B and their ratios B/A.  A shared machine is noisy: trust ratios within one sitting
+only, and the median and the minimum over the runs (the minimum: the run least disturbed).
 
 Cases (short runs; the step is what is measured):
 
@@ -71,7 +71,9 @@ def main() -> int:
                     print(f"{case:<11} {label} {i + 1}: {s['us_per_element_step']:.3f} us/element-step "
                           f"({s['steps']} steps, {s['elements']} elements)", flush=True)
             ma, mb = statistics.median(values["A"]), statistics.median(values["B"])
-            print(f"{case:<11} median A {ma:.3f}  B {mb:.3f}  B/A {mb / ma:.3f}   (A = {runs['A'][0]} "
+            la, lb = min(values["A"]), min(values["B"])
+            print(f"{case:<11} median A {ma:.3f}  B {mb:.3f}  B/A {mb / ma:.3f};  min A {la:.3f}  B {lb:.3f}  "
+                  f"B/A {lb / la:.3f}   (A = {runs['A'][0]} "
                   f"{' '.join(a.set_a)}; B = {runs['B'][0]} {' '.join(a.set_b)})", flush=True)
     return 0
 
