@@ -262,20 +262,30 @@ class PlaneStressJ2(PlaneStressElastic):
         return out
 
     @ti.func
-    def flow_stress(self, row, ebar, rate, weight):
+    def rate_factor(self, row, rate):
+        """R(rate) and dR / d rate of the material's rate law (1, 0 without one)."""
+        R, dR = 1.0, 0.0
+        law = ti.cast(row[COL["rate_law"]], ti.i32)
+        for i, model in ti.static(enumerate(self.rates)):
+            if law == i:
+                R, dR = model.factor(row, rate)
+        return R, dR
+
+    @ti.func
+    def flow_stress(self, row, ebar, rate, weight, fixed):
         """sigma_f = sigma_y(ebar) R(rate) and d sigma_f / d ebar along the return (rate =
-        base + weight (ebar - ebar_n))."""
+        base + weight (ebar - ebar_n)).  With weight 0 (the total strain rate) R is a constant
+        of the return: `fixed` = (R, dR) of the base rate, computed once per point."""
         sy, slope = self.hardening(row, ebar)
         if ti.static(self.rates):
-            law = ti.cast(row[COL["rate_law"]], ti.i32)
-            for i, model in ti.static(enumerate(self.rates)):
-                if law == i:
-                    R, dR = model.factor(row, rate)
-                    sy, slope = sy * R, slope * R + sy * dR * weight
+            R, dR = fixed[0], fixed[1]
+            if weight > 0.0:
+                R, dR = self.rate_factor(row, rate)
+            sy, slope = sy * R, slope * R + sy * dR * weight
         return sy, slope
 
     @ti.func
-    def consistency(self, row, a1, b, ebar_n, dlam, base, weight):
+    def consistency(self, row, a1, b, ebar_n, dlam, base, weight, fixed):
         """F(dlambda), F'(dlambda), ebar(dlambda), its increment and the flow stress there
         (method.md 3.4).  The rate takes the increment itself, not ebar - ebar_n: that
         difference keeps only the digits of the increment that ebar_n leaves, and the steps
@@ -291,7 +301,7 @@ class PlaneStressJ2(PlaneStressElastic):
         increment = 0.0
         if ti.static(self.rates):                    # (without, the rate-free arithmetic of issue 17)
             increment = dlam * flow_rate
-        sy, slope = self.flow_stress(row, ebar, base + weight * increment, weight)
+        sy, slope = self.flow_stress(row, ebar, base + weight * increment, weight, fixed)
         f = 0.5 * xi - sy * sy / 3.0
         df = 0.5 * dxi - 2.0 / 3.0 * sy * slope * (flow_rate + dlam * dxi / (3.0 * flow_rate))
         return f, df, ebar, increment, sy
@@ -319,7 +329,15 @@ class PlaneStressJ2(PlaneStressElastic):
                 base = alpha * (effective_strain_increment(d_strain) / dt) + (1.0 - alpha) * strain_rate
         s11, s22, s12 = new[0], new[1], new[2]
         q_trial = ti.sqrt(s11 * s11 - s11 * s22 + s22 * s22 + 3.0 * s12 * s12)
-        sy_n, _ = self.flow_stress(row, plastic_strain, base, weight)
+        # R >= 1: a trial stress below the rate-free sigma_y(ebar_n) is elastic at any rate, and
+        # R is not evaluated (most points, most steps) [choice, measured: docs/performance.md]
+        sy_n, _ = self.hardening(row, plastic_strain)
+        fixed = ti.Vector([1.0, 0.0])
+        if ti.static(self.rates):
+            if q_trial > sy_n:
+                R, dR = self.rate_factor(row, base)
+                fixed = ti.Vector([R, dR])
+                sy_n, _ = self.flow_stress(row, plastic_strain, base, weight, fixed)
         if q_trial > sy_n:
             s_sum, s_diff = s11 + s22, s11 - s22
             a1 = s_sum * s_sum
@@ -337,7 +355,8 @@ class PlaneStressJ2(PlaneStressElastic):
             f_lo, f_hi, side = 0.0, 0.0, 0           # F at the ends; the end moved last (1: lo, -1: hi)
             converged = False
             for _iteration in range(self.max_iterations):
-                f, df, ebar_k, increment_k, sy = self.consistency(row, a1, b, plastic_strain, dlam, base, weight)
+                f, df, ebar_k, increment_k, sy = self.consistency(row, a1, b, plastic_strain, dlam, base, weight,
+                                                                  fixed)
                 ebar, increment = ebar_k, increment_k
                 root = dlam                      # the dlambda that ebar belongs to
                 if ti.abs(f) < 1e-12 * sy ** 2:
@@ -363,7 +382,7 @@ class PlaneStressJ2(PlaneStressElastic):
             new[0] = 0.5 * (s_sum * u1 + s_diff * u2)
             new[1] = 0.5 * (s_sum * u1 - s_diff * u2)
             new[2] = s12 * u2
-            sy_mid, _ = self.flow_stress(row, 0.5 * (plastic_strain + ebar), base + weight * increment, 0.0)
+            sy_mid, _ = self.flow_stress(row, 0.5 * (plastic_strain + ebar), base + weight * increment, weight, fixed)
             work = sy_mid * (ebar - plastic_strain)
         return new, ebar, base + weight * increment, work, converged
 
