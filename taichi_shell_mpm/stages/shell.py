@@ -143,9 +143,7 @@ class ShellElement:
         t = self.s.sections.thickness[e]
         kappa = self.s.sections.shear_factor[e]
         section = self.s.sections.section[e]
-        material = self.s.sections.point_material[section, 0]
-        kind = self.material.kind(material)
-        row = self.material.row(material)
+        kind, row = self.material.point_material(section, 0)
         dt = self.s.step.dt[None]
         c = self.s.elements.corners[e]
         x, v, w = self.gather(c)
@@ -184,11 +182,15 @@ class ShellElement:
         for k in ti.static(range(self.cfg.points)):
             if k < self.s.sections.point_count[section]:
                 zeta, weight = self.s.sections.zeta[section, k], self.s.sections.weight[section, k]
+                if ti.static(self.cfg.layered):       # plies: each point its own material (docs/laminates.md)
+                    kind, row = self.material.point_material(section, k)
+                axes = self.material.axes(e, section, k)
                 d_inplane = membrane_rate + (0.5 * t * zeta) * curvature_rate
                 old = self.s.points.stress[e, k]
                 new = old
                 if ti.static(self.material.plastic):
-                    updated, ep, work, converged = self.material.update(kind, row, old, self.s.points.plastic_strain[e, k],
+                    updated, ep, work, converged = self.material.update(kind, row, axes, old,
+                                                                        self.s.points.plastic_strain[e, k],
                                                                         dt * d_inplane, dt * shear_rate)
                     new = updated
                     self.s.points.plastic_strain[e, k] = ep
@@ -197,7 +199,7 @@ class ShellElement:
                         self.s.step.status[None] = STATUS_RETURN_FAILED
                         self.s.step.status_index[None] = e
                 else:
-                    updated, _, _, _ = self.material.update(kind, row, old, 0.0, dt * d_inplane, dt * shear_rate)
+                    updated, _, _, _ = self.material.update(kind, row, axes, old, 0.0, dt * d_inplane, dt * shear_rate)
                     new = updated
                 self.s.points.stress[e, k] = new
                 mid = 0.5 * (old + new)
