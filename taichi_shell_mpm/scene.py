@@ -743,6 +743,17 @@ def _window(value: Any) -> tuple[float, float]:
     raise _Invalid(f"expected [from, to] with 0 <= from < to, got {_show(value)}")
 
 
+def _layered_table(data: Any) -> bool:
+    """Whether the raw section table `data` is a layered section (has plies)."""
+    return isinstance(data, dict) and "plies" in data
+
+
+def _lone_layered_section(data: Any) -> bool:
+    """Whether the raw [sections] `data` is one layered section (its plies name the materials:
+    no [[part]] needed)."""
+    return isinstance(data, dict) and len(data) == 1 and _layered_table(next(iter(data.values())))
+
+
 def _positive_list(value: Any) -> tuple[float, ...]:
     """A non-empty list of numbers > 0."""
     if isinstance(value, list) and value and all(_is_number(x) and x > 0 for x in value):
@@ -1062,8 +1073,7 @@ class _SceneParser:
         """A section: one material over the thickness (`thickness`, `points`, `rule`), or
         layered (`plies`, `points_per_ply`; docs/laminates.md)."""
         mark = len(self.messages)
-        layered = isinstance(data, dict) and "plies" in data
-        if not layered:
+        if not _layered_table(data):
             v = self.read(path, data, _SECTION, Section, extra=tuple(_LAYERED_ONLY))
             if v is None:
                 return None
@@ -1144,14 +1154,15 @@ class _SceneParser:
                     self.error(f"[{key}]", "missing required table")
         elif "part" not in raw and not deck and ("materials" in raw or "sections" in raw) \
                 and (len(raw.get("materials", {})) != 1 or len(raw.get("sections", {})) != 1) \
-                and not (len(sections) == 1 and next(iter(sections.values())).layered):
+                and not _lone_layered_section(raw.get("sections")):
             self.error("[[part]]", "missing: with several [materials.NAME] or [sections.NAME], [[part]] entries "
                                    "say which elements get which")
-        for name, sec in sections.items():
+        defined = list(raw["materials"]) if isinstance(raw.get("materials"), dict) else []   # valid or not
+        for name, sec in sections.items():        # the plies' materials (a deck's are checked in assembly.py)
             for i, ply in enumerate(sec.plies):
-                if ply.material not in materials and not deck and "materials" in raw:
+                if ply.material not in defined and not deck and "materials" in raw:
                     self.error(f"[sections.{_key(name)}].plies[{i}].material", f"no [materials.{ply.material}]"
-                               + _hint(ply.material, list(materials), "defined"))
+                               + _hint(ply.material, defined, "defined"))
         if "part" in raw:
             names = [p.name for p in parts if p is not None]
             for i, name in enumerate(names):
