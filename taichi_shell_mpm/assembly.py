@@ -417,7 +417,8 @@ def _part_data(scene: Scene, mesh: Mesh, points: np.ndarray, elements: np.ndarra
             errors.append(f"{scene.source.name}: {path} '{part.name}': {len(taken)} elements also in part '{other}' "
                           f"(e.g. {', '.join(map(str, taken[:5]))}): every element belongs to one part")
         owner[ids] = i
-        parts.append(PartSpec(part.name, ids, part.material, part.section))
+        parts.append(PartSpec(part.name, ids, None if section is not None and section.layered else part.material,
+                              part.section))
     orphans = np.flatnonzero(owner < 0)
     if len(orphans) and not errors:
         errors.append(f"{scene.source.name}: [[part]]: {len(orphans)} elements belong to no part "

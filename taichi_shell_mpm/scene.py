@@ -1160,7 +1160,7 @@ class _SceneParser:
         defined = list(raw["materials"]) if isinstance(raw.get("materials"), dict) else []   # valid or not
         for name, sec in sections.items():        # the plies' materials (a deck's are checked in assembly.py)
             for i, ply in enumerate(sec.plies):
-                if ply.material not in defined and not deck and "materials" in raw:
+                if ply.material not in defined and not deck:
                     self.error(f"[sections.{_key(name)}].plies[{i}].material", f"no [materials.{ply.material}]"
                                + _hint(ply.material, defined, "defined"))
         if "part" in raw:

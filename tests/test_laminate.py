@@ -188,6 +188,65 @@ def test_element_stiffness_matches_lamination_theory(tmp_path, name):
     assert off < 1e-10 * np.abs(expected).max()
 
 
+def stage_of(tmp_path, text: str):
+    """The unwarmed simulation of the scene `text` on the quad FLAT (element.vtu beside it)."""
+    tmp_path.mkdir(parents=True, exist_ok=True)
+    meshio.write(tmp_path / "element.vtu", meshio.Mesh(FLAT, [("quad", np.array([[0, 1, 2, 3]]))]))
+    return unwarmed_simulation(load_scene(write_scene(tmp_path, text)), tmp_path)
+
+
+def test_orthotropic_section_of_one_material_is_a_one_ply_laminate(tmp_path):
+    """The two paths of the element's point loop: a [material] of model "orthotropic" over one
+    [section] (2 Gauss points, unrolled) and the same material as the single ply of a layered
+    section (a run-time loop over its points) give the same stresses and nodal loads for a
+    random mix of stretch, curvature and transverse shear rates."""
+    single = ("[material]\nmodel = \"orthotropic\"\n" + "".join(f"{k} = {v!r}\n" for k, v in CFRP.items())
+              + "[section]\nthickness = 0.3\npoints = 2\nrule = \"gauss\"\n")
+    plain = ELEMENT.replace("{materials}\n[sections.laminate]\nplies = {plies}\n", single).format(
+        reference=REFERENCE.tolist())
+    layered = ELEMENT.format(materials=MATERIALS, plies=plies_toml([("cfrp", 0.3, 0.0)]), reference=REFERENCE.tolist())
+    rng = np.random.default_rng(5)
+    velocity, omega = imposed_rates(FLAT, *np.split(rng.normal(size=8), [3, 6]))
+    results = []
+    for name, text in (("plain", plain), ("layered", layered)):
+        sim = stage_of(tmp_path / name, text)
+        assert sim.cfg.layered == (name == "layered") and sim.cfg.oriented
+        results.append(element_stage(sim, FLAT + 0.5 * DT * velocity, velocity, omega, DT)[:3])
+    (stress_a, force_a, moment_a), (stress_b, force_b, moment_b) = results
+    differences = [np.abs(a - b).max() / np.abs(a).max()
+                   for a, b in ((stress_a, stress_b), (force_a, force_b), (moment_a, moment_b))]
+    print(f"\nplain vs one-ply laminate: relative differences of stress, force, moment "
+          + ", ".join(f"{d:.1e}" for d in differences))
+    assert differences[0] < 1e-14
+    assert max(differences[1:]) < 1e-12       # hourglass and drilling: the same moduli up to round-off
+
+
+def test_plastic_ply_yields_while_the_fibres_stay_elastic(tmp_path):
+    """A j2 aluminium core between two 0-degree CFRP plies (two models at the points of one
+    element, the plastic one with its return map): a membrane stretch of 1 % along the fibres, in one step from zero stress.  The
+    aluminium points return to the yield surface (von Mises stress = sigma_y, plastic strain
+    > 0), the CFRP points carry Q_bar eps exactly and no plastic strain."""
+    j2 = "\n[materials.aluminium_j2]\nmodel = \"j2\"\nE = 70e3\nnu = 0.33\ndensity = 2.7e-9\nyield_stress = 250.0\n"
+    layup = [("cfrp", 0.1, 0.0), ("aluminium_j2", 0.3, 0.0), ("cfrp", 0.1, 0.0)]
+    sim = stage_of(tmp_path, ELEMENT.format(materials=MATERIALS + j2, plies=plies_toml(layup), reference="[1.0, 0.0, 0.0]"))
+    e1, e2 = element_frame(FLAT)
+    axis = np.arctan2(e2[0], e1[0])                          # the global x axis from e1
+    strain = 0.01 * np.array([np.cos(axis) ** 2, np.sin(axis) ** 2, 2 * np.sin(axis) * np.cos(axis)])
+    velocity, omega = imposed_rates(FLAT, strain / DT, np.zeros(3), np.zeros(2))
+    stress, *_ = element_stage(sim, FLAT + 0.5 * DT * velocity, velocity, omega, DT)
+    plastic = sim.state.fetch("points.plastic_strain")[0]
+    q_bar, _ = ply_stiffness("cfrp", axis)
+    s = stress[0]
+    mises = np.sqrt(s[:, 0] ** 2 - s[:, 0] * s[:, 1] + s[:, 1] ** 2 + 3 * s[:, 2] ** 2)
+    core = [2, 3]
+    fibre = [0, 1, 4, 5]
+    elastic_error = np.abs(s[fibre, :3] - q_bar @ strain).max() / np.abs(q_bar @ strain).max()
+    print(f"\ncore von Mises {mises[core]} (sigma_y 250), plastic strain {plastic[core]}; CFRP stress error "
+          f"{elastic_error:.1e}, plastic strain {plastic[fibre]}")
+    assert np.allclose(mises[core], 250.0, rtol=1e-10) and np.all(plastic[core] > 1e-3)
+    assert elastic_error < 1e-12 and np.all(plastic[fibre] == 0.0)
+
+
 def test_section_mass_inertia_and_wave_speed(tmp_path):
     """The model of a layered plate: mass per area sum rho_i t_i, physical rotary inertia
     sum rho_i (t_i^3/12 + t_i z_i^2) per area, each element's wave speed that of its stiffest
