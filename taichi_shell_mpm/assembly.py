@@ -94,6 +94,8 @@ class ElementData:
     shear_factor: np.ndarray                # (m,) kappa
     wave_speed: np.ndarray                  # (m,) plane-stress c_e of its stiffest material (physical density)
     rotational_frequency: np.ndarray        # (m,) sqrt(12 kappa G / rho) / t with physical rotary inertia, else 0
+    # E, G below: the material's; a laminate's or an orthotropic material's effective isotropic
+    # moduli (laminate.Layup: membrane E, bending E, mean transverse G)
     hourglass_membrane: np.ndarray          # (m,) r E t / 8      (stages/hourglass.py: x A beta -> C3)
     hourglass_bending: np.ndarray           # (m,) r E t^3 / 192  (x A beta -> C1)
     hourglass_transverse: np.ndarray        # (m,) r kappa G t^3 / 12 (x beta -> C2)

@@ -6,8 +6,9 @@
 ``elements``   element topology and state: corners, hourglass and drilling resultants,
                energy accumulators, the parallel launches' corner-load slots
 ``sections``   per-element section and material data (thickness, shear factor, hourglass
-               and drilling factors, wave speed, material and section ids) and the tables they
-               index (through-thickness rules per section, parameters per material)
+               and drilling factors, wave speed, section id, material axis) and the tables
+               they index (through-thickness points per section with each point's material
+               and ply angle, parameters per material)
 ``points``     through-thickness point state: stress, equivalent plastic strain
 ``grid``       the background grid (mpm) and its geometry
 ``contact``    self-contact: forces, candidate lists, side memory, spatial hash

@@ -418,10 +418,44 @@ def test_invalid_layered_scene_is_one_line_exit_2(tmp_path, case):
     assert "Traceback" not in proc.stderr
 
 
-def test_valid_layered_scene_validates(tmp_path):
-    """The unmutated scene of the cases above is valid (so each case fails for its own mistake)."""
-    path = write_scene(tmp_path, GOOD)
-    proc = subprocess.run([sys.executable, "-m", "taichi_shell_mpm", "validate", str(path)],
-                          capture_output=True, text=True, timeout=300)
-    print(proc.stdout, proc.stderr)
-    assert proc.returncode == 0, proc.stderr
+TWO_PARTS = """
+[sections.plate]
+thickness = 0.3
+[elementsets.root]
+box = {min = [0.0, 0.0, -1.0], max = [5.0, 1.0, 1.0]}
+[elementsets.tip]
+box = {min = [5.0, 0.0, -1.0], max = [10.0, 1.0, 1.0]}
+[[part]]
+name = "laminate"
+section = "skin"
+elements = "root"
+[[part]]
+name = "metal"
+section = "plate"
+material = "aluminium"
+elements = "tip"
+"""
+
+
+def test_valid_layered_scenes_validate(tmp_path):
+    """The unmutated scene of the cases above is valid (so each case fails for its own mistake),
+    and so is a laminate part beside a part of one isotropic material: each point of the
+    section table has its part's material, the isotropic row the same one throughout."""
+    for name, text in (("one_section", GOOD), ("two_parts", GOOD + TWO_PARTS)):
+        path = write_scene(tmp_path, text, f"{name}.toml")
+        proc = subprocess.run([sys.executable, "-m", "taichi_shell_mpm", "validate", str(path)],
+                              capture_output=True, text=True, timeout=300)
+        print(proc.stdout, proc.stderr)
+        assert proc.returncode == 0, proc.stderr
+    scene = load_scene(path)
+    mesh = build_mesh(scene.mesh)
+    model = assemble(scene, mesh)
+    table = model.sections
+    print(f"section rows {table.names}, point materials {table.point_material.tolist()}, "
+          f"parts of the elements {model.element.part.tolist()}")
+    assert table.names == ("skin", "plate/aluminium") and table.layered.tolist() == [True, False]
+    cfrp, aluminium = model.materials.names.index("cfrp"), model.materials.names.index("aluminium")
+    assert (table.point_material[0] == cfrp).all() and (table.point_material[1] == aluminium).all()
+    assert table.point_count.tolist() == [6, 3]
+    assert (model.element.part == (mesh.points[mesh.elements].mean(axis=1)[:, 0] > 5.0)).all()
+    assert np.allclose(model.element.thickness, np.where(model.element.part == 0, 0.1, 0.3), rtol=1e-15, atol=0)
