@@ -26,6 +26,7 @@ class Features:
     hardening: tuple[str, ...]  # J2 hardening laws the scene uses (materials.HARDENING_LAWS order)
     rate_laws: tuple[str, ...]  # J2 strain-rate laws the scene uses (materials.RATE_LAWS order)
     rate_filter: bool           # some material filters its strain rate (state.points.strain_rate)
+    layered: bool               # a layered section: each point reads its own material (docs/laminates.md)
     kirchhoff_w_hourglass: bool  # stages/hourglass.py: w-mode rate less the Kirchhoff field's
     drilling_spring: bool       # drilling spring (stages/drilling.py); else the projection (method.md 2.3)
     warping_correction: bool    # BWC curvature of warped quads (stages/warping.py, method.md 3.8)
@@ -64,6 +65,13 @@ class Features:
         from .materials import PLASTIC
         return any(PLASTIC[k] for k in self.materials)
 
+    @property
+    def oriented(self) -> bool:
+        """A material with axes (orthotropic): the points read the element's material axis and
+        their ply angle."""
+        from .materials import ORIENTED
+        return any(ORIENTED[k] for k in self.materials)
+
     @staticmethod
     def from_scene(scene: Scene, model: Model, launch: str = "batched") -> "Features":
         el = scene.element
@@ -73,6 +81,7 @@ class Features:
             points=model.sections.points, materials=model.materials.kinds,
             hardening=model.materials.hardening, rate_laws=model.materials.rate_laws,
             rate_filter=model.materials.rate_filter,
+            layered=bool(model.sections.layered.any()),
             kirchhoff_w_hourglass=el.w_hourglass == "kirchhoff", drilling_spring=el.drilling == "penalty",
             warping_correction=el.warping == "bwc",
             physical_rotary_inertia=scene.solve.rotary_inertia == "physical",

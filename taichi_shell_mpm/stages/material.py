@@ -1,11 +1,13 @@
 """Constitutive updates at one through-thickness point, in the corotational frame (method.md 3.4).
 
-A material model is a small class with a ``ti.func`` ``update(row, stress, plastic_strain,
-strain_rate, strain_increment, shear_increment, dt)`` that reads its parameters from ``row``,
-the point's material's row of the material table (state.sections.material, columns in
-materials.py).  :class:`ConstitutiveUpdate` dispatches each point to its material's model
-with a ``ti.static`` loop over the models the scene uses (Features.materials), so only those
-are compiled [choice, issue 17, as Genesis's MPM solver dispatches its materials]; parameter
+A material model is a small class with a ``ti.func`` ``update(row, axes, stress,
+plastic_strain, strain_rate, strain_increment, shear_increment, dt)`` that reads its
+parameters from ``row``, the point's material's row of the material table
+(state.sections.material, columns in materials.py); ``axes`` = (cos, sin) of the angle from
+the element's e1 to the point's material 1-axis, which only the orthotropic model reads
+(docs/laminates.md).  :class:`ConstitutiveUpdate` dispatches each point to its material's
+model with a ``ti.static`` loop over the models the scene uses (Features.materials), so only
+those are compiled [choice, issue 17, as Genesis's MPM solver dispatches its materials]; parameter
 values are run-time data (a changed E or yield stress loads the kernels from the cache).
 The J2 model's flow stress sigma_y(ebar) R(rate) dispatches the same way over the hardening
 and rate laws the scene uses (Features.hardening, Features.rate_laws; issue 18): the laws'
@@ -14,7 +16,7 @@ parameters, the tabulated curves included, are run-time data too.
 
 import taichi as ti
 
-from ..materials import COL
+from ..materials import COL, ORIENTED
 
 
 # ---------------------------------------------------------------- hardening laws sigma_y(ebar)
@@ -187,10 +189,10 @@ class PlaneStressElastic:
             c33 * d_shear[1]])
 
     @ti.func
-    def update(self, row, stress, plastic_strain, strain_rate, d_strain, d_shear, dt):
+    def update(self, row, axes, stress, plastic_strain, strain_rate, d_strain, d_shear, dt):
         """stress = (sxx, syy, sxy, txz, tyz); d_strain = (dexx, deyy, dgxy); d_shear = (dgxz, dgyz).
         Returns (new stress, new equivalent plastic strain, new filtered strain rate, plastic
-        work per unit volume, whether the update converged)."""
+        work per unit volume, whether the update converged).  Isotropic: `axes` is not read."""
         return self.elastic(row, stress, d_strain, d_shear), plastic_strain, strain_rate, 0.0, True
 
 
@@ -307,7 +309,7 @@ class PlaneStressJ2(PlaneStressElastic):
         return f, df, ebar, increment, sy
 
     @ti.func
-    def update(self, row, stress, plastic_strain, strain_rate, d_strain, d_shear, dt):
+    def update(self, row, axes, stress, plastic_strain, strain_rate, d_strain, d_shear, dt):
         """stress = (sxx, syy, sxy, txz, tyz); d_strain = (dexx, deyy, dgxy); d_shear = (dgxz, dgyz);
         strain_rate: the point's filtered rate of the last step (0 unfiltered).  Returns (new
         stress, new equivalent plastic strain, new filtered rate, plastic work
@@ -387,13 +389,53 @@ class PlaneStressJ2(PlaneStressElastic):
         return new, ebar, base + weight * increment, work, converged
 
 
-MODELS = {cls.kind: cls for cls in (PlaneStressElastic, PlaneStressJ2)}    # materials.KINDS
+@ti.data_oriented
+class PlaneStressOrthotropic:
+    """Linear elastic orthotropic ply in plane stress with elastic transverse shear
+    (docs/laminates.md).  The strain increment is turned into the material axes (1 at the
+    angle theta from e1, counter-clockwise about e3; c = cos, s = sin), met by the ply's own
+    stiffness, and the stress increment turned back:
+    de11 = c^2 dexx + s^2 deyy + c s dgxy, de22 = s^2 dexx + c^2 deyy - c s dgxy,
+    dg12 = 2 c s (deyy - dexx) + (c^2 - s^2) dgxy; ds = Q de (Q11, Q22, Q12, Q66 = G12);
+    dsxx = c^2 ds11 + s^2 ds22 - 2 c s dt12, dsyy = s^2 ds11 + c^2 ds22 + 2 c s dt12,
+    dsxy = c s (ds11 - ds22) + (c^2 - s^2) dt12: the increment of Q_bar = T^-1 Q T^-T.
+    Transverse shear: dg13 = c dgxz + s dgyz, dg23 = -s dgxz + c dgyz, dt13 = G13 dg13,
+    dt23 = G23 dg23, dtxz = c dt13 - s dt23, dtyz = s dt13 + c dt23."""
+
+    kind = "orthotropic"
+    plastic = False
+
+    def __init__(self, state=None):
+        pass
+
+    @ti.func
+    def update(self, row, axes, stress, plastic_strain, strain_rate, d_strain, d_shear, dt):
+        """As PlaneStressElastic.update, in the material axes `axes` = (cos, sin)."""
+        c, s = axes[0], axes[1]
+        cc, ss, cs = c * c, s * s, c * s
+        e11 = cc * d_strain[0] + ss * d_strain[1] + cs * d_strain[2]
+        e22 = ss * d_strain[0] + cc * d_strain[1] - cs * d_strain[2]
+        g12 = 2.0 * cs * (d_strain[1] - d_strain[0]) + (cc - ss) * d_strain[2]
+        s11 = row[COL["c11"]] * e11 + row[COL["c12"]] * e22
+        s22 = row[COL["c12"]] * e11 + row[COL["c22"]] * e22
+        t12 = row[COL["c33"]] * g12
+        t13 = row[COL["shear_13"]] * (c * d_shear[0] + s * d_shear[1])
+        t23 = row[COL["shear_23"]] * (c * d_shear[1] - s * d_shear[0])
+        return stress + ti.Vector([
+            cc * s11 + ss * s22 - 2.0 * cs * t12,
+            ss * s11 + cc * s22 + 2.0 * cs * t12,
+            cs * (s11 - s22) + (cc - ss) * t12,
+            c * t13 - s * t23,
+            s * t13 + c * t23]), plastic_strain, strain_rate, 0.0, True
+
+
+MODELS = {cls.kind: cls for cls in (PlaneStressElastic, PlaneStressJ2, PlaneStressOrthotropic)}   # materials.KINDS
 
 
 @ti.data_oriented
 class ConstitutiveUpdate:
-    """The point update of the scene's materials: ``update(material, ...)`` runs the model of
-    material index `material` (its kind is state.sections.material_kind, an index into
+    """The point update of the scene's materials: ``update(kind, row, axes, ...)`` runs the
+    model `kind` (state.sections.material_kind of the point's material, an index into
     Features.materials); only the models the scene uses are compiled.  It keeps the point's
     filtered strain rate (state.points.strain_rate) when a material filters it."""
 
@@ -402,6 +444,7 @@ class ConstitutiveUpdate:
         self.models = tuple(MODELS[k](state) for k in kinds)
         self.plastic = any(m.plastic for m in self.models)
         self.rate_filter = state.features.rate_filter
+        self.oriented = any(ORIENTED[k] for k in kinds)
 
     @ti.func
     def row(self, material):
@@ -415,7 +458,24 @@ class ConstitutiveUpdate:
         return self.s.sections.material_kind[material]
 
     @ti.func
-    def update(self, kind, row, stress, plastic_strain, d_strain, d_shear, dt, e, k):
+    def point_material(self, section, k):
+        """Model index and parameter row of the material of point k of `section`."""
+        material = self.s.sections.point_material[section, k]
+        return self.kind(material), self.row(material)
+
+    @ti.func
+    def axes(self, e, section, k):
+        """(cos, sin) of the angle from element e's e1 to the material 1-axis at its point k:
+        the element's material axis turned by the point's ply angle; (1, 0) when no material
+        of the scene has axes (nothing is read)."""
+        out = ti.Vector([1.0, 0.0])
+        if ti.static(self.oriented):
+            a, p = self.s.sections.material_axis[e], self.s.sections.ply_axis[section, k]
+            out = ti.Vector([a[0] * p[0] - a[1] * p[1], a[1] * p[0] + a[0] * p[1]])
+        return out
+
+    @ti.func
+    def update(self, kind, row, axes, stress, plastic_strain, d_strain, d_shear, dt, e, k):
         """The update of the model `kind` (index into Features.materials) with parameters `row`
         at point k of element e over the step dt."""
         rate = 0.0
@@ -423,13 +483,13 @@ class ConstitutiveUpdate:
             rate = self.s.points.strain_rate[e, k]
         new, ebar, work, converged = stress, plastic_strain, 0.0, True
         if ti.static(len(self.models) == 1):
-            new, ebar, rate, work, converged = self.models[0].update(row, stress, plastic_strain, rate, d_strain,
-                                                                     d_shear, dt)
+            new, ebar, rate, work, converged = self.models[0].update(row, axes, stress, plastic_strain, rate,
+                                                                     d_strain, d_shear, dt)
         else:
             for i, model in ti.static(enumerate(self.models)):
                 if kind == i:
-                    new, ebar, rate, work, converged = model.update(row, stress, plastic_strain, rate, d_strain,
-                                                                    d_shear, dt)
+                    new, ebar, rate, work, converged = model.update(row, axes, stress, plastic_strain, rate,
+                                                                    d_strain, d_shear, dt)
         if ti.static(self.rate_filter):
             self.s.points.strain_rate[e, k] = rate
         return new, ebar, work, converged
