@@ -125,12 +125,19 @@ class SectionTable:
 @dataclass(frozen=True)
 class MaterialTable:
     """One row of parameters per scene material (materials.py); ``kind`` indexes ``kinds``,
-    the material models the scene uses (registry order)."""
+    the material models the scene uses (registry order); ``hardening`` and ``rate_laws``, the
+    J2 flow-stress laws it uses; the tabulated hardening curves of all materials, one after
+    the other (each row holds its curve's first point and count)."""
     names: tuple[str, ...]
     kinds: tuple[str, ...]
     kind: np.ndarray                        # (nm,)
     rows: np.ndarray                        # (nm, MATERIAL_PARAMETERS)
     dilatational_speed: float               # the largest of the paper's grid-rule speeds
+    hardening: tuple[str, ...]              # materials.HARDENING_LAWS used (Features.hardening)
+    rate_laws: tuple[str, ...]              # materials.RATE_LAWS used (Features.rate_laws)
+    rate_filter: bool                       # some material filters its rate (Features.rate_filter)
+    curve_strain: np.ndarray                # (points,) plastic strain of each curve point
+    curve_stress: np.ndarray                # (points,) its yield stress
 
     @property
     def plastic(self) -> bool:
@@ -335,11 +342,13 @@ def _mesh_set(name: str, mesh: Mesh, where: str, extra: tuple = ()) -> np.ndarra
 
 
 def _deck_specs(deck, source: str):
-    """Scene materials and sections for an LS-DYNA deck's parts (dyna.Deck): *MAT_001 elastic,
-    *MAT_003 and *MAT_024 J2 with linear hardening H = E E_t / (E - E_t) from their tangent
-    modulus (a *MAT_024 curve: the straight line through its points, least squares, with a
-    warning until tabulated hardening exists), *SECTION_SHELL thickness T1, NIP Gauss points
-    (QR = 0; NIP = 0 means 2), QR = 1 (trapezoidal) as Lobatto with a note, SHRF."""
+    """Scene materials and sections for an LS-DYNA deck's parts (dyna.Deck): *MAT_001 elastic;
+    *MAT_003 and *MAT_024 J2: a *MAT_024 stress-strain curve (LCSS or EPS/ES) is the tabulated
+    hardening law, extrapolated beyond its last point as LS-DYNA does, else linear hardening
+    H = E E_t / (E - E_t) from the tangent modulus; their Cowper-Symonds C and P (*MAT_003 SRC,
+    SRP) the cowper_symonds rate law on the total strain rate (VP = 0, -1) or the plastic strain
+    rate (VP = 1); *SECTION_SHELL thickness T1, NIP Gauss points (QR = 0; NIP = 0 means 2),
+    QR = 1 (trapezoidal) as Lobatto with a note, SHRF."""
     from .scene import Material, Section
     materials, sections, notes = {}, {}, []
     for mid, card in deck.materials.items():
@@ -348,17 +357,24 @@ def _deck_specs(deck, source: str):
         if card.kind == "elastic":
             materials[f"mat_{mid}"] = Material(E=E, nu=nu, density=rho)
             continue
-        sigy, etan = v.get("sigy", 0.0), v.get("etan", 0.0)
+        where = f"{source}: {'*MAT_024' if card.kind == 'piecewise_linear' else '*MAT_003'} {mid}"
+        law = {"yield_stress": v.get("sigy", 0.0), "hardening": 0.0}
         if card.curve:
-            eps, sig = np.array(card.curve, dtype=float).T
-            slope, intercept = np.polyfit(eps, sig, 1) if len(eps) > 1 else (0.0, sig[0])
-            sigy, hardening = float(intercept), float(max(slope, 0.0))
-            notes.append(f"{source}: *MAT_024 {mid}: its stress-strain curve is taken as the straight line "
-                         f"sigma_y = {sigy:.4g} + {hardening:.4g} ebar (least squares over its {len(eps)} points)")
+            law = {"hardening_law": "tabulated", "curve": _deck_curve(card.curve, where, notes),
+                   "beyond_curve": "extrapolate" if len(card.curve) > 1 else "flat"}
         else:
-            hardening = E * etan / (E - etan) if 0.0 < etan < E else 0.0
-        materials[f"mat_{mid}"] = Material(E=E, nu=nu, density=rho, model="j2", yield_stress=sigy,
-                                           hardening=hardening)
+            etan = v.get("etan", 0.0)
+            law["hardening"] = E * etan / (E - etan) if 0.0 < etan < E else 0.0
+        C, P = (v.get("src", 0.0), v.get("srp", 0.0)) if card.kind == "plastic_kinematic" else \
+            (v.get("c", 0.0), v.get("p", 0.0))
+        if C > 0.0 and P > 0.0:
+            vp = int(v.get("vp", 0.0))
+            law.update(rate_law="cowper_symonds", C=C, p=P, rate_measure="plastic" if vp == 1 else "total")
+            if vp not in (0, -1, 1):
+                notes.append(f"{where}: VP = {vp} is read as VP = 0 (Cowper-Symonds on the total strain rate)")
+        if card.kind == "piecewise_linear" and int(v.get("lcsr", 0)) > 0:
+            notes.append(f"{where}: the strain-rate scaling curve LCSR {int(v['lcsr'])} is not read")
+        materials[f"mat_{mid}"] = Material(E=E, nu=nu, density=rho, model="j2", **law)
     for secid, card in deck.sections.items():
         points = int(card.nip) if card.nip > 0 else 2             # NIP = 0: LS-DYNA's default, 2
         rule = "gauss"
@@ -372,6 +388,33 @@ def _deck_specs(deck, source: str):
         sections[f"sec_{secid}"] = Section(thickness=card.thickness, points=points, rule=rule,
                                            shear_factor=min(card.shear_factor, 1.0))
     return materials, sections, notes
+
+
+def _deck_curve(curve, where: str, notes: list) -> tuple[tuple[float, float], ...]:
+    """A *MAT_024 stress-strain curve as a tabulated hardening curve (scene._curve_points):
+    starting at plastic strain 0 (its first stress there if it starts later), points that do
+    not advance in plastic strain dropped, a falling stress held at the highest before it
+    (softening is not supported), each change in a note."""
+    points = []
+    for eps, sig in curve:
+        if sig <= 0.0:
+            raise SceneError(f"{where}: the stress-strain curve has a yield stress <= 0 ({sig:g} at plastic "
+                             f"strain {eps:g})")
+        if points and eps <= points[-1][0]:
+            notes.append(f"{where}: curve point ({eps:g}, {sig:g}) does not advance in plastic strain: dropped")
+            continue
+        if points and sig < points[-1][1]:
+            notes.append(f"{where}: the curve falls at plastic strain {eps:g} ({points[-1][1]:g} -> {sig:g}): "
+                         f"held at {points[-1][1]:g} (softening is not supported)")
+            sig = points[-1][1]
+        points.append((float(eps), float(sig)))
+    if points[0][0] > 0.0:
+        notes.append(f"{where}: the curve starts at plastic strain {points[0][0]:g}: its first stress is taken "
+                     "from plastic strain 0")
+        points.insert(0, (0.0, points[0][1]))
+    elif points[0][0] < 0.0:
+        raise SceneError(f"{where}: the stress-strain curve starts at a negative plastic strain {points[0][0]:g}")
+    return tuple(points)
 
 
 def _part_data(scene: Scene, mesh: Mesh, points: np.ndarray, elements: np.ndarray):
@@ -474,13 +517,22 @@ def _tables(scene: Scene, parts, material_specs: dict, section_specs: dict, fram
     e1, e2 = frames
     m = len(e1)
     material_names = tuple(material_specs)
-    kinds = tuple(k for k in materials.KINDS if any(spec.model == k for spec in material_specs.values()))
+    specs = [material_specs[n] for n in material_names]
+    kinds = tuple(k for k in materials.KINDS if any(spec.model == k for spec in specs))
+    hardening, rates = materials.hardening_laws(specs), materials.rate_laws(specs)
+    curves = [spec.curve if spec.model == "j2" and spec.hardening_law == "tabulated" else () for spec in specs]
+    starts = np.concatenate([[0], np.cumsum([len(c) for c in curves])]).astype(int)
+    points = np.array([point for c in curves for point in c]).reshape(-1, 2)
     material_table = MaterialTable(
         names=material_names, kinds=kinds,
-        kind=np.array([kinds.index(material_specs[n].model) for n in material_names], dtype=np.int32),
-        rows=np.array([materials.parameter_row(material_specs[n], materials.MATERIAL_PARAMETERS)
-                       for n in material_names]),
-        dilatational_speed=max(materials.dilatational_speed(spec) for spec in material_specs.values()))
+        kind=np.array([kinds.index(spec.model) for spec in specs], dtype=np.int32),
+        rows=np.array([materials.parameter_row(spec, materials.MATERIAL_PARAMETERS, hardening, rates, start)
+                       for spec, start in zip(specs, starts)]),
+        dilatational_speed=max(materials.dilatational_speed(spec) for spec in specs),
+        hardening=hardening, rate_laws=rates,
+        rate_filter=any(spec.model == "j2" and spec.rate_law != "none" and materials.rate_filter_time(spec) > 0
+                        for spec in specs),
+        curve_strain=points[:, 0].copy(), curve_stress=points[:, 1].copy())
     pairs = tuple(dict.fromkeys((p.section, p.material) for p in parts))
     layups = [laminate.layup(section_specs[sec], material_specs, mat) for sec, mat in pairs]
     nk = max(len(lay.zeta) for lay in layups)

@@ -23,6 +23,9 @@ class Features:
     fire: bool                  # static: FIRE velocity mixing instead of plain kinetic damping
     points: int                 # through-thickness points: the most of any section
     materials: tuple[str, ...]  # material models the scene uses (materials.KINDS order)
+    hardening: tuple[str, ...]  # J2 hardening laws the scene uses (materials.HARDENING_LAWS order)
+    rate_laws: tuple[str, ...]  # J2 strain-rate laws the scene uses (materials.RATE_LAWS order)
+    rate_filter: bool           # some material filters its strain rate (state.points.strain_rate)
     layered: bool               # a layered section: each point reads its own material (docs/laminates.md)
     kirchhoff_w_hourglass: bool  # stages/hourglass.py: w-mode rate less the Kirchhoff field's
     drilling_spring: bool       # drilling spring (stages/drilling.py); else the projection (method.md 2.3)
@@ -76,6 +79,8 @@ class Features:
             method=scene.method.kind, transfer=scene.method.transfer, static=scene.solve.kind == "static",
             fire=scene.solve.kind == "static" and scene.solve.relaxation == "fire",
             points=model.sections.points, materials=model.materials.kinds,
+            hardening=model.materials.hardening, rate_laws=model.materials.rate_laws,
+            rate_filter=model.materials.rate_filter,
             layered=bool(model.sections.layered.any()),
             kirchhoff_w_hourglass=el.w_hourglass == "kirchhoff", drilling_spring=el.drilling == "penalty",
             warping_correction=el.warping == "bwc",

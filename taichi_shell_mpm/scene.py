@@ -137,9 +137,40 @@ class Material:
     model: Literal["elastic", "j2"] = "elastic"
     """elastic: linear, corotational; j2: von Mises plane-stress plasticity (method.md 3.4)."""
     yield_stress: float = 0.0
-    """Initial yield stress sigma_y0 (required, > 0, for model = "j2")."""
+    """Initial yield stress sigma_y0 (linear, ludwik: A, voce: sigma_0; required for these laws)."""
     hardening: float = 0.0
-    """Linear isotropic hardening modulus H (0 = perfectly plastic)."""
+    """Linear isotropic hardening modulus H (linear; the linear term of swift, ludwik, voce; 0 = none)."""
+    hardening_law: Literal["linear", "swift", "ludwik", "voce", "tabulated"] = "linear"
+    """sigma_y(ebar): linear sigma_y0 + H ebar; swift K (eps0 + ebar)^n + H ebar (eps0 given, or
+    (sigma_y0 / K)^(1/n) from yield_stress); ludwik sigma_y0 + B ebar^n + H ebar (capped at
+    max_stress); voce sigma_y0 + Q (1 - exp(-b ebar)) + H ebar; tabulated: `curve`."""
+    K: float = 0.0
+    eps0: float = 0.0
+    n: float = 0.0
+    B: float = 0.0
+    max_stress: float | None = None
+    Q: float = 0.0
+    b: float = 0.0
+    curve: tuple[tuple[float, float], ...] = ()
+    """tabulated: (ebar, sigma_y) points, ebar from 0 strictly increasing, sigma_y non-decreasing
+    (from `curve` or the CSV file `curve_file`); linear between points."""
+    curve_file: Path | None = None
+    beyond_curve: Literal["flat", "extrapolate"] = "flat"
+    """Beyond the last point: its stress, or the last segment's line."""
+    rate_law: Literal["none", "cowper_symonds", "johnson_cook"] = "none"
+    """Flow stress factor R(rate): cowper_symonds 1 + (rate/C)^(1/p); johnson_cook
+    1 + c ln(rate/reference_rate), not below 1."""
+    C: float = 0.0
+    p: float = 0.0
+    c: float = 0.0
+    reference_rate: float = 0.0
+    rate_measure: Literal["total", "plastic"] = "total"
+    """The rate: the effective total strain rate (LS-DYNA VP = 0) or the equivalent plastic
+    strain rate (VP = 1; solved in the return map)."""
+    rate_filter_time: float = 0.0
+    """Time constant of the exponential filter of the rate (0 = unfiltered)."""
+    rate_cutoff_frequency: float = 0.0
+    """The filter as a cutoff frequency f_c: time constant 1 / (2 pi f_c)."""
 
 
 @dataclass(frozen=True)
@@ -770,6 +801,34 @@ def _times(value: Any) -> tuple[float, ...]:
     return tuple(float(t) for t in value)
 
 
+def _curve_points(points: Sequence[tuple[float, float]], where: Callable[[int], str]) -> tuple[tuple[float, float], ...]:
+    """A hardening curve's (plastic strain, yield stress) points, checked: from plastic strain 0,
+    strictly increasing, yield stress > 0 and non-decreasing (the return map brackets its root
+    with a flow stress that does not fall, method.md 3.4).  `where(i)` names point i in messages."""
+    if not points:
+        raise _Invalid("expected at least one [plastic strain, yield stress] point, got none")
+    if points[0][0] != 0.0:
+        raise _Invalid(f"{where(0)}: expected plastic strain 0 (the initial yield stress), got {points[0][0]:g}")
+    for i, (eps, sig) in enumerate(points):
+        if sig <= 0.0:
+            raise _Invalid(f"{where(i)}: expected a yield stress > 0, got {sig:g}")
+        if i and eps <= points[i - 1][0]:
+            raise _Invalid(f"{where(i)}: expected a plastic strain above the previous point's {points[i - 1][0]:g}, "
+                           f"got {eps:g}")
+        if i and sig < points[i - 1][1]:
+            raise _Invalid(f"{where(i)}: the yield stress falls ({points[i - 1][1]:g} -> {sig:g}): softening "
+                           "curves are not supported")
+    return tuple(points)
+
+
+def _hardening_curve(value: Any) -> tuple[tuple[float, float], ...]:
+    """A list of [plastic strain, yield stress] pairs (_curve_points)."""
+    if not (isinstance(value, list) and value and all(isinstance(row, list) and len(row) == 2
+                                                      and all(map(_is_number, row)) for row in value)):
+        raise _Invalid(f"expected a list of [plastic strain, yield stress] pairs, got {_show(value)}")
+    return _curve_points([(float(a), float(b)) for a, b in value], lambda i: f"point {i + 1}")
+
+
 # ================================================================ table layout
 _TABLES = ("scene", "mesh", "material", "section", "materials", "sections", "elementsets", "part", "element",
            "method", "nodesets", "boundary", "load", "initial", "probe", "reference", "solve", "output",
@@ -782,7 +841,23 @@ _INFO = {"name": _file_name, "units": _nonempty, "description": _text}
 _MATERIAL_MODELS = ("elastic", "j2", "orthotropic")
 _MATERIAL = {"E": _positive, "nu": _number(-1, 0.5, lo_open=True, hi_open=True),
              "density": _positive, "model": _choice(*_MATERIAL_MODELS), "yield_stress": _positive,
-             "hardening": _non_negative}
+             "hardening": _non_negative,
+             "hardening_law": _choice("linear", "swift", "ludwik", "voce", "tabulated"), "K": _positive,
+             "eps0": _positive, "n": _positive, "B": _non_negative, "max_stress": _positive, "Q": _non_negative,
+             "b": _non_negative, "curve": _hardening_curve, "beyond_curve": _choice("flat", "extrapolate"),
+             "rate_law": _choice("none", "cowper_symonds", "johnson_cook"), "C": _positive, "p": _positive,
+             "c": _non_negative, "reference_rate": _positive, "rate_measure": _choice("total", "plastic"),
+             "rate_filter_time": _positive, "rate_cutoff_frequency": _positive}
+# The keys of each hardening and rate law: (required, optional); a key of another law is an error.
+_HARDENING_KEYS = {"linear": (("yield_stress",), ("hardening",)),
+                   "swift": (("K", "n"), ("eps0", "yield_stress", "hardening")),
+                   "ludwik": (("yield_stress", "B", "n"), ("max_stress", "hardening")),
+                   "voce": (("yield_stress", "Q", "b"), ("hardening",)),
+                   "tabulated": ((), ("curve", "curve_file", "beyond_curve"))}
+_RATE_KEYS = {"none": ((), ()), "cowper_symonds": (("C", "p"), ("rate_measure", "rate_filter_time",
+                                                                  "rate_cutoff_frequency")),
+              "johnson_cook": (("c", "reference_rate"), ("rate_measure", "rate_filter_time",
+                                                          "rate_cutoff_frequency"))}
 _ORTHOTROPIC = {"E1": _positive, "E2": _positive, "G12": _positive, "G13": _positive, "G23": _positive,
                 "nu12": _number(), "density": _positive, "model": _choice(*_MATERIAL_MODELS)}
 _SECTION = {"thickness": _positive, "points": _int(1, 10),
@@ -1015,6 +1090,12 @@ class _SceneParser:
             "thickness": _positive, "stiffness": _number(0, 1, lo_open=True), "friction": _non_negative,
             "damping": _unit_interval}) if "contact" in self.raw else None
         crush = self.crush(self.raw["crush"], solve) if "crush" in self.raw else None
+        if solve is not None and solve.kind == "static":
+            named = [("[material]", material), *((f"[materials.{_key(k)}]", m) for k, m in materials.items())]
+            for path, spec in named:
+                if spec is not None and getattr(spec, "rate_law", "none") != "none":
+                    self.error(f"{path}.rate_law", "a static solve has no physical time: a rate law needs "
+                                                   "[solve].kind = \"dynamic\"")
         if self.messages:
             raise SceneError(self.messages, mesh=mesh)
         return Scene(source=self.source, info=info, mesh=mesh, material=material, section=section,
@@ -1056,6 +1137,9 @@ class _SceneParser:
         return self.build(mark, cls, v)
 
     def material_table(self, path: str, data: Any) -> AnyMaterial | None:
+        """[material] or [materials.NAME]: an orthotropic material, or its keys, then those of
+        its hardening and rate laws (each law takes its own keys: a key of another law is an
+        error)."""
         if isinstance(data, dict) and data.get("model") == "orthotropic":
             material = self.table_object(path, data, OrthotropicMaterial, _ORTHOTROPIC)
             if material is not None and material.nu12 ** 2 >= material.E1 / material.E2:
@@ -1063,11 +1147,83 @@ class _SceneParser:
                                            f"(a positive definite plane-stress stiffness), got {material.nu12:g}")
                 return None
             return material
-        material = self.table_object(path, data, Material, _MATERIAL)
-        if material is not None and material.model == "j2" and material.yield_stress <= 0:
-            self.error(f"{path}.yield_stress", "missing required key for model = \"j2\"")
+        mark = len(self.messages)
+        values = self.read(path, data, {**_MATERIAL, "curve_file": self.curve_file}, Material)
+        if values is None:
             return None
-        return material
+        plasticity = {k for table in (_HARDENING_KEYS, _RATE_KEYS) for keys in table.values() for group in keys
+                      for k in group} | {"hardening_law", "rate_law"}
+        if values.get("model") == "elastic":
+            for key in data:
+                if key in plasticity - {"yield_stress", "hardening"}:
+                    self.error(f"{path}.{_key(key)}", "only for model = \"j2\"")
+        elif "model" in values:
+            for key, table in (("hardening_law", _HARDENING_KEYS), ("rate_law", _RATE_KEYS)):
+                if key in values:
+                    self.law_keys(path, data, key, values[key], table)
+            if values.get("hardening_law") == "swift":
+                if ("eps0" in data) == ("yield_stress" in data):
+                    self.error(f"{path}.eps0", "expected exactly one of eps0 and yield_stress for hardening_law = "
+                                               "\"swift\" (yield_stress sets eps0 = (yield_stress / K)^(1/n))")
+                elif all(k in data and k in values for k in ("yield_stress", "K", "n")):
+                    values["eps0"] = (values["yield_stress"] / values["K"]) ** (1.0 / values["n"])
+            if values.get("hardening_law") == "tabulated" and ("curve" in data) == ("curve_file" in data):
+                self.error(f"{path}.curve", "expected exactly one of curve and curve_file for "
+                                            "hardening_law = \"tabulated\"")
+            if "curve_file" in data and "curve_file" in values:
+                values["curve_file"], values["curve"] = values["curve_file"]
+            if values.get("beyond_curve") == "extrapolate" and 0 < len(values.get("curve", ())) < 2:
+                self.error(f"{path}.beyond_curve", "\"extrapolate\" needs a curve of at least two points")
+            cap, sy = values.get("max_stress"), values.get("yield_stress")
+            if "max_stress" in data and "yield_stress" in data and cap is not None and sy is not None and cap <= sy:
+                self.error(f"{path}.max_stress", f"expected a number above yield_stress = {sy:g}, got {cap:g}")
+            if "rate_filter_time" in data and "rate_cutoff_frequency" in data:
+                self.error(f"{path}.rate_cutoff_frequency", "give the rate filter either as rate_filter_time or "
+                                                            "as rate_cutoff_frequency, not both")
+        return self.build(mark, Material, values)
+
+    def law_keys(self, path: str, data: dict, key: str, law: str, table: dict) -> None:
+        """Report the keys of `table`'s other laws given with `key` = `law`, and its missing ones."""
+        required, optional = table[law]
+        own = (*required, *optional)
+        for name in data:
+            if any(name in group for keys in table.values() for group in keys) and name not in own:
+                self.error(f"{path}.{_key(name)}", f"not used by {key} = \"{law}\""
+                           + (f" (its keys: {', '.join(own)})" if own else ""))
+        for name in required:
+            if name not in data:
+                self.error(f"{path}.{name}", "missing required key for model = \"j2\"" if key not in data else
+                           f"missing required key for {key} = \"{law}\"")
+
+    def curve_file(self, value: Any) -> tuple[Path, tuple[tuple[float, float], ...]]:
+        """A CSV file of (plastic strain, yield stress) rows, relative to the scene file (an
+        optional header row; blank lines and lines starting with '#' are skipped): its path
+        and points (_curve_points)."""
+        path = self.file(value)
+        try:
+            with path.open(newline="", encoding="utf-8-sig") as f:
+                rows = [(i, row) for i, row in enumerate(csv.reader(f), 1)
+                        if row and "".join(row).strip() and not row[0].lstrip().startswith("#")]
+        except (OSError, UnicodeDecodeError, csv.Error) as exc:
+            raise _Invalid(f"cannot read {path.name} ({_one_line(exc)})")
+
+        def number(text: str) -> float | None:
+            try:
+                x = float(text)
+            except ValueError:
+                return None
+            return x if math.isfinite(x) else None
+        if rows and any(number(cell) is None for cell in rows[0][1]):
+            rows = rows[1:]                           # the header
+        points, lines = [], []
+        for line, row in rows:
+            cells = [number(cell) for cell in row]
+            if len(cells) != 2 or None in cells:
+                raise _Invalid(f"{path.name} line {line}: expected two numbers (plastic strain, yield stress), "
+                               f"got {_show(','.join(row))}")
+            points.append((cells[0], cells[1]))
+            lines.append(line)
+        return path, _curve_points(points, lambda i: f"{path.name} line {lines[i]}")
 
     def section(self, data: Any, path: str = "[section]") -> Section | None:
         """A section: one material over the thickness (`thickness`, `points`, `rule`), or

@@ -8,8 +8,9 @@
 ``sections``   per-element section and material data (thickness, shear factor, hourglass
                and drilling factors, wave speed, section id, material axis) and the tables
                they index (through-thickness points per section with each point's material
-               and ply angle, parameters per material)
-``points``     through-thickness point state: stress, equivalent plastic strain
+               and ply angle, parameters per material, the tabulated hardening curves)
+``points``     through-thickness point state: stress, equivalent plastic strain, filtered
+               strain rate
 ``grid``       the background grid (mpm) and its geometry
 ``contact``    self-contact: forces, candidate lists, side memory, spatial hash
 ``bodies``     rigid bodies and walls
@@ -233,6 +234,12 @@ class State:
                 used=fx.oriented)
         g.table("material_kind", ti.field(i32), (MAX_MATERIALS,))              # index into Features.materials
         g.table("material", ti.field(f64), (MAX_MATERIALS, MATERIAL_PARAMETERS))   # parameters (stages/material.py)
+        # tabulated hardening curves, all materials' one after the other (a row holds its first
+        # point and count): plastic strain and yield stress of each point
+        curve_points = len(model.materials.curve_strain)
+        tabulated = "tabulated" in fx.hardening
+        g.entity("curve_strain", ti.field(f64), curve_points, used=tabulated)
+        g.entity("curve_stress", ti.field(f64), curve_points, used=tabulated)
 
         # --- the scalars of the step and its run-time parameters
         g = self.step = Group("step")
@@ -323,6 +330,8 @@ class State:
         g.entity("stress", ti.Vector.field(5, f64), m, (nk,))   # local (sxx, syy, sxy, txz, tyz)
         g.entity("plastic_strain", ti.field(f64), m, (nk,),    # equivalent plastic strain
                  used=fx.plastic)
+        g.entity("strain_rate", ti.field(f64), m, (nk,),       # the filtered strain rate of the rate law
+                 used=fx.rate_filter)
 
         # --- background grid (mpm), flattened; only the nodes around shell nodes are written,
         # read and cleared.  Last in the tree: its layout depends on Features.grid_force.
@@ -396,6 +405,9 @@ class State:
         nm = len(mats.names)
         w(sec.material_kind, np.concatenate([mats.kind, np.zeros(MAX_MATERIALS - nm, np.int32)]))
         w(sec.material, np.concatenate([mats.rows, np.zeros((MAX_MATERIALS - nm, MATERIAL_PARAMETERS))]))
+        if "tabulated" in self.features.hardening:
+            w(sec.curve_strain, mats.curve_strain)
+            w(sec.curve_stress, mats.curve_stress)
         if self.features.launch != "batched":
             flat = model.elements.ravel()
             slots = np.argsort(np.where(flat >= 0, flat, n), kind="stable")[:int((flat >= 0).sum())]

@@ -161,6 +161,7 @@ def scene_dir(tmp_path_factory) -> Path:
     folder = tmp_path_factory.mktemp("scenes")
     (folder / "ref.csv").write_text(REF_HEADER)
     (folder / "cantilever_end_shear.csv").write_text(REF_HEADER)
+    (folder / "steel.csv").write_text("plastic strain,yield stress\n0.0,0.25\n# a comment\n\n0.1,0.3\n")
     (folder / "meshes").mkdir()
     (folder / "meshes" / "strip.vtk").write_text("# vtk DataFile Version 2.0\n")
     return folder
@@ -690,6 +691,162 @@ def _table_heading(path: str) -> str:
     return f"[{name}.NAME]" if sub else f"[{name}]"
 
 
+# Every hardening and rate law (issue 18), one material each on a strip of five elements.
+LAWS_SCENE = """
+[scene]
+name = "laws"
+units = "kN-mm-ms-kg"
+[mesh]
+kind = "plate"
+lx = 5.0
+ly = 1.0
+nx = 5
+ny = 1
+[materials.swift]
+E = 200.0
+nu = 0.3
+density = 7.85e-6
+model = "j2"
+hardening_law = "swift"
+K = 0.5
+eps0 = 0.01
+n = 0.2
+rate_law = "cowper_symonds"
+C = 0.0404
+p = 5
+rate_cutoff_frequency = 10.0
+[materials.ludwik]
+E = 200.0
+nu = 0.3
+density = 7.85e-6
+model = "j2"
+hardening_law = "ludwik"
+yield_stress = 0.25
+B = 0.4
+n = 0.4
+max_stress = 0.5
+rate_law = "johnson_cook"
+c = 0.02
+reference_rate = 0.001
+rate_measure = "plastic"
+rate_filter_time = 0.05
+[materials.voce]
+E = 200.0
+nu = 0.3
+density = 7.85e-6
+model = "j2"
+hardening_law = "voce"
+yield_stress = 0.25
+Q = 0.15
+b = 15.0
+hardening = 0.2
+[materials.curve]
+E = 200.0
+nu = 0.3
+density = 7.85e-6
+model = "j2"
+hardening_law = "tabulated"
+curve = [[0.0, 0.25], [0.05, 0.3], [0.2, 0.35]]
+beyond_curve = "extrapolate"
+[materials.file]
+E = 200.0
+nu = 0.3
+density = 7.85e-6
+model = "j2"
+hardening_law = "tabulated"
+curve_file = "steel.csv"
+[sections.skin]
+thickness = 1.0
+points = 5
+rule = "gauss"
+""" + "".join(f"""[elementsets.{m}]
+ids = [{i}]
+[[part]]
+name = "{m}"
+material = "{m}"
+section = "skin"
+elements = "{m}"
+""" for i, m in enumerate(("swift", "ludwik", "voce", "curve", "file"))) + """[solve]
+kind = "dynamic"
+end_time = 1.0
+"""
+
+
+def test_hardening_and_rate_laws_parse(scene_dir):
+    path = scene_dir / "laws.toml"
+    path.write_text(LAWS_SCENE)
+    m = load_scene(path).materials
+    assert (m["swift"].hardening_law, m["swift"].K, m["swift"].eps0, m["swift"].n) == ("swift", 0.5, 0.01, 0.2)
+    assert (m["swift"].rate_law, m["swift"].C, m["swift"].p, m["swift"].rate_measure,
+            m["swift"].rate_cutoff_frequency) == ("cowper_symonds", 0.0404, 5.0, "total", 10.0)
+    assert (m["ludwik"].B, m["ludwik"].max_stress, m["ludwik"].rate_law, m["ludwik"].c,
+            m["ludwik"].reference_rate, m["ludwik"].rate_measure, m["ludwik"].rate_filter_time) == (
+        0.4, 0.5, "johnson_cook", 0.02, 0.001, "plastic", 0.05)
+    assert (m["voce"].Q, m["voce"].b, m["voce"].hardening, m["voce"].rate_law) == (0.15, 15.0, 0.2, "none")
+    assert m["curve"].curve == ((0.0, 0.25), (0.05, 0.3), (0.2, 0.35)) and m["curve"].beyond_curve == "extrapolate"
+    assert m["file"].curve == ((0.0, 0.25), (0.1, 0.3)) and m["file"].curve_file == (scene_dir / "steel.csv").resolve()
+    assert m["file"].beyond_curve == "flat"
+
+
+J2 = {"E": 200.0, "nu": 0.3, "density": 1.0, "model": "j2", "yield_stress": 0.25}
+
+
+@pytest.mark.parametrize("table, expected", [
+    ({"hardening_law": "swift", "K": 0.5, "eps0": 0.01, "B": 0.1},
+     ['[material].B: not used by hardening_law = "swift" (its keys: K, n, eps0, yield_stress, hardening)',
+      '[material].n: missing required key for hardening_law = "swift"',
+      '[material].eps0: expected exactly one of eps0 and yield_stress for hardening_law = "swift" (yield_stress '
+      'sets eps0 = (yield_stress / K)^(1/n))']),
+    ({"hardening_law": "voce", "Q": 0.1, "B": 0.1},
+     ['[material].B: not used by hardening_law = "voce" (its keys: yield_stress, Q, b, hardening)',
+      '[material].b: missing required key for hardening_law = "voce"']),
+    ({"hardening_law": "ludwik", "B": 0.1, "n": 0.5, "max_stress": 0.2},
+     ["[material].max_stress: expected a number above yield_stress = 0.25, got 0.2"]),
+    ({"hardening_law": "tabulated", "curve": [[0.01, 0.25], [0.1, 0.3]]},
+     ["[material].curve: point 1: expected plastic strain 0 (the initial yield stress), got 0.01",
+      '[material].yield_stress: not used by hardening_law = "tabulated" (its keys: curve, curve_file, beyond_curve)']),
+    ({"hardening_law": "tabulated", "yield_stress": None, "curve": [[0.0, 0.25], [0.1, 0.2]]},
+     ["[material].curve: point 2: the yield stress falls (0.25 -> 0.2): softening curves are not supported"]),
+    ({"hardening_law": "tabulated", "yield_stress": None, "curve": [[0.0, 0.25], [0.0, 0.3]]},
+     ["[material].curve: point 2: expected a plastic strain above the previous point's 0, got 0"]),
+    ({"hardening_law": "tabulated", "yield_stress": None, "curve": [[0.0, 0.25]], "beyond_curve": "extrapolate"},
+     ['[material].beyond_curve: "extrapolate" needs a curve of at least two points']),
+    ({"hardening_law": "tabulated", "yield_stress": None, "curve": [0.0, 0.25]},
+     ["[material].curve: expected a list of [plastic strain, yield stress] pairs, got [0.0, 0.25]"]),
+    ({"hardening_law": "tabulated", "yield_stress": None},
+     ['[material].curve: expected exactly one of curve and curve_file for hardening_law = "tabulated"']),
+    ({"hardening_law": "tabulated", "yield_stress": None, "curve_file": "ref.csv"},
+     ["[material].curve_file: ref.csv line 2: expected two numbers (plastic strain, yield stress), got "
+      "'0.05,0.20,0.026,0.663'"]),
+    ({"rate_law": "cowper_symonds", "C": 0.04},
+     ['[material].p: missing required key for rate_law = "cowper_symonds"']),
+    ({"C": 0.04, "rate_measure": "plastic"},
+     ['[material].C: not used by rate_law = "none"', '[material].rate_measure: not used by rate_law = "none"']),
+    ({"rate_law": "johnson_cook", "c": 0.02, "reference_rate": 1.0, "rate_filter_time": 0.1,
+      "rate_cutoff_frequency": 2.0},
+     ["[material].rate_cutoff_frequency: give the rate filter either as rate_filter_time or as "
+      "rate_cutoff_frequency, not both"]),
+    ({"rate_law": "johnson_cook", "c": 0.02, "reference_rate": 0.0},
+     ["[material].reference_rate: expected a number > 0, got 0.0"]),
+    ({"model": "elastic", "yield_stress": None, "rate_law": "cowper_symonds"},
+     ['[material].rate_law: only for model = "j2"']),
+    ({"hardening_law": "power"},
+     ["[material].hardening_law: expected one of linear, swift, ludwik, voce, tabulated, got 'power'"]),
+])
+def test_hardening_and_rate_key_errors(scene_dir, table, expected):
+    """One line per mistake, naming the key (the CLI exits with code 2: tests/test_hardening.py)."""
+    raw = raw_of(TUBE_SCENE)
+    raw["material"] = {k: v for k, v in {**J2, **table}.items() if v is not None}
+    assert errors(raw, scene_dir) == [f"case.toml: {line}" for line in expected]
+
+
+def test_a_rate_law_needs_a_dynamic_solve(scene_dir):
+    raw = raw_of(HEMISPHERE_SCENE)
+    raw["material"].update(model="j2", yield_stress=1e5, rate_law="cowper_symonds", C=40.0, p=5.0)
+    assert errors(raw, scene_dir) == ['case.toml: [material].rate_law: a static solve has no physical time: a rate '
+                                      'law needs [solve].kind = "dynamic"']
+
+
 def test_every_scene_key_is_documented(scene_dir, monkeypatch):
     """Every key the parser accepts in the scenes of this file, the bundled scenes and a parts
     scene appears as `key` in the docs/scenes.md section of its table."""
@@ -702,9 +859,10 @@ def test_every_scene_key_is_documented(scene_dir, monkeypatch):
         return read(self, path, data, spec, cls, required, extra)
 
     monkeypatch.setattr(scene_module._SceneParser, "read", recording)
-    scenes = [(text, scene_dir / "case.toml") for text in (FULL, TUBE_SCENE, HEMISPHERE_SCENE, PARTS_SCENE)]
+    scenes = [(text, scene_dir / "case.toml") for text in (FULL, TUBE_SCENE, HEMISPHERE_SCENE, PARTS_SCENE,
+                                                           LAWS_SCENE)]
     scenes += [((ROOT / "scenes" / f"{n}.toml").read_text(), ROOT / "scenes" / f"{n}.toml")
-               for n in ("cantilever", "hemisphere", "square_tube")]
+               for n in ("cantilever", "hemisphere", "square_tube", "tube_rate_dependent")]
     for text, source in scenes:
         parse_scene(raw_of(text), source)
     sections = _doc_sections()

@@ -186,7 +186,7 @@ class ShellElement:
         new = old
         if ti.static(self.material.plastic):
             updated, ep, work, converged = self.material.update(kind, row, axes, old, self.s.points.plastic_strain[e, k],
-                                                                dt * d_inplane, dt * shear_rate)
+                                                                dt * d_inplane, dt * shear_rate, dt, e, k)
             new = updated
             self.s.points.plastic_strain[e, k] = ep
             plastic_work += weight * work
@@ -194,7 +194,7 @@ class ShellElement:
                 self.s.step.status[None] = STATUS_RETURN_FAILED
                 self.s.step.status_index[None] = e
         else:
-            updated, _, _, _ = self.material.update(kind, row, axes, old, 0.0, dt * d_inplane, dt * shear_rate)
+            updated, _, _, _ = self.material.update(kind, row, axes, old, 0.0, dt * d_inplane, dt * shear_rate, dt, e, k)
             new = updated
         self.s.points.stress[e, k] = new
         mid = 0.5 * (old + new)
