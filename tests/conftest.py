@@ -170,7 +170,7 @@ thickness = {t}
 [element]
 {element}
 [method]
-kind = "fem"
+kind = "{method}"
 [solve]
 kind = "dynamic"
 end_time = 1.0
@@ -178,15 +178,22 @@ end_time = 1.0
 
 
 def element_simulation(tmp_path: Path, corners, *, E: float, nu: float, t: float, material: str = "",
-                       section: str = "", element: str = "", quads=None) -> Simulation:
+                       section: str = "", element: str = "", quads=None, triangles=None,
+                       method: str = "fem") -> Simulation:
     """A Simulation of the single quad `corners` (4x3, explicit FE) for driving the element stage
     (S7) alone; `material`, `section` and `element` are extra TOML lines of those tables
     (:func:`unwarmed_simulation`: the full step is not compiled).  With `quads` (m x 4 node
-    ids), `corners` are the nodes of a patch of m quads instead."""
-    quads = np.array([[0, 1, 2, 3]]) if quads is None else np.asarray(quads)
-    meshio.write(tmp_path / "element.vtu", meshio.Mesh(np.asarray(corners, dtype=float), [("quad", quads)]))
+    ids) and/or `triangles` (k x 3), `corners` are the nodes of a patch of those elements
+    instead (elements numbered quads first); `method` "mpm" adds the background grid."""
+    cells = []
+    if quads is not None or triangles is None:
+        cells.append(("quad", np.array([[0, 1, 2, 3]]) if quads is None else np.asarray(quads)))
+    if triangles is not None:
+        cells.append(("triangle", np.asarray(triangles)))
+    meshio.write(tmp_path / "element.vtu", meshio.Mesh(np.asarray(corners, dtype=float), cells))
     scene = load_scene(write_scene(tmp_path, ELEMENT.format(E=E, nu=nu, t=t, material=material,
-                                                            section=section, element=element)))
+                                                            section=section, element=element,
+                                                            method=method)))
     return unwarmed_simulation(scene, tmp_path)
 
 

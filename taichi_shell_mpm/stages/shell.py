@@ -6,7 +6,9 @@ control (:mod:`.hourglass`), the drilling spring (:mod:`.drilling`; or, with
 ``drilling = "projection"``, the nodal normals of the paper's drilling projection,
 method.md 2.3) and, with ``warping = "bwc"``, the Belytschko-Wong-Chiang warping
 correction (:mod:`.warping`, method.md 3.8).  The same pass accumulates the element
-energies (method.md 8) and the element time-step limit (section 5).
+energies (method.md 8) and the element time-step limit (section 5).  The triangles of a
+mixed mesh run the C0 triangle of :mod:`.triangle`, which shares this element's
+through-thickness stress update (:meth:`ShellElement.section_response`).
 """
 
 import taichi as ti
@@ -18,6 +20,7 @@ from .material import ConstitutiveUpdate
 from .drilling import DrillingSpring
 from .hourglass import Hourglass
 from .timestep import element_limit
+from .triangle import TriangleElement
 
 
 @ti.func
@@ -118,14 +121,15 @@ class ShellElement:
         self.drilling = DrillingSpring(state)
         self.acc = Accumulator(cfg.serial)
         self.loads = CornerLoads(state, cfg.serial, normals=not cfg.drilling_spring)
+        self.triangle = TriangleElement(self) if cfg.triangles else None
 
     @ti.func
-    def gather(self, c):
-        """Corner positions, grid velocities and angular velocities as 4x3 matrices."""
-        x = ti.Matrix.zero(ti.f64, 4, 3)
-        v = ti.Matrix.zero(ti.f64, 4, 3)
-        w = ti.Matrix.zero(ti.f64, 4, 3)
-        for a in ti.static(range(4)):
+    def gather(self, c, corners: ti.template()):
+        """Corner positions, grid velocities and angular velocities as corners x 3 matrices."""
+        x = ti.Matrix.zero(ti.f64, corners, 3)
+        v = ti.Matrix.zero(ti.f64, corners, 3)
+        w = ti.Matrix.zero(ti.f64, corners, 3)
+        for a in ti.static(range(corners)):
             for d in ti.static(range(3)):
                 x[a, d] = self.s.nodes.position[c[a]][d]
                 v[a, d] = self.s.nodes.grid_velocity[c[a]][d]
@@ -135,47 +139,26 @@ class ShellElement:
     @ti.func
     def element_pass(self):
         for e in range(self.s.elements.count[None]):
-            self.update(e)
+            if ti.static(self.cfg.triangles):       # a mesh with triangles: stages/triangle.py
+                if self.s.elements.corners[e][3] < 0:
+                    self.triangle.update(e)
+                else:
+                    self.update(e)
+            else:
+                self.update(e)
         self.loads.gather()
 
     @ti.func
-    def update(self, e):
-        t = self.s.sections.thickness[e]
-        kappa = self.s.sections.shear_factor[e]
+    def section_response(self, e, t, kappa, dt, membrane_rate, curvature_rate, shear_rate):
+        """Stress update at element e's through-thickness points and its resultants (paper eq
+        28-29, method.md 3.3-3.5) for the step's membrane, curvature and transverse shear rates;
+        the quad and the triangle (:mod:`.triangle`) share it.  Returns N, M' = -int z sigma
+        (paper sign), Q, the stress power per unit volume (mid-step stress, through-thickness
+        mean x 2) and the plastic work likewise."""
         section = self.s.sections.section[e]
         material = self.s.sections.point_material[section, 0]
         kind = self.material.kind(material)
         row = self.material.row(material)
-        dt = self.s.step.dt[None]
-        c = self.s.elements.corners[e]
-        x, v, w = self.gather(c)
-        # --- rates (method.md 3.2) on the mid-step geometry x^(n+1/2) = x^(n+1) - dt/2 v~
-        # [choice]: frame, B and hourglass vectors of the mid-step make the strain increment
-        # dt*d second-order accurate and exactly zero for a discrete rigid rotation
-        # (Hughes-Winget). Evaluated at x^(n+1), a free plate spinning 1.5 revolutions
-        # gained 0.9% spurious strain energy (tests/test_stability.py).
-        rot_m, xm, ym, zm = local_geometry(x - (0.5 * dt) * v)
-        vl = v @ rot_m.transpose()                # v^_a = R v~_a
-        wl = w @ rot_m.transpose()                # theta^_a = R omega_a
-        vx, vy, vz = column(vl, 0), column(vl, 1), column(vl, 2)
-        tx, ty, tz = column(wl, 0), column(wl, 1), column(wl, 2)
-        area_m, g1, g2 = gradient_operators(xm, ym)
-        membrane_rate, curvature_rate, shear_rate = strain_rates(g1, g2, vx, vy, vz, tx, ty)
-        gam_m = self.hourglass.shape_vector(xm, ym, g1, g2)
-        q_rate = self.hourglass.rates(gam_m, self.hourglass.warp_height(zm), vx, vy, vz, tx, ty,
-                                      self.hourglass.quadratic_moments(gam_m, xm, ym), curvature_rate)
-        if ti.static(self.cfg.warping_correction):   # BWC (stages/warping.py), after the hourglass rate
-            curvature_rate += warping.curvature_rate(xm, ym, zm, area_m, g1, g2, vx, vy)
-        # --- geometry at x^(n+1) for the forces
-        rot, xh, yh, zh = local_geometry(x)
-        area, b1, b2 = gradient_operators(xh, yh)
-        # inside out: two corner Jacobians <= 0 in the element's own frame (e3 along d13 x d24).
-        # `area` is (d13 x d24).e3 / 2 >= 0 by construction, so it cannot flag a fold.
-        # The first problem of a step wins (later stages check status == OK as well).
-        if self.s.step.status[None] == STATUS_OK and tangled(xh, yh):
-            self.s.step.status[None] = STATUS_INVERTED
-            self.s.step.status_index[None] = e
-        # --- through-thickness points: stress update, resultants (paper eq 28-29)
         n_res = ti.Vector([0.0, 0.0, 0.0])
         m_res = ti.Vector([0.0, 0.0, 0.0])       # M' = -int z sigma (paper sign)
         q_res = ti.Vector([0.0, 0.0])
@@ -209,6 +192,44 @@ class ShellElement:
         n_res *= 0.5 * t
         q_res *= 0.5 * t
         m_res *= 0.25 * t * t
+        return n_res, m_res, q_res, power, plastic_work
+
+    @ti.func
+    def update(self, e):
+        t = self.s.sections.thickness[e]
+        kappa = self.s.sections.shear_factor[e]
+        dt = self.s.step.dt[None]
+        c = self.s.elements.corners[e]
+        x, v, w = self.gather(c, 4)
+        # --- rates (method.md 3.2) on the mid-step geometry x^(n+1/2) = x^(n+1) - dt/2 v~
+        # [choice]: frame, B and hourglass vectors of the mid-step make the strain increment
+        # dt*d second-order accurate and exactly zero for a discrete rigid rotation
+        # (Hughes-Winget). Evaluated at x^(n+1), a free plate spinning 1.5 revolutions
+        # gained 0.9% spurious strain energy (tests/test_stability.py).
+        rot_m, xm, ym, zm = local_geometry(x - (0.5 * dt) * v)
+        vl = v @ rot_m.transpose()                # v^_a = R v~_a
+        wl = w @ rot_m.transpose()                # theta^_a = R omega_a
+        vx, vy, vz = column(vl, 0), column(vl, 1), column(vl, 2)
+        tx, ty, tz = column(wl, 0), column(wl, 1), column(wl, 2)
+        area_m, g1, g2 = gradient_operators(xm, ym)
+        membrane_rate, curvature_rate, shear_rate = strain_rates(g1, g2, vx, vy, vz, tx, ty)
+        gam_m = self.hourglass.shape_vector(xm, ym, g1, g2)
+        q_rate = self.hourglass.rates(gam_m, self.hourglass.warp_height(zm), vx, vy, vz, tx, ty,
+                                      self.hourglass.quadratic_moments(gam_m, xm, ym), curvature_rate)
+        if ti.static(self.cfg.warping_correction):   # BWC (stages/warping.py), after the hourglass rate
+            curvature_rate += warping.curvature_rate(xm, ym, zm, area_m, g1, g2, vx, vy)
+        # --- geometry at x^(n+1) for the forces
+        rot, xh, yh, zh = local_geometry(x)
+        area, b1, b2 = gradient_operators(xh, yh)
+        # inside out: two corner Jacobians <= 0 in the element's own frame (e3 along d13 x d24).
+        # `area` is (d13 x d24).e3 / 2 >= 0 by construction, so it cannot flag a fold.
+        # The first problem of a step wins (later stages check status == OK as well).
+        if self.s.step.status[None] == STATUS_OK and tangled(xh, yh):
+            self.s.step.status[None] = STATUS_INVERTED
+            self.s.step.status_index[None] = e
+        # --- through-thickness points: stress update, resultants (paper eq 28-29)
+        n_res, m_res, q_res, power, plastic_work = self.section_response(e, t, kappa, dt, membrane_rate,
+                                                                         curvature_rate, shear_rate)
         # --- local nodal forces and moments (paper eq 21-26)
         f, m = resultant_loads(area, b1, b2, n_res, m_res, q_res, kappa)
         if ti.static(self.cfg.warping_correction):

@@ -39,7 +39,7 @@ def landing_step(remaining: float, dt_stable: float) -> float:
 @ti.func
 def element_limit(s: ti.template(), cfg: ti.template(), e, area, longest):
     """Stable step of one element (method.md 5): alpha L_e / c_e, L_e = area / longest
-    diagonal, and with the physical rotary inertia (m t^2 / 12) also the rotational limit
+    diagonal (a triangle passes `longest` = area / its own L_e, stages/triangle.py), and with the physical rotary inertia (m t^2 / 12) also the rotational limit
     alpha 2 / omega_rot, omega_rot = sqrt(12 kappa G / rho) / t: the transverse-shear-rotation
     mode of an element whose corners rotate together (shear stiffness kappa G t A against
     the rotary inertia rho t^3 A / 12; method.md 2.3), the highest frequency of a thin shell
@@ -143,7 +143,7 @@ def initial_dt(model, velocity: np.ndarray, cfg) -> float:
     area = 0.5 * np.linalg.norm(np.cross(d13, d24), axis=1)
     longest = np.maximum(np.linalg.norm(d13, axis=1), np.linalg.norm(d24, axis=1))
     tri = elements[:, 3] < 0
-    if tri.any():                      # L_e = 2 A / longest edge: area / (longest / 2)
+    if tri.any():                      # L_e of a triangle (assembly.element_length): area / (area / L_e)
         tri_area = 0.5 * np.linalg.norm(np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), axis=1)
         length = element_length(points, elements, tri_area)
         area = np.where(tri, tri_area, area)
