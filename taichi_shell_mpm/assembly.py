@@ -152,6 +152,8 @@ class Model:
     materials: MaterialTable
     area0: np.ndarray             # (m,) reference element areas
     corner_weight: np.ndarray     # (m, 4) CPDI2 weights, frozen (paper eq 15)
+    corner_mass: np.ndarray       # (m, 4) w_ea m_e: element e's share of its corners' masses
+    corner_inertia: np.ndarray    # (m, 4) w_ea m_e arm_e: its share of their rotary inertias
     node_mass: np.ndarray         # (n,)
     node_inertia: np.ndarray      # (n,) scalar rotary inertia J_c
     node_area: np.ndarray         # (n,) tributary area sum_e w_ea A_e
@@ -322,7 +324,7 @@ def _deck_specs(deck, source: str):
     *MAT_003 and *MAT_024 J2 with linear hardening H = E E_t / (E - E_t) from their tangent
     modulus (a *MAT_024 curve: the straight line through its points, least squares, with a
     warning until tabulated hardening exists), *SECTION_SHELL thickness T1, NIP Gauss points
-    (QR = 0) or Lobatto (QR = 1), SHRF."""
+    (QR = 0; NIP = 0 means 2), QR = 1 (trapezoidal) as Lobatto with a note, SHRF."""
     from .scene import Material, Section
     materials, sections, notes = {}, {}, []
     for mid, card in deck.materials.items():
@@ -343,8 +345,16 @@ def _deck_specs(deck, source: str):
         materials[f"mat_{mid}"] = Material(E=E, nu=nu, density=rho, model="j2", yield_stress=sigy,
                                            hardening=hardening)
     for secid, card in deck.sections.items():
-        sections[f"sec_{secid}"] = Section(thickness=card.thickness, points=max(card.nip, 1),
-                                           rule="lobatto" if card.quadrature == 1 and card.nip > 1 else "gauss",
+        points = int(card.nip) if card.nip > 0 else 2             # NIP = 0: LS-DYNA's default, 2
+        rule = "gauss"
+        if card.quadrature == 1 and points > 1:
+            rule = "lobatto"
+            notes.append(f"{source}: *SECTION_SHELL {secid}: QR = 1 (trapezoidal) is integrated with the "
+                         f"{points}-point Lobatto rule (both have points on the two surfaces)")
+        elif card.quadrature != 0:
+            notes.append(f"{source}: *SECTION_SHELL {secid}: QR = {card.quadrature} (a user rule) is not read: "
+                         f"{points}-point Gauss rule")
+        sections[f"sec_{secid}"] = Section(thickness=card.thickness, points=points, rule=rule,
                                            shear_factor=min(card.shear_factor, 1.0))
     return materials, sections, notes
 
@@ -505,9 +515,11 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
     else:
         inertia_arm = element.thickness ** 2 / 12.0
     corners = np.where(elements >= 0, elements, 0)       # a triangle's 4th weight is 0
-    np.add.at(node_mass, corners, weight * element_mass[:, None])
+    corner_mass = weight * element_mass[:, None]
+    corner_inertia = weight * (element_mass * inertia_arm)[:, None]
+    np.add.at(node_mass, corners, corner_mass)
     np.add.at(node_area, corners, weight * area0[:, None])
-    np.add.at(node_inertia, corners, weight * (element_mass * inertia_arm)[:, None])
+    np.add.at(node_inertia, corners, corner_inertia)
     node_thickness = np.zeros(n)
     valid = elements >= 0
     np.maximum.at(node_thickness, elements[valid], np.repeat(element.thickness, 4).reshape(-1, 4)[valid])
@@ -588,6 +600,7 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
     return Model(points=points, elements=elements.astype(np.int32), parts=parts, element=element,
                  parameters=parameters, notes=tuple(notes),
                  sections=sections, materials=material_table, area0=area0, corner_weight=weight, node_mass=node_mass,
+                 corner_mass=corner_mass, corner_inertia=corner_inertia,
                  node_thickness=node_thickness,
                  node_inertia=node_inertia, node_area=node_area, fix_mask=fix_mask, load_force=load_force,
                  load_moment=load_moment, velocity0=velocity0, omega0=omega0,

@@ -42,7 +42,7 @@ from .output import atomic_write
 from .scene import SceneError
 
 CHECKPOINT_NAME = "checkpoint.npz"
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3
 stop_hook: Callable[[Any], bool] | None = None
 """Tests and embedding code: called with the Simulation at every batch boundary; returning
 True stops the run there exactly as a Ctrl-C does."""
@@ -90,6 +90,7 @@ def save_checkpoint(sim, position: dict, path: Path | None = None) -> Path:
     arrays["history.probe"] = _rows(h.probe_rows, ncols)
     arrays["history.energy"] = _rows(h.energy_rows, len(h.energy_rows[0]) if h.energy_rows else 0)
     arrays["history.force"] = _rows(h.force_rows, len(h.force_rows[0]) if h.force_rows else 0)
+    arrays["history.parts"] = _rows(h.part_rows, len(h.part_rows[0]) if h.part_rows else 0)
     meta = {
         "version": FORMAT_VERSION,
         "scene_hash": scene_hash(sim.scene, sim.model.points, sim.model.elements),
@@ -205,6 +206,7 @@ def restore_checkpoint(sim, ckpt: Checkpoint) -> list[str]:
     h.probe_rows = ckpt.arrays["history.probe"].tolist()
     h.energy_rows = ckpt.arrays["history.energy"].tolist()
     h.force_rows = ckpt.arrays["history.force"].tolist()
+    h.part_rows = ckpt.arrays["history.parts"].tolist()
     m = ckpt.meta
     sim.total_steps = int(m["total_steps"])
     sim.run_seconds = float(m["run_seconds"])

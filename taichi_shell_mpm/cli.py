@@ -188,6 +188,12 @@ def _validate(args) -> int:
         print(f"warning: {w}")
     grid = f", grid {model.grid.dims} nodes at h={model.grid.h:g}" if model.grid else ""
     print(f"{args.scene}: ok ({len(mesh.points)} nodes, {len(mesh.elements)} elements, {scene.method.kind}{grid})")
+    thickness = model.element.thickness
+    for p in model.parts:
+        t = thickness[p.elements]
+        span = f"{t.min():g}" if t.min() == t.max() else f"{t.min():g}-{t.max():g}"
+        print(f"  part {p.name}: {len(p.elements)} elements, material {p.material}, section {p.section}, "
+              f"thickness {span}")
     return 0
 
 

@@ -32,10 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .scene import SceneError
+from .scene import DECK_SUFFIXES as DYNA_SUFFIXES, SceneError   # file endings read as decks (any case)
 
-DYNA_SUFFIXES = (".k", ".key", ".dyn", ".kw")
-"""File name endings read as LS-DYNA keyword decks (any case)."""
 MAX_INCLUDE_DEPTH = 20
 
 

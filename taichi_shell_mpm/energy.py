@@ -166,6 +166,43 @@ def totals(state, model, initial_kinetic: float) -> dict[str, float]:
     return e
 
 
+PART_COLUMNS = ("kinetic", "internal", "plastic_work", "hourglass", "drilling")   # parts.csv
+
+
+def part_names(model) -> list[str]:
+    """Rows of :func:`part_energies`: the parts, then the added mass of each rigid body."""
+    return [p.name for p in model.parts] + [f"rigid_body:{b.name}" for b in model.rigid_bodies]
+
+
+def part_energies(state, model) -> np.ndarray:
+    """(parts + bodies, PART_COLUMNS) energies per part, whose column sums are the totals of
+    :func:`totals`: an element's internal, plastic, hourglass and drilling energy belong to its
+    part; a node's kinetic energy is split among the elements around it in the shares they
+    gave its mass and rotary inertia (Model.corner_mass, corner_inertia), a rigid body's slave
+    node moving with the body's velocity; the kinetic energy of a body's added mass is the
+    body's own row."""
+    element = state.read(state.elements.energy, state.n_elements)
+    part = model.element.part
+    n_rows = len(model.parts) + len(model.rigid_bodies)
+    out = np.zeros((n_rows, len(PART_COLUMNS)))
+    for j, name in enumerate(PART_COLUMNS[1:], start=1):
+        out[:len(model.parts), j] = np.bincount(part, weights=element[:, ELEMENT_PARTS.index(name)],
+                                                minlength=len(model.parts))
+    v2 = np.sum(state.read(state.nodes.grid_velocity, state.n_nodes) ** 2, axis=1)
+    w2 = np.sum(state.read(state.nodes.omega, state.n_nodes) ** 2, axis=1)
+    if model.rigid_bodies:
+        speed = state.read(state.bodies.velocity, len(model.rigid_bodies))
+        slave = model.node_body >= 0
+        v2[slave] = speed[model.node_body[slave]] ** 2
+        w2[slave] = 0.0
+    corners = np.where(model.elements >= 0, model.elements, 0)
+    kinetic = 0.5 * (model.corner_mass * v2[corners] + model.corner_inertia * w2[corners]).sum(axis=1)
+    out[:len(model.parts), 0] = np.bincount(part, weights=kinetic, minlength=len(model.parts))
+    for i, b in enumerate(model.rigid_bodies):
+        out[len(model.parts) + i, 0] = 0.5 * b.added_mass * speed[i] ** 2
+    return out
+
+
 def absorbed(e: dict) -> float:
     """Energy taken up by the shell and its constraints: internal (incl. plastic), hourglass,
     drilling, contact, walls and dynamic-relaxation damping."""

@@ -369,11 +369,14 @@ def _read_meshio(path: Path) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarr
 
 def _meshio_sets(m, offsets: dict[int, int], n_elements: int, path: Path
                  ) -> tuple[dict[str, np.ndarray], tuple[str, ...]]:
-    """Element sets of a meshio mesh: Gmsh physical groups (by name and "physical:<tag>")
-    and cell sets, restricted to the shell cells (``offsets``: first element id of each kept
+    """Element sets of a meshio mesh: its cell blocks ("block:<index>", when it has several),
+    Gmsh physical groups (by name and "physical:<tag>") and cell sets, restricted to the shell cells (``offsets``: first element id of each kept
     block); empty sets are left out, sets of the same name are joined."""
     found: dict[str, list[np.ndarray]] = {}
     warnings = []
+    if len(m.cells) > 1:             # cell blocks (meshio's), by their index in the file
+        for b, first in offsets.items():
+            found[f"block:{b}"] = [first + np.arange(len(m.cells[b].data))]
     physical = m.cell_data.get("gmsh:physical")
     if physical is not None and len(physical) == len(m.cells):
         names = {}

@@ -164,6 +164,14 @@ def summary_rows(summary: dict) -> list[tuple[str, str]]:
                        ("damped", "damped energy"), ("balance_error", "balance error")):
         if key in e and (key not in ("damped",) or e[key]):
             rows.append((label, _num(e[key])))
+    parts = [p for p in summary.get("parts", []) if "material" in p]
+    if len(parts) > 1:
+        for p in parts:
+            pe, (t0, t1) = p["energies"], p["thickness"]
+            t = _num(t0, ".4g") if t0 == t1 else f"{_num(t0, '.4g')}-{_num(t1, '.4g')}"
+            rows.append((f"part {p['name']}", f"{p['elements']} el, t {t}: internal {_num(pe['internal'])}, "
+                         f"plastic {_num(pe['plastic_work'])}, hourglass {_num(pe['hourglass'])}, "
+                         f"kinetic {_num(pe['kinetic'])}"))
     ref = summary.get("reference")
     if ref:
         for col, r in ref.get("columns", {}).items():

@@ -720,7 +720,7 @@ _TABLES = ("scene", "mesh", "material", "section", "materials", "sections", "ele
            "method", "nodesets", "boundary", "load", "initial", "probe", "reference", "solve", "output",
            "rigid_body", "wall", "contact", "crush")
 _REQUIRED_TABLES = ("scene", "mesh", "solve")
-DECK_SUFFIXES = (".k", ".key", ".dyn", ".kw")      # LS-DYNA keyword decks (dyna.py)
+DECK_SUFFIXES = (".k", ".key", ".dyn", ".kw")      # file endings read as LS-DYNA keyword decks (dyna.py)
 _SELECTORS = ("all", "box", "plane", "nearest", "ids")
 
 _INFO = {"name": _file_name, "units": _nonempty, "description": _text}

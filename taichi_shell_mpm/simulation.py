@@ -18,6 +18,7 @@ import taichi as ti
 
 from .assembly import Model, assemble, element_length
 from .config import Features
+from .materials import COL
 from .mesh import Mesh, build_mesh
 from .crush import crush_summary
 from .output import FrameWriter, OutputError, write_csv, write_json
@@ -29,7 +30,7 @@ from .stages.timestep import DT_UNSET, initial_dt
 from .state import (CANDIDATES_PER_NODE, STATUS_CONTACT_FULL, STATUS_DT_COLLAPSE, STATUS_ENERGY, STATUS_INVERTED,
                     STATUS_LEFT_GRID, STATUS_NONFINITE, STATUS_RETURN_FAILED, State)
 from . import energy
-from .energy import ENERGY_COLUMNS
+from .energy import ENERGY_COLUMNS, PART_COLUMNS, part_energies, part_names
 
 ARCHS = {"cpu": "cpu", "cuda": "cuda", "vulkan": "vulkan"}
 
@@ -129,6 +130,8 @@ class History:
     probe_rows: list[list[float]] = field(default_factory=list)
     energy_rows: list[list[float]] = field(default_factory=list)
     force_rows: list[list[float]] = field(default_factory=list)
+    part_rows: list[list[float]] = field(default_factory=list)
+    """[key, then energy.part_energies flattened row by row] (parts.csv)"""
 
 
 class Simulation:
@@ -263,6 +266,7 @@ class Simulation:
         self.history.probe_rows.append([key] + self.probe_values())
         e = self.energies()
         self.history.energy_rows.append([key] + [e[k] for k in ENERGY_COLUMNS])
+        self.history.part_rows.append([key] + part_energies(self.state, self.model).ravel().tolist())
         st, bd = self.state.step, self.state.bodies
         nb = len(self.model.rigid_bodies)
         self.history.force_rows.append([key] + st.reaction[None].to_numpy().tolist()
@@ -431,7 +435,8 @@ class Simulation:
                   ("energy.csv", [key, *ENERGY_COLUMNS], self.history.energy_rows),
                   ("force.csv", [key, "support_x", "support_y", "support_z", "support_impulse_x", "support_impulse_y",
                                  "support_impulse_z"] + [f"{b}.displacement" for b in names]
-                   + [f"{b}.force" for b in names], self.history.force_rows)]
+                   + [f"{b}.force" for b in names], self.history.force_rows),
+                  ("parts.csv", [key, "part", *PART_COLUMNS], self.part_table())]
         failed = None
         for name, header, rows in tables:
             try:
@@ -440,6 +445,31 @@ class Simulation:
                 failed = failed or exc
         if failed is not None:
             raise failed
+
+    def part_table(self) -> list[list]:
+        """parts.csv rows (long format: one row per part and output point), from the history."""
+        names = part_names(self.model)
+        width = len(PART_COLUMNS)
+        return [[row[0], name, *row[1 + i * width:1 + (i + 1) * width]]
+                for row in self.history.part_rows for i, name in enumerate(names)]
+
+    def part_summary(self) -> list[dict]:
+        """The per-part block of summary.json: each part's material, section, element count,
+        thickness range, mass and final energies (energy.part_energies)."""
+        energies = part_energies(self.state, self.model)
+        element = self.model.element
+        density = self.model.materials.rows[self.model.sections.point_material[element.section, 0], COL["density"]]
+        mass = density * element.thickness * self.model.area0          # physical (not the statics' scaled) mass
+        out = []
+        for i, p in enumerate(self.model.parts):
+            t = element.thickness[p.elements]
+            out.append({"name": p.name, "material": p.material, "section": p.section, "elements": int(len(p.elements)),
+                        "thickness": [float(t.min()), float(t.max())], "mass": float(mass[p.elements].sum()),
+                        "energies": {k: float(energies[i, j]) for j, k in enumerate(PART_COLUMNS)}})
+        for i, b in enumerate(self.model.rigid_bodies):
+            out.append({"name": f"rigid_body:{b.name}", "mass": b.added_mass,
+                        "energies": {k: float(energies[len(self.model.parts) + i, j]) for j, k in enumerate(PART_COLUMNS)}})
+        return out
 
     def write_results(self, extra: dict | None = None) -> dict:
         """Tables and summary.json (both attempted even if one cannot be written; then the
@@ -460,7 +490,8 @@ class Simulation:
             "launch": self.cfg.launch,
             "steps": self.total_steps, "compile_seconds": self.compile_seconds, "run_seconds": self.run_seconds,
             "us_per_element_step": 1e6 * self.run_seconds / max(1, self.total_steps * len(self.model.elements)),
-            "energies": e, "mesh_warnings": list(self.mesh.warnings), "warnings": list(self.warnings),
+            "energies": e, "parts": self.part_summary(),
+            "mesh_warnings": list(self.mesh.warnings), "warnings": list(self.warnings),
         }
         if extra:
             summary.update(extra)

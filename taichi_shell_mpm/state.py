@@ -18,7 +18,8 @@
 
 Compiled once per feature set and size class [choice, issue 17; shared/design/compile_once.md]:
 every group is an SNode tree of its own (FieldsBuilder).  A per-entity field is dense over a
-*capacity*, the model's count rounded up to a power of 4 (at least CAPACITY_MIN), and kernels
+*capacity*, the model's count rounded up to a power of 4 (at least CAPACITY_MIN; the grid's
+at least GRID_CAPACITY_MIN), and kernels
 loop to the run-time counts (``nodes.count``, ``elements.count``); every value is run-time
 data.  So a model of another size in the same class, or with other values, loads every
 kernel from Taichi's offline cache; a size in another class compiles once more.  Measured
@@ -57,7 +58,8 @@ from .materials import MATERIAL_PARAMETERS
  STATUS_CONTACT_FULL, STATUS_ENERGY, STATUS_RETURN_FAILED) = range(9)
 CANDIDATES_PER_NODE = 64     # capacity of the contact candidate lists, on average per node
 
-CAPACITY_MIN = 4096          # the smallest size class of a per-entity field
+CAPACITY_MIN = 16384         # the smallest size class of a per-entity field (4^7)
+GRID_CAPACITY_MIN = 1 << 20  # the smallest size class of a grid (4^10 nodes: 32-56 MB)
 MAX_MATERIALS = 64
 MAX_SECTIONS = 64
 MAX_BODIES = 16
@@ -65,9 +67,16 @@ MAX_WALLS = 16
 MAX_SLAB_PLANES = 1 << 16
 
 
-def grid_capacity(cells: int) -> int:
-    """The size class of the grid: a power of 2 (the grid is the largest field)."""
-    return 1 << max(12, (max(1, cells) - 1).bit_length())
+def grid_capacity(nodes: int) -> int:
+    """The size class of the grid: a power of 4, at least GRID_CAPACITY_MIN (zero nodes, fem
+    mode: the minimal size).  Only the nodes around the shell are touched, so a larger class
+    costs address space and one zeroing, not time per step."""
+    if nodes <= 0:
+        return CAPACITY_MIN
+    out = GRID_CAPACITY_MIN
+    while out < nodes:
+        out *= 4
+    return out
 
 
 def capacity(size: int) -> int:

@@ -144,7 +144,8 @@ def test_file_with_triangle(tmp_path):
                                             ("triangle", np.array([[1, 4, 2]]))]))
     m = build_mesh(FileMesh(path=path))
     assert m.elements.tolist() == [[0, 1, 2, 3], [1, 4, 2, -1]]
-    assert m.triangles.tolist() == [False, True] and m.warnings == () and m.element_sets == {}
+    assert m.triangles.tolist() == [False, True] and m.warnings == ()
+    assert {k: v.tolist() for k, v in m.element_sets.items()} == {"block:0": [0], "block:1": [1]}
 
 
 def test_file_with_pentagon_and_four_node_polygon(tmp_path):

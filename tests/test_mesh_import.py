@@ -35,7 +35,8 @@ def test_gmsh22_physical_groups_with_quads_and_triangles(tmp_path):
     m = build_mesh(FileMesh(path=path))
     assert m.elements.tolist() == [[0, 1, 4, 3], [1, 2, 5, 4], [2, 6, 5, -1], [6, 7, 5, -1]]
     assert m.elements.dtype == np.int32 and m.triangles.tolist() == [False, False, True, True]
-    assert sets(m) == {"roof": [0, 2], "wall": [1, 3], "physical:1": [0, 2], "physical:2": [1, 3]}
+    assert sets(m) == {"roof": [0, 2], "wall": [1, 3], "physical:1": [0, 2], "physical:2": [1, 3],
+                       "block:0": [0, 1], "block:1": [2, 3]}
     assert all(ids.dtype == np.int64 for ids in m.element_sets.values())
     assert m.warnings == () and m.deck is None
 
@@ -96,7 +97,8 @@ def test_gmsh41_physical_groups_hand_written(tmp_path):
     path.write_text(MSH41)
     m = build_mesh(FileMesh(path=path))
     assert m.elements.tolist() == [[0, 1, 4, 3], [0, 3, 7, -1], [1, 2, 5, 4], [2, 6, 5, -1]]
-    assert sets(m) == {"roof": [0, 1], "wall": [2, 3], "physical:1": [0, 1], "physical:2": [2, 3]}
+    assert sets(m) == {"roof": [0, 1], "wall": [2, 3], "physical:1": [0, 1], "physical:2": [2, 3],
+                       "block:0": [0], "block:1": [1], "block:2": [2], "block:3": [3]}
     assert m.warnings == (f"{path}: removed 1 unused nodes (not referenced by any shell element) and "
                           "renumbered the rest",)
 
@@ -127,7 +129,7 @@ def test_abaqus_elsets(tmp_path):
     path.write_text(INP)
     m = build_mesh(FileMesh(path=path))
     assert m.elements.tolist() == [[0, 1, 4, 3], [1, 2, 5, 4], [2, 6, 5, -1]]
-    assert sets(m) == {"Skin": [0, 1], "Tip": [2], "Edge": [1, 2]}
+    assert sets(m) == {"Skin": [0, 1], "Tip": [2], "Edge": [1, 2], "block:0": [0, 1], "block:1": [2]}
     assert m.warnings == ()
 
 

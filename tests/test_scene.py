@@ -17,7 +17,7 @@ from taichi_shell_mpm.scene import (
     SceneError, SceneInfo, Section, Solve, TubeMesh, apply_overrides, load_scene,
     parse_scene)
 
-from .conftest import HEMISPHERE_SCENE, TUBE_SCENE, locations
+from .conftest import HEMISPHERE_SCENE, ROOT, TUBE_SCENE, locations
 
 DOCS = Path(__file__).resolve().parents[1] / "docs" / "scenes.md"
 REF_HEADER = "P_over_Pmax,P,minus_U_tip,W_tip\n0.05,0.20,0.026,0.663\n"
@@ -619,3 +619,101 @@ def test_mutated_scenes_fail_cleanly(scene_dir, data):
 
 
 _FUZZ_BASES = [raw_of(text) for text in (FULL, TUBE_SCENE, HEMISPHERE_SCENE, FILE_MESH)]
+
+
+# ------------------------------------------------------------------ every key is documented
+PARTS_SCENE = """
+[scene]
+name = "parts"
+units = "consistent"
+[mesh]
+kind = "plate"
+lx = 2.0
+ly = 1.0
+nx = 2
+ny = 1
+[materials.steel]
+E = 1.0
+nu = 0.0
+density = 1.0
+model = "j2"
+yield_stress = 1.0
+hardening = 0.0
+[sections.skin]
+thickness = 0.1
+points = 3
+rule = "gauss"
+shear_factor = 0.8
+hourglass = 0.02
+drilling_stiffness = 0.2
+[elementsets.a]
+box = { min = [0, 0, 0], max = [1, 1, 0] }
+[elementsets.b]
+ids = [1]
+[elementsets.c]
+all = true
+[[part]]
+name = "a"
+material = "steel"
+section = "skin"
+elements = "a"
+[[part]]
+name = "b"
+material = "steel"
+section = "skin"
+elements = "b"
+[solve]
+kind = "dynamic"
+end_time = 1.0
+"""
+
+
+def _doc_sections() -> dict[str, str]:
+    """docs/scenes.md by '## ' heading."""
+    out, heading = {}, ""
+    for line in DOCS.read_text().splitlines():
+        if line.startswith("## "):
+            heading = line[3:]
+        out[heading] = out.get(heading, "") + line + "\n"
+    return out
+
+
+def _table_heading(path: str) -> str:
+    """The docs heading fragment of a parser path: '[[part]][1]' -> '[[part]]',
+    '[[reference.compare]][0]' -> '[reference]', '[sections.skin]' -> '[sections.NAME]',
+    '[nodesets.x].plane' -> '[nodesets.NAME]', '[mesh]' -> '[mesh]'."""
+    double, name, sub = re.match(r"\[(\[?)([A-Za-z_]+)(\.[A-Za-z0-9_-]+)?", path).groups()
+    if double:
+        return f"[{name}]" if sub else f"[[{name}]]"
+    if sub and name in ("materials", "sections"):     # documented as "those of [material]"
+        return f"## `[{name[:-1]}]`"
+    return f"[{name}.NAME]" if sub else f"[{name}]"
+
+
+def test_every_scene_key_is_documented(scene_dir, monkeypatch):
+    """Every key the parser accepts in the scenes of this file, the bundled scenes and a parts
+    scene appears as `key` in the docs/scenes.md section of its table."""
+    from taichi_shell_mpm import scene as scene_module
+    seen: dict[str, set[str]] = {}
+    read = scene_module._SceneParser.read
+
+    def recording(self, path, data, spec, cls=None, required=(), extra=()):
+        seen.setdefault(path, set()).update(spec, extra)
+        return read(self, path, data, spec, cls, required, extra)
+
+    monkeypatch.setattr(scene_module._SceneParser, "read", recording)
+    scenes = [(text, scene_dir / "case.toml") for text in (FULL, TUBE_SCENE, HEMISPHERE_SCENE, PARTS_SCENE)]
+    scenes += [((ROOT / "scenes" / f"{n}.toml").read_text(), ROOT / "scenes" / f"{n}.toml")
+               for n in ("cantilever", "hemisphere", "square_tube")]
+    for text, source in scenes:
+        parse_scene(raw_of(text), source)
+    sections = _doc_sections()
+    missing = []
+    for path, keys in seen.items():
+        heading = _table_heading(path)
+        text = next((body for title, body in sections.items() if heading.removeprefix("## ") == title
+                     or not heading.startswith("## ") and heading in title), None)
+        assert text is not None, f"docs/scenes.md has no section for {heading} ({path})"
+        missing += [f"{path}.{key}" for key in sorted(keys) if f"`{key}`" not in text]
+    print(f"\n{len(seen)} tables, {sum(len(k) for k in seen.values())} keys checked")
+    assert not missing, f"keys not documented in their docs/scenes.md section: {missing}"
