@@ -214,12 +214,15 @@ def element_stage(sim: Simulation, end, velocity, omega, dt: float, steps: int =
         if path in s.arrays_index():
             s.put(path, np.zeros_like(s.fetch(path)))
     s.step.dt[None] = dt
+    run = sim.__dict__.get("_element_stage_kernel")
+    if run is None:             # one kernel per simulation: a test calling this often compiles it once
 
-    @ti.kernel
-    def run():
-        for _ in range(1):          # the outermost loop is the parallel one: keep the element loop serial
-            sim.stepper.shell.element_pass()
+        @ti.kernel
+        def run():
+            for _ in range(1):          # the outermost loop is the parallel one: keep the element loop serial
+                sim.stepper.shell.element_pass()
 
+        sim._element_stage_kernel = run
     for _ in range(steps):
         run()
     return (s.fetch("points.stress"), s.fetch("nodes.force_int"), s.fetch("nodes.moment_int"),
