@@ -1,14 +1,27 @@
 """Triangular shells next to quads (issue 17 item 4; stages/triangle.py, docs/element.md
-"Triangles"): rigid-body motion, membrane and constant-curvature patches, the element's power
-identity and zero-energy modes on the element stage; a free spinning mixed plate in both
-modes; Sze's cantilever on 80 triangles and the reduced tube with a band of triangles through
-the CLI."""
+"Triangles").  On the element stage: rigid-body motion, membrane and constant-curvature
+patches, the element's power identity and zero-energy modes.  Through the CLI: Sze's
+cantilever with its 20x2 quads cut into 80 triangles (fem and mpm) against the Sze table; a
+stepped cantilever from a Gmsh file whose root part is triangles and outer part quads
+against the closed form, with the per-part output and the frames' triangle block; a restart
+of a triangle mesh bit for bit; the reduced tube crush with one face of triangles against
+the all-quad tube's mean force."""
 from __future__ import annotations
 
+import json
+import subprocess
+import sys
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import meshio
 import numpy as np
 import pytest
 
-from .conftest import element_stage, element_simulation
+from taichi_shell_mpm.mesh import build_mesh
+from taichi_shell_mpm.scene import PlateMesh
+
+from .conftest import ROOT, element_simulation, element_stage
 
 E, NU, T = 2.0e5, 0.3, 0.05
 KAPPA = 5.0 / 6.0
@@ -282,3 +295,145 @@ def test_zero_energy_modes(tmp_path, patch, zero_modes):
     print(f"\n{patch}: {len(points)} nodes; smallest singular values / largest "
           f"{', '.join(f'{r:.1e}' for r in np.sort(ratio)[:zero_modes + 1])}: {found} zero-energy modes")
     assert found == zero_modes
+
+
+# ------------------------------------------------------------------ through the CLI
+def cli(out: Path, scene: Path, *overrides: str, timeout: int = 1500) -> dict:
+    """`python -m taichi_shell_mpm run scene --set ...` in a process of its own: the summary."""
+    args = [sys.executable, "-m", "taichi_shell_mpm", "run", str(scene), "--out", str(out), "--quiet"]
+    for item in overrides:
+        args += ["--set", item]
+    proc = subprocess.run(args, capture_output=True, text=True, timeout=timeout)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return json.loads((out / "summary.json").read_text())
+
+
+SZE = ("mesh.nx=20", "mesh.ny=2", "mesh.triangles=all")
+# Measured (`python -m pytest -q -s tests/test_triangles.py -k sze`, 2026-12), mean / max of
+# e_i over the 20 levels, %: fem W_tip 0.0184 / 0.0516, -U_tip 0.0645 / 0.1674; mpm 0.0186 /
+# 0.0481, 0.0641 / 0.1760 (the 20x2 quads: 0.09 / 0.21 %).  Bounds 1.5x those.  The degenerate
+# BT quad on the same 80 triangles: 38.7 / 56.8 % mean (benchmarks/triangle_element.py).
+SZE_BOUNDS = {"fem": {"W_tip": (0.00028, 0.00078), "minus_U_tip": (0.00097, 0.0026)},
+              "mpm": {"W_tip": (0.00028, 0.00073), "minus_U_tip": (0.00097, 0.0027)}}
+
+
+@pytest.fixture(scope="module")
+def sze_runs(tmp_path_factory):
+    """Both modes at once (two cores), each in its own process."""
+    out = tmp_path_factory.mktemp("sze_triangles")
+    scene = ROOT / "scenes" / "cantilever.toml"
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        futures = {m: pool.submit(cli, out / m, scene, *SZE, f"method.kind={m}") for m in SZE_BOUNDS}
+        return {m: (out / m, f.result()) for m, f in futures.items()}
+
+
+@pytest.mark.parametrize("method", ["fem", "mpm"])
+def test_sze_cantilever_on_80_triangles(sze_runs, method):
+    out, summary = sze_runs[method]
+    ref = summary["reference"]
+    assert summary["elements"] == 80 and ref["rows"] == 20 and ref["missing_levels"] == []
+    print(f"\nSze cantilever, 80 triangles ({method}): {summary['steps']} steps, run {summary['run_seconds']:.1f} s")
+    for column, r in ref["columns"].items():
+        print(f"  {column:<12s} mean {100 * r['mean_rel_error']:.4f} % max {100 * r['max_rel_error']:.4f} % "
+              f"(bounds {100 * SZE_BOUNDS[method][column][0]:.3f} / {100 * SZE_BOUNDS[method][column][1]:.3f} %)")
+    for column, (mean_bound, max_bound) in SZE_BOUNDS[method].items():
+        assert ref["columns"][column]["mean_rel_error"] <= mean_bound, column
+        assert ref["columns"][column]["max_rel_error"] <= max_bound, column
+    energies = summary["energies"]
+    assert energies["hourglass"] == 0.0           # no hourglass control in a triangle
+    frame = meshio.read(sorted((out / "frames").glob("*.vtu"))[-1])
+    assert [c.type for c in frame.cells] == ["triangle"] and len(frame.cells[0].data) == 80
+    assert frame.cell_data["von_mises_mid"][0].shape == (80,)
+
+
+def write_mixed_strip(path: Path) -> None:
+    """The stepped strip of tests/test_parts.py (20x1 on 10 x 1) as Gmsh 2.2: the root half
+    (x < 5) cut into 20 triangles, physical group 'root' (tag 1, the triangle block), the
+    outer half 10 quads, 'outer' (tag 2)."""
+    from .test_parts import A, B, L
+    m = build_mesh(PlateMesh(lx=L, ly=B, nx=20, ny=1, triangles=((0.0, -1.0, -1.0), (A, 2.0, 1.0))))
+    tri, quad = m.elements[m.triangles, :3], m.elements[~m.triangles]
+    meshio.write(path, meshio.Mesh(m.points, [("triangle", tri), ("quad", quad)],
+                                   cell_data={"gmsh:physical": [np.full(len(tri), 1), np.full(len(quad), 2)],
+                                              "gmsh:geometrical": [np.full(len(tri), 1), np.full(len(quad), 2)]},
+                                   field_data={"root": np.array([1, 2]), "outer": np.array([2, 2])}),
+                 file_format="gmsh22", binary=False)
+
+
+# Measured (pytest -s, 2026-12): tip deflection against the piecewise closed form, fem and mpm
+# (the all-quad strip of tests/test_parts.py: -0.105 %).
+MIXED_STEPPED_BOUND = 0.0016
+
+
+@pytest.mark.parametrize("method", ["fem", "mpm"])
+def test_stepped_cantilever_with_a_triangle_part_from_gmsh(tmp_path, method):
+    """Parts from a Gmsh file holding triangles and quads: the thick root is the triangle
+    block, the thin outer half the quad block.  Tip deflection against the piecewise
+    Euler-Bernoulli + shear closed form; the frames hold a quad and a triangle block with the
+    part and thickness of each element; parts.csv sums to energy.csv and the root (triangles)
+    has no hourglass energy; each half holds its bending share of the strain energy."""
+    from .test_parts import A, COMMON, L, NAMED, P, T1, T2, stepped_tip_deflection
+    write_mixed_strip(tmp_path / "strip.msh")
+    scene = tmp_path / "mixed.toml"
+    scene.write_text(COMMON.format(mesh='[mesh]\nkind = "file"\npath = "strip.msh"\n', method=method, P=P)
+                     + NAMED.format(E=1.2e6, T1=T1, T2=T2, sets="", root="root", outer="physical:2"))
+    out = tmp_path / "out"
+    summary = cli(out, scene)
+    uz = float(np.atleast_1d(np.genfromtxt(out / "probes.csv", delimiter=",", names=True)["tipuz"])[-1])
+    exact = stepped_tip_deflection()
+    error = uz / exact - 1.0
+    frame = meshio.read(sorted((out / "frames").glob("*.vtu"))[-1])
+    parts = summary["parts"]
+    share = parts[0]["energies"]["internal"] / summary["energies"]["internal"]
+    bending = (L ** 3 - (L - A) ** 3) / T1 ** 3 / ((L ** 3 - (L - A) ** 3) / T1 ** 3 + (L - A) ** 3 / T2 ** 3)
+    print(f"\nstepped cantilever, root 20 triangles + outer 10 quads ({method}): tip {uz:.6e}, closed form "
+          f"{exact:.6e}, error {100 * error:+.3f} %; root share of the strain energy {share:.4f} (bending {bending:.4f})")
+    assert abs(error) <= MIXED_STEPPED_BOUND
+    assert [(c.type, len(c.data)) for c in frame.cells] == [("quad", 10), ("triangle", 20)]
+    assert frame.cell_data["part"][0].tolist() == [1] * 10 and frame.cell_data["part"][1].tolist() == [0] * 20
+    assert frame.cell_data["thickness"][0].tolist() == [T2] * 10 and frame.cell_data["thickness"][1].tolist() == [T1] * 20
+    assert [(p["name"], p["elements"]) for p in parts] == [("root", 20), ("outer", 10)]
+    assert parts[0]["energies"]["hourglass"] == 0.0
+    energy = np.genfromtxt(out / "energy.csv", delimiter=",", names=True)
+    table = np.genfromtxt(out / "parts.csv", delimiter=",", names=True, dtype=None, encoding=None)
+    for column in ("kinetic", "internal", "hourglass", "drilling"):
+        assert table[column].sum() == pytest.approx(float(np.atleast_1d(energy[column])[-1]), rel=2e-9, abs=1e-30)
+    assert share == pytest.approx(bending, abs=0.001)
+
+
+def test_restart_of_a_triangle_mesh_is_bit_for_bit(tmp_path, monkeypatch):
+    """tests/test_restart.py's static round trip on the cantilever cut into 8 triangles."""
+    from .test_restart import CANTILEVER, restart_roundtrip
+    stopped, _ = restart_roundtrip(tmp_path, monkeypatch, [*CANTILEVER, "--set", "mesh.triangles=all"],
+                                   stop_step=7000, every=5000, batch_element_steps=8000)
+    assert stopped["started"] and 0 < stopped["steps"]
+
+
+# Measured (pytest -s, 2026-12; 928 elements, batched serial launch): mean crush force 10.486 kN
+# over 20-37.4 mm against the all-quad 10.563 (tests/test_crush.py): -0.7 %; 3 lobes, H 12.2
+# mm, balance 0.24 % of the absorbed energy, E_hg/E_int 8.0 %.  The full 6 ms tube:
+# benchmarks/triangle_tube.py (docs/element.md, "Triangles").
+TUBE_BAND = "mesh.triangles={min = [-31.0, 29.5, -1.0], max = [31.0, 31.0, 81.0]}"
+
+
+def test_reduced_crush_with_a_face_of_triangles(tmp_path):
+    """tests/test_crush.py's reduced crush (80 mm, 2.5 ms, mpm, contact) with the +y face (10 x
+    16 quads between the fillets) cut into 320 triangles: the mean crush force within 10 % of
+    the all-quad tube's (the issue's bound), the triangle block in the frames, the energy
+    balance and penetration as bounded for the all-quad tube."""
+    from .test_crush import REDUCED_MEAN_FORCE, SHORT
+    summary = cli(tmp_path, ROOT / "scenes" / "square_tube.toml", *SHORT, TUBE_BAND)
+    c = summary["crush"]
+    frame = meshio.read(sorted((tmp_path / "frames").glob("*.vtu"))[-1])
+    shapes = [(cell.type, len(cell.data)) for cell in frame.cells]
+    ratio = c["mean_crush_force"] / REDUCED_MEAN_FORCE
+    print(f"\nmixed tube {shapes}: crush {c['crush_distance']:.1f} mm, mean {c['mean_crush_force']:.3f} kN over "
+          f"{c['mean_force_window']} ({100 * (ratio - 1):+.2f} % of the all-quad {REDUCED_MEAN_FORCE}), lobes "
+          f"{c['lobes']}, H {c['half_wavelength']}, balance {100 * c['energy_balance_error_max']:.2f} %, hourglass/"
+          f"internal {100 * c['hourglass_over_internal']:.1f} %, penetration "
+          f"{100 * c['max_penetration_over_thickness']:.1f} % t, {summary['steps']} steps")
+    assert shapes == [("quad", 768 - 160), ("triangle", 320)]
+    assert c["crush_distance"] > 30 and c["lobes"] >= 2
+    assert abs(ratio - 1.0) <= 0.10
+    assert c["energy_balance_error_max"] <= 0.004            # the all-quad bound (measured 0.24 %)
+    assert c["max_penetration_over_thickness"] <= 0.021      # the all-quad bound
