@@ -360,9 +360,10 @@ def write_mixed_strip(path: Path) -> None:
                  file_format="gmsh22", binary=False)
 
 
-# Measured (pytest -s, 2026-12): tip deflection against the piecewise closed form, fem and mpm
-# (the all-quad strip of tests/test_parts.py: -0.105 %).
-MIXED_STEPPED_BOUND = 0.0016
+# Measured (pytest -s, 2026-12): tip deflection -0.097 % against the piecewise closed form in
+# fem and in mpm (the all-quad strip of tests/test_parts.py: -0.105 %); root share of the
+# strain energy 0.6752 against the bending closed form's 0.6747.  Bound 1.5x.
+MIXED_STEPPED_BOUND = 0.0015
 
 
 @pytest.mark.parametrize("method", ["fem", "mpm"])
