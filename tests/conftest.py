@@ -170,21 +170,22 @@ thickness = {t}
 [element]
 {element}
 [method]
-kind = "{method}"
+kind = "fem"
 [solve]
 kind = "dynamic"
 end_time = 1.0
+{solve}
 """
 
 
 def element_simulation(tmp_path: Path, corners, *, E: float, nu: float, t: float, material: str = "",
-                       section: str = "", element: str = "", quads=None, triangles=None,
-                       method: str = "fem") -> Simulation:
+                       section: str = "", element: str = "", solve: str = "", quads=None,
+                       triangles=None) -> Simulation:
     """A Simulation of the single quad `corners` (4x3, explicit FE) for driving the element stage
-    (S7) alone; `material`, `section` and `element` are extra TOML lines of those tables
+    (S7) alone; `material`, `section`, `element` and `solve` are extra TOML lines of those tables
     (:func:`unwarmed_simulation`: the full step is not compiled).  With `quads` (m x 4 node
     ids) and/or `triangles` (k x 3), `corners` are the nodes of a patch of those elements
-    instead (elements numbered quads first); `method` "mpm" adds the background grid."""
+    instead (elements numbered quads first)."""
     cells = []
     if quads is not None or triangles is None:
         cells.append(("quad", np.array([[0, 1, 2, 3]]) if quads is None else np.asarray(quads)))
@@ -193,7 +194,7 @@ def element_simulation(tmp_path: Path, corners, *, E: float, nu: float, t: float
     meshio.write(tmp_path / "element.vtu", meshio.Mesh(np.asarray(corners, dtype=float), cells))
     scene = load_scene(write_scene(tmp_path, ELEMENT.format(E=E, nu=nu, t=t, material=material,
                                                             section=section, element=element,
-                                                            method=method)))
+                                                            solve=solve)))
     return unwarmed_simulation(scene, tmp_path)
 
 

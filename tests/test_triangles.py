@@ -18,6 +18,7 @@ import meshio
 import numpy as np
 import pytest
 
+from taichi_shell_mpm.assembly import triangle_shear_gain
 from taichi_shell_mpm.mesh import build_mesh
 from taichi_shell_mpm.scene import PlateMesh
 
@@ -295,6 +296,42 @@ def test_zero_energy_modes(tmp_path, patch, zero_modes):
     print(f"\n{patch}: {len(points)} nodes; smallest singular values / largest "
           f"{', '.join(f'{r:.1e}' for r in np.sort(ratio)[:zero_modes + 1])}: {found} zero-energy modes")
     assert found == zero_modes
+
+
+SHAPES = {"equilateral": [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.5, 0.8660254037844386, 0.0]],
+          "right": [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+          "sliver 9 deg": [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.45, 0.0873, 0.0]],
+          "sliver 0.9 deg": [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.3, 0.0105, 0.0]]}
+
+
+@pytest.mark.parametrize("inertia", ["scaled", "physical"])
+def test_stable_step_holds_on_slivers(tmp_path, inertia):
+    """The largest frequency of one triangle, from the element stage's stiffness (18 dofs,
+    drilling spring included) and its lumped masses and rotary inertias, against the step
+    the code takes (stages/timestep.py: the host's initial_dt, and the element stage's own
+    dt_next, which must agree): omega_max dt / 2 <= dt_safety for shapes down to a sliver
+    whose smallest angle is 0.9 deg, t = 0.05 of the longest edge.  Without the shear gain g
+    in the rotary inertia (scaled) and in the step (physical, then the quad's minimum of the
+    two limits) the plate part alone, in numpy, gives omega dt / 2 = 2.28 and 5.58 dt_safety
+    on that sliver, 0.95 and 3.69 at 9 deg, and 1.12 (physical) on the equilateral one."""
+    from taichi_shell_mpm.stages.timestep import initial_dt
+    for shape, x in SHAPES.items():
+        (tmp_path / shape).mkdir()
+        x = np.array(x)
+        sim = element_simulation(tmp_path / shape, x, E=E, nu=NU, t=0.05, triangles=[[0, 1, 2]],
+                                 solve=f'rotary_inertia = "{inertia}"')
+        k = stiffness(sim, x)
+        mass = np.column_stack([np.tile(sim.model.node_mass[:, None], 3), np.tile(sim.model.node_inertia[:, None], 3)])
+        scale = 1.0 / np.sqrt(mass.ravel())
+        omega = np.sqrt(np.linalg.eigvalsh(0.5 * (k + k.T) * scale[:, None] * scale[None, :]).max())
+        dt = initial_dt(sim.model, np.zeros_like(x), sim.cfg)
+        kernel_dt = float(sim.state.step.dt_next[None])
+        ratio = omega * dt / 2 / sim.model.parameters.dt_safety
+        gain = float(triangle_shear_gain(x, np.array([[0, 1, 2, -1]]))[0])
+        print(f"\n{inertia} {shape}: shear gain {gain:.2f}, dt {dt:.4e} (element stage {kernel_dt:.4e}), "
+              f"omega_max dt / 2 = {ratio:.5f} dt_safety")
+        assert kernel_dt == pytest.approx(dt, rel=1e-6)
+        assert ratio <= 1.0 + 1e-9          # a sliver's membrane reaches the bound 3 c^2 beta (stages/triangle.py)
 
 
 # ------------------------------------------------------------------ through the CLI

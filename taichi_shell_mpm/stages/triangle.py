@@ -59,9 +59,10 @@ alpha = 0.9, did not relax with FIRE (it did at alpha 0.8).  With 2 / sqrt(3 bet
 membrane's omega_max^2 <= 3 c^2 beta held on 3000 random triangles (largest 2.996 c^2 beta,
 nu in [0, 0.49]), i.e. omega dt / 2 <= alpha on one element, the mesh below it; it is 0.67
 (equilateral) to 0.82 (sliver) of the altitude.  The plate part (edge shear against the
-rotary inertia, which is m max(t^2/12, A/4) for a triangle, assembly.py) stays below the same
-bound for triangles with A >= 0.1 l_max^2 (smallest angle above about 11 deg); slivers
-thinner than that reach 1.5 alpha on one element.
+rotary inertia) is kept below it by the inertia: m max(t^2/12, A/4) g with the shear gain g
+of assembly.triangle_shear_gain (largest omega dt / 2 of one element 0.81 alpha over random
+shapes, slivers included); with the physical rotary inertia the step adds the rotational
+frequency, scaled by g, as a square (timestep.triangle_limit).
 
 Inside out.  A triangle has no corner of its own that can fold (its three corner Jacobians
 are 2A in its own frame): it is flagged when its normal reverses within a step,
@@ -75,7 +76,7 @@ one-point quadrature", IJNME 20 (1984) 787-802.
 import taichi as ti
 
 from ..state import STATUS_INVERTED, STATUS_OK
-from .timestep import element_limit
+from .timestep import triangle_limit
 
 
 @ti.func
@@ -152,6 +153,23 @@ def resultant_loads(xh, yh, area, b1, b2, n_res, m_res, q_res, kappa):
     return f, m
 
 
+@ti.func
+def shear_gain(xh, yh, area):
+    """g = 3 sigma_max^2 of the rotation part of the edge shear, from the local coordinates
+    (assembly.triangle_shear_gain, its host twin and docstring)."""
+    p = ti.Matrix.zero(ti.f64, 2, 2)
+    for a in ti.static(range(3)):
+        pa = ti.Matrix.zero(ti.f64, 2, 2)
+        for k in ti.static((a, (a + 2) % 3)):          # the two edges k -> k+1 at corner a
+            j = (k + 1) % 3
+            lever = ti.Vector([-0.5 * (yh[k] + yh[j]), 0.5 * (xh[k] + xh[j])])
+            pa += lever.outer_product(ti.Vector([xh[j] - xh[k], yh[j] - yh[k]]))
+        p += pa @ pa.transpose()
+    p /= (2.0 * area) ** 2
+    half_trace = 0.5 * (p[0, 0] + p[1, 1])
+    return 3.0 * (half_trace + ti.sqrt(ti.max(half_trace * half_trace - (p[0, 0] * p[1, 1] - p[0, 1] * p[1, 0]), 0.0)))
+
+
 @ti.data_oriented
 class TriangleElement:
     """Element stage of the triangles of a mesh; ``quad`` (shell.ShellElement) lends it the
@@ -211,8 +229,11 @@ class TriangleElement:
             element_power += fg[a, d] * v[a, d] + mg[a, d] * w[a, d]
         self.quad.energy.element(e, dt * area_m * 0.5 * t * power, area_m * 0.5 * t * plastic_work, 0.0,
                                  drill_energy, -0.5 * dt * element_power)
-        # --- time-step limit, L_e = 4A / sqrt(3 sum l^2) (module docstring): element_limit's
-        # `longest` is area / L_e
+        # --- time-step limit, L_e = 4A / sqrt(3 sum l^2) (module docstring; timestep.triangle_limit)
         edges_sq = ((corner(x, 1) - corner(x, 0)).norm_sqr() + (corner(x, 2) - corner(x, 1)).norm_sqr()
                     + (corner(x, 0) - corner(x, 2)).norm_sqr())
-        self.quad.acc.minimum(self.s.step.dt_next, element_limit(self.s, self.cfg, e, area, 0.25 * ti.sqrt(3.0 * edges_sq)))
+        gain = 1.0
+        if ti.static(self.cfg.physical_rotary_inertia):
+            gain = shear_gain(xh, yh, area)
+        self.quad.acc.minimum(self.s.step.dt_next,
+                              triangle_limit(self.s, self.cfg, e, 4.0 * area / ti.sqrt(3.0 * edges_sq), gain))
