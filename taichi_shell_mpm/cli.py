@@ -187,7 +187,9 @@ def _validate(args) -> int:
     for w in (*mesh.warnings, *setup_warnings(scene, model), *([note] if note else [])):
         print(f"warning: {w}")
     grid = f", grid {model.grid.dims} nodes at h={model.grid.h:g}" if model.grid else ""
-    print(f"{args.scene}: ok ({len(mesh.points)} nodes, {len(mesh.elements)} elements, {scene.method.kind}{grid})")
+    triangles = int(mesh.triangles.sum())
+    shapes = f" ({triangles} triangles)" if triangles else ""
+    print(f"{args.scene}: ok ({len(mesh.points)} nodes, {len(mesh.elements)} elements{shapes}, {scene.method.kind}{grid})")
     thickness = model.element.thickness
     for p in model.parts:
         t = thickness[p.elements]

@@ -66,6 +66,11 @@ def _generated_elements(kind: str, v: dict) -> int | None:
     return count
 
 
+TriangleSplit = Union[Literal["none", "all"], tuple[Vec3, Vec3]]
+"""`triangles` of a generated mesh: "none", "all", or a box (min, max) of quad centroids:
+the quads it selects are cut into two triangles each (mesh.split_quads)."""
+
+
 @dataclass(frozen=True)
 class PlateMesh:
     """Flat rectangle in the x-y plane, nx x ny quads, normals +z."""
@@ -74,6 +79,7 @@ class PlateMesh:
     nx: int
     ny: int
     origin: Vec3 = (0.0, 0.0, 0.0)
+    triangles: TriangleSplit = "none"
     kind: Literal["plate"] = "plate"
 
 
@@ -90,6 +96,7 @@ class HemisphereMesh:
     n_around: int
     n_meridian: int
     quarter: bool = True
+    triangles: TriangleSplit = "none"
     kind: Literal["hemisphere"] = "hemisphere"
 
 
@@ -111,6 +118,7 @@ class TubeMesh:
     y-faces; corners untouched. 0 = no trigger."""
     trigger_start: float = 5.0
     trigger_length: float = 15.0
+    triangles: TriangleSplit = "none"
     kind: Literal["tube"] = "tube"
 
 
@@ -792,6 +800,18 @@ def _positive_list(value: Any) -> tuple[float, ...]:
     raise _Invalid(f"expected a non-empty list of numbers > 0, got {_show(value)}")
 
 
+def _triangle_split(value: Any) -> TriangleSplit:
+    """"none", "all" or a box {min = [x, y, z], max = [x, y, z]} (min <= max)."""
+    if value in ("none", "all"):
+        return value
+    if isinstance(value, dict) and set(value) == {"min", "max"}:
+        lo, hi = _vec3(value["min"]), _vec3(value["max"])
+        if all(a <= b for a, b in zip(lo, hi)):
+            return lo, hi
+    raise _Invalid(f'expected "none", "all" or a box {{min = [x, y, z], max = [x, y, z]}} with min <= max, '
+                   f"got {_show(value)}")
+
+
 def _times(value: Any) -> tuple[float, ...]:
     """Increasing list of times >= 0."""
     if not (isinstance(value, list) and all(_is_number(t) and t >= 0 for t in value)):
@@ -885,15 +905,16 @@ _PLAIN_TABLES: dict[str, tuple[type, dict[str, Validator]]] = {
     "element": (ElementOptions, _ELEMENT), "output": (Output, _OUTPUT)}
 _MESHES: dict[str, tuple[type, dict[str, Validator]]] = {
     "plate": (PlateMesh, {"lx": _positive, "ly": _positive, "nx": _int(1), "ny": _int(1),
-                          "origin": _vec3}),
+                          "origin": _vec3, "triangles": _triangle_split}),
     "hemisphere": (HemisphereMesh, {"radius": _positive,
                                     "hole_deg": _number(0, 90, lo_open=True, hi_open=True),
                                     "n_around": _int(1), "n_meridian": _int(1),
-                                    "quarter": _bool}),
+                                    "quarter": _bool, "triangles": _triangle_split}),
     "tube": (TubeMesh, {"width": _positive, "depth": _positive, "corner_radius": _non_negative,
                         "length": _positive, "n_flat": _int(1), "n_corner": _int(0),
                         "n_length": _int(1), "trigger_amplitude": _non_negative,
-                        "trigger_start": _non_negative, "trigger_length": _positive}),
+                        "trigger_start": _non_negative, "trigger_length": _positive,
+                        "triangles": _triangle_split}),
     "file": (FileMesh, {"scale": _positive, "merge_nodes": _bool}),   # + "path", checked against the scene's folder
 }
 

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import taichi as ti
 
-from .assembly import Model, assemble
+from .assembly import Model, assemble, element_length
 from .config import Features
 from .materials import COL
 from .mesh import Mesh, build_mesh
@@ -24,7 +24,7 @@ from .crush import crush_summary
 from .output import FrameWriter, OutputError, write_csv, write_json
 from .progress import Progress
 from .reference import reference_summary
-from .scene import Scene, SceneError
+from .scene import Scene
 from .solvers.stepper import Stepper
 from .stages.timestep import DT_UNSET, initial_dt
 from .state import (CANDIDATES_PER_NODE, STATUS_CONTACT_FULL, STATUS_DT_COLLAPSE, STATUS_ENERGY, STATUS_INVERTED,
@@ -144,9 +144,6 @@ class Simulation:
         self.out_dir = Path(out_dir) if out_dir is not None else Path("outputs") / scene.info.name
         self.mesh: Mesh = mesh if mesh is not None else build_mesh(scene.mesh)
         self.model: Model = model if model is not None else assemble(scene, self.mesh)
-        if self.model.elements.size and (self.model.elements[:, 3] < 0).any():
-            raise SceneError(f"{scene.source.name}: [mesh]: the mesh has {int((self.model.elements[:, 3] < 0).sum())} "
-                             "triangles; this build does not run triangular shells yet")
         launch = choose_launch(arch, len(self.model.elements), scene.solve.kind == "static")
         self.cfg = Features.from_scene(scene, self.model, launch)
         self.state = State(self.model, self.cfg)
@@ -184,12 +181,14 @@ class Simulation:
         pts, elements = self.model.points, self.model.elements
         w = self.model.omega0
         if not self.cfg.drilling_spring:
-            x = pts[elements]
+            # a triangle's corner 4 read as its corner 1: (x3 - x1) x (x1 - x2) = (x2 - x1) x (x3 - x1)
+            x = pts[np.where(elements >= 0, elements, elements[:, :1])]
             element_normal = 0.5 * np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])     # A e3
             normal = np.zeros_like(pts)
             area = np.zeros(len(pts))
-            np.add.at(normal, elements, np.repeat(element_normal[:, None, :], 4, axis=1))
-            np.add.at(area, elements, np.repeat(np.linalg.norm(element_normal, axis=1)[:, None], 4, axis=1))
+            corner = elements >= 0
+            np.add.at(normal, elements[corner], np.repeat(element_normal[:, None, :], 4, axis=1)[corner])
+            np.add.at(area, elements[corner], np.repeat(np.linalg.norm(element_normal, axis=1)[:, None], 4, axis=1)[corner])
             self.state.put("nodes.normal_sum", normal)
             self.state.put("nodes.area_sum", area)
             unit = normal / np.maximum(np.linalg.norm(normal, axis=1), 1e-300)[:, None]
@@ -323,14 +322,23 @@ class Simulation:
 
     def element_distortion(self, positions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Per element of the configuration `positions`: inside out (two or more corner angles
-        >= 180 deg about the diagonals' normal: a bow-tie, stages/shell.tangled) and
-        L_e = area / longest diagonal."""
-        x = positions[self.model.elements]
-        normal = np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])
+        >= 180 deg about the diagonals' normal: a bow-tie, stages/shell.tangled) and the
+        element length L_e of the step rule (assembly.element_length).  A triangle's corners
+        cannot fold in its own frame: one configuration shows it inside out only when it has
+        collapsed to zero area (the element stage flags one whose normal reversed within a
+        step, stages/triangle.py)."""
+        elements = self.model.elements
+        x = positions[np.where(elements >= 0, elements, elements[:, :1])]     # a triangle's 4th = its 1st
+        normal = np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])                 # triangle: (x2-x1) x (x3-x1)
         corner = np.cross(np.roll(x, -1, axis=1) - x, np.roll(x, 1, axis=1) - x)
         inside_out = (np.einsum("mai,mi->ma", corner, normal) <= 0.0).sum(axis=1) >= 2
+        area = 0.5 * np.linalg.norm(normal, axis=1)
+        triangle = elements[:, 3] < 0
+        if triangle.any():
+            inside_out = np.where(triangle, area <= 0.0, inside_out)
+            return inside_out, element_length(positions, elements, area)
         longest = np.maximum(np.linalg.norm(x[:, 2] - x[:, 0], axis=1), np.linalg.norm(x[:, 3] - x[:, 1], axis=1))
-        return inside_out, 0.5 * np.linalg.norm(normal, axis=1) / np.maximum(longest, 1e-300)
+        return inside_out, area / np.maximum(longest, 1e-300)
 
     def check_status(self) -> None:
         """Raise SimulationError for a failure flagged in-kernel or found here between batches
