@@ -35,6 +35,8 @@ class Features:
     contact: bool               # penalty self-contact (stages/contact.py)
     friction: bool              # contact friction
     launch: str = "batched"     # "batched" | "threads" | "gpu" (solvers/stepper.py)
+    loads: bool = False         # curve or follower loads, pressure, gravity (stages/loads.py)
+    motion: bool = False        # prescribed motion (stages/motion.py)
 
     @property
     def serial(self) -> bool:
@@ -77,4 +79,4 @@ class Features:
             moving_walls=any(w.body >= 0 for w in model.walls),
             contact=scene.contact is not None,
             friction=scene.contact is not None and scene.contact.friction > 0.0,
-            launch=launch)
+            launch=launch, loads=model.loading.loads, motion=bool(model.loading.motions))

@@ -382,7 +382,7 @@ MISSING = [  # (dotted path to delete, expected message after "case.toml: ")
                          "got none"),
     ("reference.compare", "[reference].compare: missing required key (add [[reference.compare]] tables)"),
     ("method.grid_max", "[method].grid_max: missing required key (grid_min and grid_max come together)"),
-    ("load", "[[load]]: a static solve needs at least one [[load]]"),
+    ("load", "[[load]]: a static solve needs at least one [[load]], [[motion]], [[pressure]] or [gravity]"),
 ]
 
 
