@@ -47,7 +47,10 @@ RAMP_STEP = 3e-4    # displacement control: a prescribed DOF's move per step / s
 
 def load_norm(sim: Simulation, lam: float) -> float:
     """|F_ext| at load factor lam (every load, in the reference configuration; moments over
-    the mean edge)."""
+    the mean edge).  Plain loads only: lam |F_ext(1)|, the bits of the runs before issue 18."""
+    if not sim.model.loading.loads:
+        f, m = sim.model.load_force, sim.model.load_moment / sim.model.mean_edge
+        return lam * float(np.sqrt(np.sum(f * f) + np.sum(m * m)))
     f, m = reference_loads(sim.model, lam)
     m = m / sim.model.mean_edge
     return float(np.sqrt(np.sum(f * f) + np.sum(m * m)))

@@ -156,8 +156,10 @@ class Stepper:
         for c in range(self.s.nodes.count[None]):
             if not self.nodes.is_prescribed(c):
                 force, torque = self.nodes.residual_force(c), self.nodes.residual_torque(c)
-                held = self.nodes.held(c)      # a prescribed DOF's velocity is no relaxation
-                v, w = drop_fixed(self.s.nodes.grid_velocity[c], held, 0), drop_fixed(self.s.nodes.omega[c], held, 3)
+                v, w = self.s.nodes.grid_velocity[c], self.s.nodes.omega[c]
+                if ti.static(self.cfg.motion):      # a prescribed DOF's velocity is no relaxation
+                    held = self.s.nodes.motion_mask[c]
+                    v, w = drop_fixed(v, held, 0), drop_fixed(w, held, 3)
                 m, inertia = self.s.nodes.mass[c], self.s.nodes.inertia[c]
                 self.acc.total(self.s.step.fire_power, force.dot(v) + torque.dot(w))
                 self.acc.total(self.s.step.fire_speed_sq, m * v.norm_sqr() + inertia * w.norm_sqr())

@@ -106,6 +106,7 @@ class NodeUpdate:
         dt = self.s.step.dt[None]
         mask = self.s.nodes.fix_mask[c]
         force_ext, moment_ext = self.loads.at_node(c)        # before the orientation turns (followers)
+        orientation = self.s.nodes.rotation[c]
         keep = self.s.step.velocity_keep[None]
         v_start = keep * self.s.nodes.grid_velocity[c]          # v^(n-1/2) (0 after a relaxation reset)
         w_start = keep * self.s.nodes.omega[c]
@@ -161,7 +162,7 @@ class NodeUpdate:
                                                   + self.s.nodes.inertia[c] * moving_w.norm_sqr()))
         v_mid, w_mid = 0.5 * (v_start + vg), 0.5 * (w_start + w)
         kick = impulse_time(self.s.step)              # the duration of the velocity update (dt/2 from rest)
-        external = kick * (force_ext.dot(v_mid) + moment_ext.dot(w_mid))
+        external = self.loads.work(c, orientation, v_mid, w_mid, kick)
         contact = 0.0
         force = force_ext - self.s.nodes.force_int[c]
         if ti.static(self.cfg.contact):

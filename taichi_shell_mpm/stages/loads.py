@@ -168,19 +168,40 @@ class ExternalLoads:
 
     # ------------------------------------------------------------------ per node
     @ti.func
+    def beyond_plain(self, c, q):
+        """Force and moment on node c of the loads beyond the plain ones (curve and follower
+        entries, pressure, gravity); q: the node's orientation."""
+        force = self.s.nodes.pressure_force[c] + self.s.nodes.physical_mass[c] * self.s.loads.gravity_now[None]
+        moment = ti.Vector([0.0, 0.0, 0.0])
+        for i in range(self.s.nodes.load_start[c], self.s.nodes.load_start[c + 1]):
+            scale = self.scale(self.s.loads.entry_curve[i])
+            f, m = scale * self.s.loads.entry_force[i], scale * self.s.loads.entry_moment[i]
+            if self.s.loads.entry_follower[i] != 0:
+                f, m = turned(q, f), turned(q, m)
+            force += f
+            moment += m
+        return force, moment
+
+    @ti.func
     def at_node(self, c):
         """f_ext and mu_ext of node c in this step (module docstring)."""
         lam = self.s.step.load_factor[None]
         force = lam * self.s.nodes.load_force[c]
         moment = lam * self.s.nodes.load_moment[c]
         if ti.static(self.cfg.loads):
-            q = self.s.nodes.rotation[c]
-            for i in range(self.s.nodes.load_start[c], self.s.nodes.load_start[c + 1]):
-                scale = self.scale(self.s.loads.entry_curve[i])
-                f, m = scale * self.s.loads.entry_force[i], scale * self.s.loads.entry_moment[i]
-                if self.s.loads.entry_follower[i] != 0:
-                    f, m = turned(q, f), turned(q, m)
-                force += f
-                moment += m
-            force += self.s.nodes.pressure_force[c] + self.s.nodes.physical_mass[c] * self.s.loads.gravity_now[None]
+            f, m = self.beyond_plain(c, self.s.nodes.rotation[c])
+            force += f
+            moment += m
         return force, moment
+
+    @ti.func
+    def work(self, c, q, v_mid, w_mid, kick):
+        """Their work on node c over the step, time-centred (energy.py): kick f_ext . v_mid +
+        mu_ext . w_mid; q: the orientation at the start of the step (written in the plain loads'
+        form of before issue 18, so that a run without the new loads books the same bits)."""
+        out = kick * self.s.step.load_factor[None] * (self.s.nodes.load_force[c].dot(v_mid)
+                                                    + self.s.nodes.load_moment[c].dot(w_mid))
+        if ti.static(self.cfg.loads):
+            f, m = self.beyond_plain(c, q)
+            out += kick * (f.dot(v_mid) + m.dot(w_mid))
+        return out
