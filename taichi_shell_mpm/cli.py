@@ -133,7 +133,7 @@ def setup_warnings(scene, model) -> list[str]:
     lines = list(model.notes)
     fixed = (model.fix_mask & 0b111) == 0b111
     for i, ld in enumerate(scene.loads):
-        if not any(ld.force):
+        if not any(ld.force) and not any(ld.force_per_length):
             continue
         ids = select_nodes(scene.nodeset(ld.nodes), model.points)
         share = load_shares(ld.distribute, ids, model.node_area, model.points, model.elements)

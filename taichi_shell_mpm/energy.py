@@ -104,7 +104,7 @@ class EnergyLedger:
         against the contact forces, energy taken out by walls, work of prescribed motion."""
         self.s.nodes.energy[c] += ti.Vector([external, contact, wall, motion])
         self.acc.total(self.s.step.external_work, external)
-        if ti.static(self.cfg.motion):
+        if ti.static(self.cfg.loads):
             self.acc.total(self.s.step.motion_work, motion)
         if ti.static(self.cfg.contact):
             self.acc.total(self.s.step.contact_energy, contact)

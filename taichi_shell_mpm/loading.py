@@ -4,8 +4,8 @@ reads them in stages/loads.py and stages/motion.py).
 * ``[[load]]``: a plain load (no curve, not a follower) goes into the dense nodal vectors at
   load factor 1 (``Model.load_force`` / ``load_moment``), as before; a load with a curve or
   one that follows its node becomes entries of a per-node list (CSR ``entry_start``: the
-  curve, follower flag, force and moment of that node's share), so that the step pays for
-  them only at the nodes they load.
+  node, curve, force and moment of that node's share, and for a follower its reference
+  frame, :func:`follower_frames`), so that the step pays for them only at the nodes they load.
 * ``[[pressure]]``: one entry per element of each table (value, curve); the corner forces are
   gathered at the loaded nodes in entry order (``pressure_nodes``, CSR slots 4 i + a).
 * ``[gravity]``: g and its curve; body force m g with the *physical* node mass (a static
@@ -53,8 +53,10 @@ class MotionSpec:
 class Loading:
     curves: CurveTable
     entry_start: np.ndarray         # (n + 1,) CSR node -> load entries
+    entry_node: np.ndarray          # (e,)
     entry_curve: np.ndarray         # (e,)
-    entry_follower: np.ndarray      # (e,) 1: turns with the node
+    entry_neighbor: np.ndarray      # (e,) a follower's in-plane reference node, -1: not a follower
+    entry_frame: np.ndarray         # (e, 3, 3) a follower's reference frame (rows; follower_frames)
     entry_force: np.ndarray         # (e, 3) the node's share
     entry_moment: np.ndarray        # (e, 3)
     pressure_element: np.ndarray    # (p,)
@@ -72,9 +74,9 @@ class Loading:
 
     @property
     def loads(self) -> bool:
-        """Loads beyond the plain nodal ones: curve or follower entries, pressure, gravity
-        (config.Features.loads)."""
-        return bool(len(self.entry_curve) or len(self.pressure_element) or np.any(self.gravity))
+        """Loads beyond the plain nodal ones (curve or follower entries, pressure, gravity) or
+        prescribed motion (config.Features.loads)."""
+        return bool(len(self.entry_curve) or len(self.pressure_element) or np.any(self.gravity) or self.motions)
 
 
 def load_shares(distribute: str, ids: np.ndarray, node_area: np.ndarray, points: np.ndarray,
@@ -98,6 +100,31 @@ def load_shares(distribute: str, ids: np.ndarray, node_area: np.ndarray, points:
     share = np.zeros(len(points))
     np.add.at(share, pairs.ravel(), np.repeat(0.5 * length, 2))
     return share[ids]
+
+
+def follower_frames(nodes: np.ndarray, points: np.ndarray, elements: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(neighbor, frame) of follower loads on `nodes`: the next corner after the node in the
+    first element that has it, and the rows e0, n0 x e0, n0 of the reference frame, n0 the
+    node's unit normal (the sum of its elements' vector areas) and e0 the unit direction to
+    the neighbour projected onto the plane normal to n0 (stages/loads.ExternalLoads.follow)."""
+    corners = np.where(elements >= 0, elements, elements[:, :1])
+    x = points[corners]
+    quad = 0.5 * np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])
+    tri = 0.5 * np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])
+    vector_area = np.where((elements[:, 3] < 0)[:, None], tri, quad)
+    normal = np.zeros_like(points)
+    valid = elements >= 0
+    np.add.at(normal, elements[valid], np.repeat(vector_area, 4, axis=0).reshape(-1, 4, 3)[valid])
+    count = valid.sum(axis=1)
+    neighbor = np.empty(len(nodes), np.int64)
+    for k, c in enumerate(nodes):
+        e, a = np.argwhere(elements == c)[0]
+        neighbor[k] = elements[e, (a + 1) % count[e]]
+    n0 = normal[nodes] / np.linalg.norm(normal[nodes], axis=1, keepdims=True)
+    edge = points[neighbor] - points[nodes]
+    edge -= np.sum(edge * n0, axis=1, keepdims=True) * n0
+    e0 = edge / np.linalg.norm(edge, axis=1, keepdims=True)
+    return neighbor, np.stack([e0, np.cross(n0, e0), n0], axis=1)
 
 
 def pressure_corner_forces(x: np.ndarray, triangle: np.ndarray) -> np.ndarray:
@@ -154,11 +181,16 @@ def assemble_loading(scene: Scene, points: np.ndarray, elements: np.ndarray, nod
         ids = nodes_of(ld.nodes)
         share = load_shares(ld.distribute, ids, node_area, points, elements)
         if share.sum() <= 0.0:
-            raise SceneError(f"{src}: [[load]][{i}] on '{ld.nodes}': distribute = \"length\" needs element edges "
+            raise SceneError(f"{src}: [[load]][{i}] on '{ld.nodes}': a line load needs element edges "
                              "joining two nodes of the set (there are none)")
-        share = share / share.sum()
-        force = share[:, None] * np.asarray(ld.force)[None, :]
-        moment = share[:, None] * np.asarray(ld.moment)[None, :]
+        per_length = any(ld.force_per_length) or any(ld.moment_per_length)
+        if per_length:                     # q x the node's half edge lengths
+            total_force, total_moment = np.asarray(ld.force_per_length), np.asarray(ld.moment_per_length)
+        else:                              # the totals, by the shares
+            share = share / share.sum()
+            total_force, total_moment = np.asarray(ld.force), np.asarray(ld.moment)
+        force = share[:, None] * total_force[None, :]
+        moment = share[:, None] * total_moment[None, :]
         if ld.curve is None and not ld.follower:
             load_force[ids] += force
             load_moment[ids] += moment
@@ -166,12 +198,18 @@ def assemble_loading(scene: Scene, points: np.ndarray, elements: np.ndarray, nod
             curve = index[ld.curve] if ld.curve is not None else -1
             entries += [(c, curve, int(ld.follower), f, m) for c, f, m in zip(ids, force, moment)]
         fully_fixed = ids[(fix_mask[ids] & 0b111) == 0b111]
-        if len(fully_fixed) == len(ids) and np.any(ld.force):
+        if len(fully_fixed) == len(ids) and np.any(total_force):
             raise SceneError(f"{src}: [[load]] on '{ld.nodes}': every node of the set has all "
                              "translations fixed, so the force would do nothing")
     entries.sort(key=lambda e: e[0])                   # stable: scene order within a node
     nodes = np.array([e[0] for e in entries], np.int64)
     entry_start = np.searchsorted(nodes, np.arange(n + 1)).astype(np.int32)
+    follower = np.array([e[2] for e in entries], bool)
+    entry_neighbor = np.full(len(entries), -1, np.int32)
+    entry_frame = np.zeros((len(entries), 3, 3))
+    if follower.any():
+        neighbor, frame = follower_frames(nodes[follower], points, elements)
+        entry_neighbor[follower], entry_frame[follower] = neighbor, frame
 
     pressure_element, pressure_value, pressure_curve = [], [], []
     for i, p in enumerate(scene.pressures):
@@ -213,9 +251,9 @@ def assemble_loading(scene: Scene, points: np.ndarray, elements: np.ndarray, nod
                                   index[mo.curve] if mo.curve is not None else -1, value))
 
     loading = Loading(
-        curves=_curve_table(scene), entry_start=entry_start,
-        entry_curve=np.array([e[1] for e in entries], np.int32),
-        entry_follower=np.array([e[2] for e in entries], np.int32),
+        curves=_curve_table(scene), entry_start=entry_start, entry_node=nodes.astype(np.int32),
+        entry_curve=np.array([e[1] for e in entries], np.int32), entry_neighbor=entry_neighbor,
+        entry_frame=entry_frame,
         entry_force=np.array([e[3] for e in entries]).reshape(-1, 3),
         entry_moment=np.array([e[4] for e in entries]).reshape(-1, 3),
         pressure_element=np.array(pressure_element, np.int32), pressure_value=np.array(pressure_value, float),

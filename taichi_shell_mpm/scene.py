@@ -250,6 +250,10 @@ class Load:
     distribute: Literal["area", "equal", "length"] = "area"
     """Shares of the set's nodes: tributary shell area, equal, or tributary length along the
     element edges joining two nodes of the set (a consistent line load)."""
+    force_per_length: Vec3 = (0.0, 0.0, 0.0)
+    """A line load: force per unit length along the element edges joining two nodes of the set
+    (each node gets it times half the length of its edges: the consistent nodal loads)."""
+    moment_per_length: Vec3 = (0.0, 0.0, 0.0)
     curve: str | None = None
     """A [curves.NAME] the load follows (of time in a dynamic run, of the load factor in a
     static one); None: the load factor (1 in a dynamic run)."""
@@ -1295,10 +1299,21 @@ class _SceneParser:
         mark = len(self.messages)
         v = self.read(path, data, {"nodes": self.nodes, "force": _vec3, "moment": _vec3,
                                    "distribute": _choice("area", "equal", "length"), "curve": self.curve_name,
-                                   "follower": _bool}, Load)
+                                   "follower": _bool, "force_per_length": _vec3, "moment_per_length": _vec3}, Load)
         if v is None:
             return None
-        if v.get("force") == (0, 0, 0) and v.get("moment") == (0, 0, 0):
+        total = [k for k in ("force", "moment") if k in data]
+        line = [k for k in ("force_per_length", "moment_per_length") if k in data]
+        if total and line:
+            self.error(path, f"give either force/moment (totals) or force_per_length/moment_per_length "
+                             f"(a line load), got {', '.join(total + line)}")
+        elif line:
+            if data.get("distribute", "length") != "length":
+                self.error(f"{path}.distribute", f'a line load is distributed by length, got "{data["distribute"]}"')
+            v["distribute"] = "length"
+            if v.get("force_per_length") == (0, 0, 0) and v.get("moment_per_length") == (0, 0, 0):
+                self.error(path, "force_per_length and moment_per_length are both zero")
+        elif v.get("force") == (0, 0, 0) and v.get("moment") == (0, 0, 0):
             self.error(path, "force and moment are both zero (give a non-zero force and/or moment)")
         return self.build(mark, Load, v)
 

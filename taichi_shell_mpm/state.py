@@ -198,8 +198,8 @@ class State:
         g.entity("area_sum", ti.field(f64), n, used=not fx.drilling_spring)
         # prescribed motion (stages/motion.py): DOF bits ux .. rz a [[motion]] prescribes, and the
         # motion of each DOF (-1: none)
-        g.entity("motion_mask", ti.field(i32), n, used=fx.motion)
-        g.entity("motion", ti.Vector.field(6, i32), n, used=fx.motion)
+        g.entity("motion_mask", ti.field(i32), n, used=fx.loads)
+        g.entity("motion", ti.Vector.field(6, i32), n, used=fx.loads)
         # loads beyond the plain ones (stages/loads.py): physical mass (gravity), this step's
         # pressure force, CSR node -> curve/follower load entries
         g.entity("physical_mass", ti.field(f64), n, used=fx.loads)
@@ -296,7 +296,7 @@ class State:
         # stages/motion.py; loading.py)
         g = self.loads = Group("loads")
         ld = model.loading
-        on = fx.loads or fx.motion
+        on = fx.loads
         g.table("curve_count", ti.field(i32), ())
         for name, dtype in (("curve_kind", i32), ("curve_first", i32), ("curve_rows", i32)):
             g.table(name, ti.field(dtype), (MAX_CURVES,), len(ld.curves.kind), used=on)
@@ -305,11 +305,16 @@ class State:
         g.table("curve_value", ti.field(f64), (MAX_CURVES,), len(ld.curves.kind), persistent=False,
                 used=on)                                           # this step's f at the loads' argument
         g.entity("curve_table", ti.Vector.field(CURVE_COLUMNS, f64), len(ld.curves.rows), used=on)   # curves.py rows
-        on = fx.loads
-        g.entity("entry_curve", ti.field(i32), len(ld.entry_curve), used=on)
-        g.entity("entry_follower", ti.field(i32), len(ld.entry_curve), used=on)
-        g.entity("entry_force", ti.Vector.field(3, f64), len(ld.entry_curve), used=on)
-        g.entity("entry_moment", ti.Vector.field(3, f64), len(ld.entry_curve), used=on)
+        ne = len(ld.entry_curve)
+        g.table("entry_count", ti.field(i32), ())
+        for name, dtype in (("entry_node", i32), ("entry_curve", i32), ("entry_neighbor", i32)):
+            g.entity(name, ti.field(dtype), ne, used=on)
+        g.entity("entry_frame", ti.Matrix.field(3, 3, f64), ne, used=on)     # a follower's reference frame (rows)
+        g.entity("entry_force", ti.Vector.field(3, f64), ne, used=on)        # at load factor 1, reference axes
+        g.entity("entry_moment", ti.Vector.field(3, f64), ne, used=on)
+        # this step's: scaled by the curve and turned (followers) at the start of the step
+        g.entity("entry_force_now", ti.Vector.field(3, f64), ne, persistent=False, used=on, host=False)
+        g.entity("entry_moment_now", ti.Vector.field(3, f64), ne, persistent=False, used=on, host=False)
         npr = len(ld.pressure_element)
         g.table("pressure_count", ti.field(i32), ())
         g.table("pressure_node_count", ti.field(i32), ())
@@ -323,7 +328,7 @@ class State:
         g.table("gravity", ti.Vector.field(3, f64), (), used=on)          # g
         g.table("gravity_curve", ti.field(i32), (), used=on)
         g.table("gravity_now", ti.Vector.field(3, f64), (), persistent=False, used=on)   # this step's
-        on, nm = fx.motion, len(ld.motions)
+        nm = len(ld.motions)
         g.table("motion_count", ti.field(i32), ())
         for name, dtype in (("motion_kind", i32), ("motion_curve", i32)):
             g.table(name, ti.field(dtype), (MAX_MOTIONS,), nm, used=on)
@@ -503,23 +508,23 @@ class State:
     def _load_loading(self, ld) -> None:
         """The tables of loading.Loading (curves, load entries, pressure, gravity, motions)."""
         w, fx, L, nd = self.write, self.features, self.loads, self.nodes
-        if fx.loads or fx.motion:
+        if fx.loads:
             cv = ld.curves
             L.curve_count[None] = len(cv.kind)
             for name, array in (("curve_kind", cv.kind), ("curve_first", cv.first), ("curve_rows", cv.count),
                                 ("curve_parameter", cv.parameter), ("curve_origin", cv.origin),
                                 ("curve_table", cv.rows)):
                 w(getattr(L, name), array)
-        if fx.loads:
             w(nd.physical_mass, ld.physical_mass)
             w(nd.load_start, ld.entry_start)
-            for name in ("entry_curve", "entry_follower", "entry_force", "entry_moment", "pressure_element",
+            L.entry_count[None] = len(ld.entry_curve)
+            for name in ("entry_node", "entry_curve", "entry_neighbor", "entry_frame", "entry_force", "entry_moment",
+                         "pressure_element",
                          "pressure_value", "pressure_curve", "pressure_nodes", "pressure_node_start",
                          "pressure_node_slots"):
                 w(getattr(L, name), getattr(ld, name))
             L.pressure_count[None], L.pressure_node_count[None] = len(ld.pressure_element), len(ld.pressure_nodes)
             L.gravity[None], L.gravity_curve[None] = ld.gravity.tolist(), ld.gravity_curve
-        if fx.motion:
             w(nd.motion_mask, ld.motion_mask)
             w(nd.motion, ld.node_motion)
             L.motion_count[None] = len(ld.motions)

@@ -73,9 +73,8 @@ class Stepper:
         self.s.step.residual_sq[None] = 0.0
         self.s.step.max_speed[None] = 0.0
         self.s.step.reaction[None] = ti.Vector([0.0, 0.0, 0.0])
-        if ti.static(self.cfg.loads or self.cfg.motion):
+        if ti.static(self.cfg.loads):
             self.loads.begin()              # curves, gravity, pressure at x^n
-        if ti.static(self.cfg.motion):
             self.s.step.constraint_sq[None] = 0.0
             self.motion.begin()
         if ti.static(self.cfg.contact):
@@ -115,7 +114,7 @@ class Stepper:
         if ti.static(self.cfg.static):
             target, work = self.s.step.residual_target_sq[None], self.s.step.external_work[None]
             ramped = True
-            if ti.static(self.cfg.motion):       # displacement control: the prescribed DOFs' forces set the scale
+            if ti.static(self.cfg.loads):       # displacement control: the prescribed DOFs' forces set the scale
                 target += self.s.step.tolerance_sq[None] * self.s.step.constraint_sq[None]
                 work += self.s.step.motion_work[None]
                 ramped = self.s.step.curve_argument[None] == self.s.step.load_factor[None]
@@ -157,7 +156,7 @@ class Stepper:
             if not self.nodes.is_prescribed(c):
                 force, torque = self.nodes.residual_force(c), self.nodes.residual_torque(c)
                 v, w = self.s.nodes.grid_velocity[c], self.s.nodes.omega[c]
-                if ti.static(self.cfg.motion):      # a prescribed DOF's velocity is no relaxation
+                if ti.static(self.cfg.loads):      # a prescribed DOF's velocity is no relaxation
                     held = self.s.nodes.motion_mask[c]
                     v, w = drop_fixed(v, held, 0), drop_fixed(w, held, 3)
                 m, inertia = self.s.nodes.mass[c], self.s.nodes.inertia[c]

@@ -41,7 +41,7 @@ class NodeUpdate:
     def held(self, c):
         """DOF bits (ux .. rz) of node c that a [[boundary]] fixes or a [[motion]] prescribes."""
         mask = self.s.nodes.fix_mask[c]
-        if ti.static(self.cfg.motion):
+        if ti.static(self.cfg.loads):
             mask |= self.s.nodes.motion_mask[c]
         return mask
 
@@ -105,8 +105,7 @@ class NodeUpdate:
         speed, and (batched launch) zero the node sums of the element loads."""
         dt = self.s.step.dt[None]
         mask = self.s.nodes.fix_mask[c]
-        force_ext, moment_ext = self.loads.at_node(c)        # before the orientation turns (followers)
-        orientation = self.s.nodes.rotation[c]
+        force_ext, moment_ext = self.loads.at_node(c)
         keep = self.s.step.velocity_keep[None]
         v_start = keep * self.s.nodes.grid_velocity[c]          # v^(n-1/2) (0 after a relaxation reset)
         w_start = keep * self.s.nodes.omega[c]
@@ -116,7 +115,7 @@ class NodeUpdate:
             if rigid:
                 vg = self.bodies.slave_velocity(c)
         moved = 0                                            # DOF bits prescribed by a motion
-        if ti.static(self.cfg.motion):
+        if ti.static(self.cfg.loads):
             moved = self.s.nodes.motion_mask[c]
             vg = self.motion.prescribed(c, vg, v_start, 0)
         before_walls = vg
@@ -147,7 +146,7 @@ class NodeUpdate:
         w = drop_fixed(w, mask, 3)
         if rigid:
             w = ti.Vector([0.0, 0.0, 0.0])
-        if ti.static(self.cfg.motion):
+        if ti.static(self.cfg.loads):
             w = self.motion.prescribed(c, w, w_start, 3)
         self.s.nodes.omega[c] = w
         self.rotate_orientation(c, dt * w)
@@ -156,13 +155,13 @@ class NodeUpdate:
                            self.residual_torque_about(c, normal, project, moment_ext).norm_sqr()
                            / (self.s.step.length_ref[None] ** 2))
             moving_v, moving_w = vg, w
-            if ti.static(self.cfg.static and self.cfg.motion):      # a prescribed DOF's speed is no relaxation
+            if ti.static(self.cfg.static and self.cfg.loads):      # a prescribed DOF's speed is no relaxation
                 moving_v, moving_w = drop_fixed(vg, moved, 0), drop_fixed(w, moved, 3)
             self.acc.total(self.s.step.kinetic, 0.5 * (self.s.nodes.mass[c] * moving_v.norm_sqr()
                                                   + self.s.nodes.inertia[c] * moving_w.norm_sqr()))
         v_mid, w_mid = 0.5 * (v_start + vg), 0.5 * (w_start + w)
         kick = impulse_time(self.s.step)              # the duration of the velocity update (dt/2 from rest)
-        external = self.loads.work(c, orientation, v_mid, w_mid, kick)
+        external = self.loads.work(c, v_mid, w_mid, kick)
         contact = 0.0
         force = force_ext - self.s.nodes.force_int[c]
         if ti.static(self.cfg.contact):
@@ -170,7 +169,7 @@ class NodeUpdate:
             force += self.s.contact.force[c]
         wall = -self.s.nodes.mass[c] * (vg - before_walls).dot(v_mid)     # minus the walls' impulse . v_mid
         motion = 0.0
-        if ti.static(self.cfg.motion):
+        if ti.static(self.cfg.loads):
             motion = self.motion.book(c, force, torque, v_start, vg, w_start, w)
         self.energy.node(c, external, contact, wall, motion)
         self.acc.maximum(self.s.step.max_speed, ti.max(ti.abs(vg[0]), ti.abs(vg[1]), ti.abs(vg[2])))
@@ -195,7 +194,7 @@ class NodeUpdate:
         q = self.s.nodes.rotation[c]
         p = 0.5 * dtheta
         w = 1.0
-        if ti.static(self.cfg.loads or self.cfg.motion):
+        if ti.static(self.cfg.loads):
             half = p.norm()
             w = ti.cos(half)
             if half > 1e-8:

@@ -9,8 +9,17 @@ step: their curves are read at t^n (the load factor lambda in a static run), so 
 m (v^(n+1/2) - v^(n-1/2)) = dt f_ext^n and their work is booked time-centred like the
 plain loads' (energy.py).
 
-Follower loads turn with the node's orientation quaternion (nodes.rotation, updated by
-stages/constraints.NodeUpdate.rotate_orientation).  Pressure follows the current
+Follower loads turn with their node (:meth:`ExternalLoads.follow`): with its fibre, the
+reference normal n0 turned by the node's orientation quaternion (nodes.rotation, updated by
+stages/constraints.NodeUpdate.rotate_orientation), and in the plane normal to it with the
+direction to a neighbouring node [choice, measured: the quaternion's rotation about the
+normal is the integral of the drilling rate, which the Belytschko-Tsay element neither
+resists nor defines; turned by the full quaternion, the follower end moment on the rolled
+strip (Sze) drove the tip nodes' drilling rotations apart by 0.06 rad and the relaxation of
+the third of 8 levels never converged; the geometric in-plane direction is what LS-DYNA's
+follower loads use too (nodes defining the direction)].  The loads are scaled and turned
+once at the start of the step, so every reader sees the same f_ext^n whatever the order
+the nodes move in.  Pressure follows the current
 geometry: each element's consistent nodal forces int N_a p n dA over the bilinear surface
 through its corners at x^n (:func:`pressure_corner_forces`) [choice: exact for any quad,
 warped or not; an equal quarter of p (d13 x d24) / 2 per corner is the same only for a
@@ -139,15 +148,36 @@ class ExternalLoads:
 
     # ------------------------------------------------------------------ the pass at the start of a step
     @ti.func
+    def follow(self, i, v):
+        """Vector v of follower entry i turned with its node: R v, R = F F0^T with the
+        reference frame F0 (rows e0, n0 x e0, n0: loading.follower_frames) and the current
+        one F = [e, d x e, d], d = q n0 (the fibre; q the node's orientation) and e the unit
+        direction to the entry's neighbour node projected onto the plane normal to d."""
+        c, frame = self.s.loads.entry_node[i], self.s.loads.entry_frame[i]
+        d = turned(self.s.nodes.rotation[c], ti.Vector([frame[2, 0], frame[2, 1], frame[2, 2]]))
+        e = self.s.nodes.position[self.s.loads.entry_neighbor[i]] - self.s.nodes.position[c]
+        e = (e - e.dot(d) * d).normalized()
+        local = frame @ v
+        return local[0] * e + local[1] * d.cross(e) + local[2] * d
+
+    @ti.func
     def begin(self):
-        """Every curve at this step's argument (a short serial loop), gravity, and the pressure
-        forces of the current geometry (per element slot, then summed at each loaded node)."""
+        """Every curve at this step's argument (a short serial loop), gravity, the curve and
+        follower entries (scaled, turned), and the pressure forces of the current geometry
+        (per element slot, then summed at each loaded node)."""
         arg = self.argument()
         ti.loop_config(serialize=True)
         for k in range(self.s.loads.curve_count[None]):
             self.s.loads.curve_value[k] = self.curve(k, arg, 0)
         if ti.static(self.cfg.loads):
             self.s.loads.gravity_now[None] = self.scale(self.s.loads.gravity_curve[None]) * self.s.loads.gravity[None]
+            for i in range(self.s.loads.entry_count[None]):
+                scale = self.scale(self.s.loads.entry_curve[i])
+                f, m = scale * self.s.loads.entry_force[i], scale * self.s.loads.entry_moment[i]
+                if self.s.loads.entry_neighbor[i] >= 0:
+                    f, m = self.follow(i, f), self.follow(i, m)
+                self.s.loads.entry_force_now[i] = f
+                self.s.loads.entry_moment_now[i] = m
             for i in range(self.s.loads.pressure_count[None]):
                 e = self.s.loads.pressure_element[i]
                 corners = self.s.elements.corners[e]
@@ -168,18 +198,14 @@ class ExternalLoads:
 
     # ------------------------------------------------------------------ per node
     @ti.func
-    def beyond_plain(self, c, q):
+    def beyond_plain(self, c):
         """Force and moment on node c of the loads beyond the plain ones (curve and follower
-        entries, pressure, gravity); q: the node's orientation."""
+        entries, pressure, gravity) in this step (:meth:`begin`)."""
         force = self.s.nodes.pressure_force[c] + self.s.nodes.physical_mass[c] * self.s.loads.gravity_now[None]
         moment = ti.Vector([0.0, 0.0, 0.0])
         for i in range(self.s.nodes.load_start[c], self.s.nodes.load_start[c + 1]):
-            scale = self.scale(self.s.loads.entry_curve[i])
-            f, m = scale * self.s.loads.entry_force[i], scale * self.s.loads.entry_moment[i]
-            if self.s.loads.entry_follower[i] != 0:
-                f, m = turned(q, f), turned(q, m)
-            force += f
-            moment += m
+            force += self.s.loads.entry_force_now[i]
+            moment += self.s.loads.entry_moment_now[i]
         return force, moment
 
     @ti.func
@@ -189,19 +215,19 @@ class ExternalLoads:
         force = lam * self.s.nodes.load_force[c]
         moment = lam * self.s.nodes.load_moment[c]
         if ti.static(self.cfg.loads):
-            f, m = self.beyond_plain(c, self.s.nodes.rotation[c])
+            f, m = self.beyond_plain(c)
             force += f
             moment += m
         return force, moment
 
     @ti.func
-    def work(self, c, q, v_mid, w_mid, kick):
+    def work(self, c, v_mid, w_mid, kick):
         """Their work on node c over the step, time-centred (energy.py): kick f_ext . v_mid +
-        mu_ext . w_mid; q: the orientation at the start of the step (written in the plain loads'
-        form of before issue 18, so that a run without the new loads books the same bits)."""
+        mu_ext . w_mid (written in the plain loads' form of before issue 18, so that a run
+        without the new loads books the same bits)."""
         out = kick * self.s.step.load_factor[None] * (self.s.nodes.load_force[c].dot(v_mid)
                                                     + self.s.nodes.load_moment[c].dot(w_mid))
         if ti.static(self.cfg.loads):
-            f, m = self.beyond_plain(c, q)
+            f, m = self.beyond_plain(c)
             out += kick * (f.dot(v_mid) + m.dot(w_mid))
         return out
