@@ -177,11 +177,11 @@ def assemble_loading(scene: Scene, points: np.ndarray, elements: np.ndarray, nod
     index = {name: i for i, name in enumerate(scene.curves)}
     load_force, load_moment = np.zeros((n, 3)), np.zeros((n, 3))
     entries = []                                       # (node, curve, follower, force, moment)
-    for i, ld in enumerate(scene.loads):
+    for ld in scene.loads:
         ids = nodes_of(ld.nodes)
         share = load_shares(ld.distribute, ids, node_area, points, elements)
         if share.sum() <= 0.0:
-            raise SceneError(f"{src}: [[load]][{i}] on '{ld.nodes}': a line load needs element edges "
+            raise SceneError(f"{src}: [[load]] on '{ld.nodes}': a line load needs element edges "
                              "joining two nodes of the set (there are none)")
         per_length = any(ld.force_per_length) or any(ld.moment_per_length)
         if per_length:                     # q x the node's half edge lengths

@@ -616,3 +616,55 @@ follower = true
     assert moment == pytest.approx(p * length, rel=1e-4)          # the force -P e_x at height L
     assert deflection == pytest.approx(timoshenko, rel=6e-3)      # measured +4.1e-3 (10 one-point elements)
     assert summary["motions"][0]["reaction"]["ry"] == pytest.approx(moment, rel=1e-9)
+
+
+# --------------------------------------------------------------------------- bad input
+BAD = [  # (--set overrides, the one error line's text after "case.toml: ")
+    (['motion.0.curve="nope"'], "[[motion]][0].curve: no [curves.nope]"),
+    (['curves.table.shape="ramp"'], "[curves.table]: expected exactly one of points, file, shape, got points, shape"),
+    (['curves.table.points=[[0.0, 0.0], [0.0, 1.0]]'], "[curves.table].points: expected strictly increasing t"),
+    (['curves.up.start=0.5'], "[curves.up]: expected start < end, got start = 0.5, end = 0.4"),
+    (['curves.one.end=2.0'], '[curves.one].end: allowed only with shape = "ramp" or "smooth_step"'),
+    (['motion.0.curve="one"'], "[[motion]][0].curve: the displacement curve 'one' is 1 at t = 0, not 0"),
+    (['motion.0.value=[1.0, 2.0, 3.0]'], "[[motion]][0].value: expected one number or one per DOF (2), got 3"),
+    (['motion.1.name="lift"'], "[[motion]]: duplicate motion name 'lift'"),
+    (['motion.1.kind="jerk"'], "[[motion]][1].kind: expected one of displacement, velocity, acceleration"),
+    (['solve.kind="static"'], '[[motion]][1].kind: a static solve prescribes displacements only, got "velocity"'),
+    (['motion.1.dofs=["uz"]'], "[[motion]] 'push': node 4 has uz prescribed by another [[motion]] too"),
+    (['boundary.0.nodes="tip"'], "[[motion]] 'lift': node 4 has uz fixed by a [[boundary]] too"),
+    (['pressure.0.elements="nope"'], "[[pressure]][0].elements: no [elementsets.nope]"),
+    (['pressure.0.value=0.0'], "[[pressure]][0].value:"),
+    (['load.1.force=[1.0, 0.0, 0.0]'], "[[load]][1]: give either force/moment (totals) or force_per_length"),
+    (['load.1.distribute="area"'], '[[load]][1].distribute: a line load is distributed by length, got "area"'),
+    (['nodesets.one.nearest=[4.0, 0.0, 0.0]', 'load.1.nodes="one"'],
+     "[[load]] on 'one': a line load needs element edges joining two nodes of the set"),
+    (['nodesets.one.box={min = [20.0, 0.0, 0.0], max = [21.0, 1.0, 0.0]}', 'motion.1.nodes="one"'],
+     "nodeset 'one' (box min=[20,0,0] max=[21,1,0] tol=1e-06) selects no node"),
+    (['gravity.acceleration=[0.0, 0.0, 0.0]'], "[gravity].acceleration:"),
+    (['gravity.curve=3'], "[gravity].curve: expected a curve name, got 3"),
+]
+
+
+@pytest.mark.parametrize("overrides, expected", BAD, ids=[" ".join(o) for o, _ in BAD])
+def test_bad_input_is_one_line(tmp_path, overrides, expected):
+    from .test_scene import MOTION_SCENE
+    scene = tmp_path / "case.toml"
+    scene.write_text(MOTION_SCENE)
+    r = cli_run("validate", str(scene), *[a for o in overrides for a in ("--set", o)])
+    assert_clean_output(r)
+    lines = r.err.splitlines()
+    assert r.code == 2 and len(lines) == 1, r.err
+    assert lines[0].startswith(f"error: case.toml: {expected}"), lines[0]
+
+
+def test_bad_curve_file_is_one_line(tmp_path):
+    from .test_scene import MOTION_SCENE
+    (tmp_path / "v.csv").write_text("t,v\n0,0\n1,x\n")
+    scene = tmp_path / "case.toml"
+    scene.write_text(MOTION_SCENE.replace("points = [[0.0, 0.0], [0.5, 1.0], [1.0, 0.0]]", 'file = "v.csv"'))
+    r = cli_run("validate", str(scene))
+    assert_clean_output(r)
+    assert r.code == 2 and r.err.splitlines() == [
+        "error: case.toml: [curves.table].file: v.csv line 3: expected two finite numbers t, f, got '1,x'"], r.err
+    scene.write_text(MOTION_SCENE)
+    assert cli_run("validate", str(scene)).code == 0
