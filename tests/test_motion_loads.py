@@ -618,6 +618,47 @@ follower = true
     assert summary["motions"][0]["reaction"]["ry"] == pytest.approx(moment, rel=1e-9)
 
 
+# --------------------------------------------------------------------------- restart
+def test_restart_with_motion_and_loads_is_bit_for_bit(tmp_path, monkeypatch):
+    """A dynamic run with an acceleration motion (its last mean velocity is state), a
+    velocity-driven rotation, a follower load and gravity on curves, stopped and restarted
+    (tests/test_restart.py's round trip): tables and final positions byte-identical."""
+    from .test_restart import restart_roundtrip
+    body = CLAMP + TIP_PROBE + """
+[curves.a]
+points = [[0.0, 0.0], [0.004, 50.0], [0.012, -20.0]]
+[curves.g]
+shape = "smooth_step"
+end = 0.01
+[[motion]]
+name = "shake"
+nodes = "tip"
+dofs = ["uz"]
+kind = "acceleration"
+value = 1.0
+curve = "a"
+[[motion]]
+name = "spin"
+nodes = "tip"
+dofs = ["ry"]
+kind = "velocity"
+value = -2.0
+[[load]]
+nodes = "tip"
+force = [0.0, 0.5, 0.0]
+follower = true
+curve = "g"
+[gravity]
+acceleration = [0.0, 0.0, -9.81]
+curve = "g"
+""" + dynamic(0.016, 0.001)
+    scene = tmp_path / "shake.toml"
+    scene.write_text(strip("shake", body))
+    stopped, _ = restart_roundtrip(tmp_path, monkeypatch, [str(scene)], stop_step=11, every=7,
+                                   batch_element_steps=40)
+    assert stopped["event"] > 0
+
+
 # --------------------------------------------------------------------------- bad input
 BAD = [  # (--set overrides, the one error line's text after "case.toml: ")
     (['motion.0.curve="nope"'], "[[motion]][0].curve: no [curves.nope]"),
