@@ -7,7 +7,8 @@ sum in a fixed order (the same bits on any number of threads and across a restar
   work, hourglass and drilling-spring energy, booked by the shell stage (:meth:`EnergyLedger.element`);
 * per node (``node_energy``): work of the external loads, work done against the contact
   forces, energy taken out by rigid walls, work of the prescribed motions (their constraint
-  forces, stages/motion.py) (:meth:`EnergyLedger.node`);
+  forces, stages/motion.py) (:meth:`EnergyLedger.node`; per prescribed DOF too,
+  :meth:`EnergyLedger.motion`, summed per motion on the host);
 * per rigid body (``bodies.wall_energy``, ``bodies.external_work``): the work of the walls
   moving with it on the body, and of gravity on its added mass;
 * damped energy (0-d): kinetic energy removed by dynamic relaxation (batched launch only).
@@ -117,6 +118,12 @@ class EnergyLedger:
         serial (end of step)."""
         self.s.bodies.wall_energy[b] += wall
         self.s.step.wall_energy[None] += wall
+
+    @ti.func
+    def motion(self, c, d, work):
+        """Work of the prescribed motion of DOF d of node c (stages/motion.py), kept per DOF
+        for the per-motion totals; the node's sum goes through :meth:`node`."""
+        self.s.nodes.motion_work[c, d] += work
 
     @ti.func
     def body_external(self, b, work):

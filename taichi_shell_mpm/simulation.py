@@ -283,12 +283,13 @@ class Simulation:
         motions = self.model.loading.motions
         if not motions:
             return []
-        reaction = self.state.fetch("loads.motion_reaction")
-        work = self.state.fetch("loads.motion_work")
+        reaction = self.state.fetch("nodes.motion_reaction")
+        work = self.state.fetch("nodes.motion_work")
         from .scene import DOFS
         out = []
-        for k, m in enumerate(motions):
-            out += [float(reaction[k, DOFS.index(d)]) for d in m.dofs] + [float(work[k])]
+        for m in motions:
+            dofs = [DOFS.index(d) for d in m.dofs]
+            out += [float(reaction[m.nodes, d].sum()) for d in dofs] + [float(work[m.nodes][:, dofs].sum())]
         return out
 
     def motion_columns(self) -> list[str]:

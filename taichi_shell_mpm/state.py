@@ -200,6 +200,10 @@ class State:
         # motion of each DOF (-1: none)
         g.entity("motion_mask", ti.field(i32), n, used=fx.loads)
         g.entity("motion", ti.Vector.field(6, i32), n, used=fx.loads)
+        # the reaction on each prescribed DOF (this step's) and its work since the start; summed
+        # per motion on the host, in node order (simulation.motion_values)
+        g.entity("motion_reaction", ti.field(f64), n, (6,), used=fx.loads)
+        g.entity("motion_work", ti.field(f64), n, (6,), used=fx.loads)
         # loads beyond the plain ones (stages/loads.py): physical mass (gravity), this step's
         # pressure force, CSR node -> curve/follower load entries
         g.entity("physical_mass", ti.field(f64), n, used=fx.loads)
@@ -338,9 +342,6 @@ class State:
         g.table("motion_level", ti.field(f64), (MAX_MOTIONS,), nm, persistent=False, used=on)
         g.table("motion_rate", ti.field(f64), (MAX_MOTIONS,), nm, persistent=False, used=on)
         g.table("motion_mean", ti.field(f64), (MAX_MOTIONS,), nm, used=on)
-        # reaction on each DOF (this step's) and work done since the start, per motion
-        g.table("motion_reaction", ti.field(f64), (MAX_MOTIONS, 6), nm, used=on)
-        g.table("motion_work", ti.field(f64), (MAX_MOTIONS,), nm, used=on)
 
         # --- self-contact (method.md 7.3), used only when the scene asks for it
         g = contact = Group("contact")

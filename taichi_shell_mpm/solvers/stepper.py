@@ -53,7 +53,7 @@ class Stepper:
         self.batched = cfg.serial
         self.energy = EnergyLedger(state, cfg, cfg.plastic)
         self.loads = ExternalLoads(state, cfg)
-        self.motion = PrescribedMotion(state, cfg, self.loads)
+        self.motion = PrescribedMotion(state, cfg, self.loads, self.energy)
         self.bodies = RigidBodies(state, cfg, self.energy, self.loads)
         self.nodes = NodeUpdate(state, cfg, self.bodies, self.energy, self.loads, self.motion)
         self.contact = SelfContact(state, cfg, model) if cfg.contact else None

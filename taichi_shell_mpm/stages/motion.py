@@ -30,7 +30,8 @@ R = m (v_prescribed - v_free) / dt_k with v_free = v^(n-1/2) + dt_k (f_ext - f_i
 R = m (v^(n+1/2) - v^(n-1/2)) / dt_k - (f_ext - f_int + f_con): at rest (a converged static
 level) the support reaction f_int - f_ext - f_con.  Its work dt_k R (v^(n-1/2) + v^(n+1/2)) / 2
 is booked like every other force's (energy.py: time-centred), per node (the ``motion_work``
-column) and per motion; the prescribed nodes' kinetic energy then balances exactly.
+column) and per motion (:meth:`energy.EnergyLedger.motion`); the prescribed nodes' kinetic
+energy then balances exactly.
 """
 import taichi as ti
 
@@ -43,16 +44,17 @@ DISPLACEMENT, VELOCITY, ACCELERATION = 0, 1, 2      # scene.MOTION_KINDS
 
 @ti.data_oriented
 class PrescribedMotion:
-    def __init__(self, state, cfg, loads: ExternalLoads):
+    def __init__(self, state, cfg, loads: ExternalLoads, energy):
         self.s = state
         self.cfg = cfg
         self.loads = loads
+        self.energy = energy            # energy.EnergyLedger
         self.acc = Accumulator(cfg.serial)
 
     @ti.func
     def begin(self):
-        """Each motion's displacement level and rate of this step (module docstring); zero the
-        reactions; remember s^(n+1)."""
+        """Each motion's displacement level and rate of this step (module docstring); remember
+        s^(n+1)."""
         start = self.s.step.curve_argument[None]
         dt = self.s.step.dt[None]
         end = self.s.step.time[None] + dt
@@ -75,8 +77,6 @@ class PrescribedMotion:
                 mean = (self.loads.curve_or_default(curve, end, 2) - self.loads.curve_or_default(curve, start, 2)) / dt
                 self.s.loads.motion_rate[k] = mean - self.s.loads.motion_mean[k]
                 self.s.loads.motion_mean[k] = mean
-            for d in ti.static(range(6)):
-                self.s.loads.motion_reaction[k, d] = 0.0
         self.s.step.curve_argument[None] = end
 
     @ti.func
@@ -113,7 +113,6 @@ class PrescribedMotion:
             mass, inertia = self.s.nodes.mass[c], self.s.nodes.inertia[c]
             for d in ti.static(range(6)):
                 if (mask >> d) & 1:
-                    k = self.s.nodes.motion[c][d]
                     reaction, done, scale = 0.0, 0.0, 1.0
                     if ti.static(self.cfg.static):       # quasi-static: no inertia (the masses are fictitious)
                         if ti.static(d < 3):
@@ -129,8 +128,8 @@ class PrescribedMotion:
                     else:
                         reaction = inertia * (w[d - 3] - w_start[d - 3]) / kick - torque[d - 3]
                         done = kick * reaction * 0.5 * (w_start[d - 3] + w[d - 3])
-                    self.acc.add(self.s.loads.motion_reaction, ti.Vector([k, d]), reaction)
-                    self.acc.add(self.s.loads.motion_work, k, done)
+                    self.s.nodes.motion_reaction[c, d] = reaction
+                    self.energy.motion(c, d, done)
                     work += done
                     if ti.static(self.cfg.static):      # the residual's scale (solvers/static.py)
                         self.acc.total(self.s.step.constraint_sq, (scale * reaction) ** 2)
