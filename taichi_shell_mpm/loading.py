@@ -116,10 +116,10 @@ def follower_frames(nodes: np.ndarray, points: np.ndarray, elements: np.ndarray)
     valid = elements >= 0
     np.add.at(normal, elements[valid], np.repeat(vector_area, 4, axis=0).reshape(-1, 4, 3)[valid])
     count = valid.sum(axis=1)
-    neighbor = np.empty(len(nodes), np.int64)
-    for k, c in enumerate(nodes):
-        e, a = np.argwhere(elements == c)[0]
-        neighbor[k] = elements[e, (a + 1) % count[e]]
+    first = np.full(len(points), elements.size)                 # each node's first slot 4 e + a
+    np.minimum.at(first, elements[valid], np.flatnonzero(valid.ravel()))
+    e, a = np.divmod(first[nodes], 4)
+    neighbor = elements[e, (a + 1) % count[e]]
     n0 = normal[nodes] / np.linalg.norm(normal[nodes], axis=1, keepdims=True)
     edge = points[neighbor] - points[nodes]
     edge -= np.sum(edge * n0, axis=1, keepdims=True) * n0
