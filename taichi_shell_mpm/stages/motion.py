@@ -4,8 +4,8 @@ reaction and the work of the constraint.
 
 At the start of each step a short serial pass (:meth:`PrescribedMotion.begin`) turns each
 motion's curve into what its DOFs need between the arguments s^n and s^(n+1) (the time; in
-a static run the load factor, so the step that starts a load level makes the level's whole
-increment and the relaxation carries the rest of the shell after it):
+a static run the load factor, moved towards the level's by at most step.motion_ramp per
+step, solvers/static.py, while the relaxation carries the rest of the shell after it):
 
 * displacement, u = value f(s): a translation moves to X + u(s^(n+1)), v = (X + u - x^n) / dt,
   so its position is u to round-off however long the run; a rotation turns by
