@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import laminate, materials
+from .loading import Loading, assemble_loading
 from .mesh import Mesh
 from .nodesets import select_nodes
 from .scene import DOFS, Scene, SceneError
@@ -172,7 +173,7 @@ class Model:
     node_area: np.ndarray         # (n,) tributary area sum_e w_ea A_e
     node_thickness: np.ndarray    # (n,) the thickest adjacent element's thickness (walls keep half of it)
     fix_mask: np.ndarray          # (n,) int bits 0..5 = ux uy uz rx ry rz fixed
-    load_force: np.ndarray        # (n, 3) nodal force at load factor 1
+    load_force: np.ndarray        # (n, 3) nodal force at load factor 1 (plain loads; the rest: loading)
     load_moment: np.ndarray       # (n, 3)
     velocity0: np.ndarray         # (n, 3)
     omega0: np.ndarray            # (n, 3)
@@ -188,6 +189,7 @@ class Model:
     node_body: np.ndarray | None = None   # (n,) rigid body index of each node, -1 = none
     neighbor_start: np.ndarray | None = None   # CSR: nodes sharing an element with node c (incl. c)
     neighbor_nodes: np.ndarray | None = None
+    loading: Loading | None = None        # curve and follower loads, pressure, gravity, prescribed motion
 
 
 def element_frames(points: np.ndarray, elements: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -636,6 +638,8 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
     area0, weight = cpdi2_weights(points, elements)
     edges = _edge_lengths(points, elements)
     element_mass = element.density * element.thickness * area0
+    physical_mass = np.zeros(n)
+    np.add.at(physical_mass, np.where(elements >= 0, elements, 0), weight * element_mass[:, None])
     if scene.solve.kind == "static" and scene.solve.mass_scaling != "none":
         element_mass *= uniform_dt_mass_factor(points, elements, area0)
     node_mass = np.zeros(n)
@@ -685,19 +689,6 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
         bits = sum(1 << DOFS.index(d) for d in dofs)
         fix_mask[ids] |= bits
 
-    load_force = np.zeros((n, 3))
-    load_moment = np.zeros((n, 3))
-    for ld in scene.loads:
-        ids = nodes_of(ld.nodes)
-        share = node_area[ids] if ld.distribute == "area" else np.ones(len(ids))
-        share = share / share.sum()
-        load_force[ids] += share[:, None] * np.asarray(ld.force)[None, :]
-        load_moment[ids] += share[:, None] * np.asarray(ld.moment)[None, :]
-        fully_fixed = ids[(fix_mask[ids] & 0b111) == 0b111]
-        if len(fully_fixed) == len(ids) and np.any(ld.force):
-            raise SceneError(f"{scene.source.name}: [[load]] on '{ld.nodes}': every node of the set has all "
-                             "translations fixed, so the force would do nothing")
-
     velocity0 = np.zeros((n, 3))
     omega0 = np.zeros((n, 3))
     for ic in scene.initial:
@@ -720,6 +711,9 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
         d = np.asarray(rb.direction) / np.linalg.norm(rb.direction)
         bodies.append(RigidBodySpec(rb.name, ids, rb.mass, tuple(d), rb.mass + float(node_mass[ids].sum()),
                                     float(np.mean(velocity0[ids] @ d))))
+    load_force, load_moment, loading = assemble_loading(
+        scene, points, elements, node_area, physical_mass, fix_mask, node_body, nodes_of,
+        lambda name, path: _element_selection(name, scene, mesh, points, elements, path))
     names = [b.name for b in bodies]
     walls = tuple(WallSpec(tuple(w.point), tuple(np.asarray(w.normal) / np.linalg.norm(w.normal)),
                            names.index(w.moves_with) if w.moves_with else -1) for w in scene.walls)
@@ -744,6 +738,7 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
                  load_moment=load_moment, velocity0=velocity0, omega0=omega0,
                  grid=grid, probes=probes, min_edge=min_edge, mean_edge=float(edges.mean()),
                  max_edge=float(edges.max()), rigid_bodies=tuple(bodies), walls=walls, node_body=node_body,
+                 loading=loading,
                  **(node_neighbors(elements, n) if scene.contact else {}))
 
 

@@ -128,16 +128,15 @@ def setup_warnings(scene, model) -> list[str]:
     together with the grid, so a slit modelled by them stays closed), and self-contact on a
     grid as coarse as the elements (layers stick through the grid: the tube at h = l gave
     +28 % mean force)."""
-    import numpy as np
-
+    from .loading import load_shares
     from .nodesets import select_nodes
     lines = list(model.notes)
     fixed = (model.fix_mask & 0b111) == 0b111
     for i, ld in enumerate(scene.loads):
-        if not any(ld.force):
+        if not any(ld.force) and not any(ld.force_per_length):
             continue
         ids = select_nodes(scene.nodeset(ld.nodes), model.points)
-        share = model.node_area[ids] if ld.distribute == "area" else np.ones(len(ids))
+        share = load_shares(ld.distribute, ids, model.node_area, model.points, model.elements)
         lost = float(share[fixed[ids]].sum() / share.sum())
         if lost > 0.0:
             lines.append(f"{scene.source.name}: [[load]][{i}] on '{ld.nodes}': {int(fixed[ids].sum())} of "

@@ -40,6 +40,10 @@ class Features:
     contact: bool               # penalty self-contact (stages/contact.py)
     friction: bool              # contact friction
     launch: str = "batched"     # "batched" | "threads" | "gpu" (solvers/stepper.py)
+    loads: bool = False         # curve or follower loads, pressure, gravity, prescribed motion
+    #                             (stages/loads.py, stages/motion.py): one switch [choice: a
+    #                             configuration costs 25-60 s to compile, and a scene with any of
+    #                             them pays next to nothing for the others' empty loops]
 
     @property
     def serial(self) -> bool:
@@ -93,4 +97,4 @@ class Features:
             moving_walls=any(w.body >= 0 for w in model.walls),
             contact=scene.contact is not None,
             friction=scene.contact is not None and scene.contact.friction > 0.0,
-            launch=launch)
+            launch=launch, loads=model.loading.loads)

@@ -24,6 +24,8 @@ from typing import Any, Literal, Union
 
 Vec3 = tuple[float, float, float]
 DOFS = ("ux", "uy", "uz", "rx", "ry", "rz")
+MAX_CURVES = 64          # [curves.NAME] tables of a scene (state.loads tables)
+MAX_MOTIONS = 64         # [[motion]] entries of a scene
 
 
 class SceneError(Exception):
@@ -326,9 +328,74 @@ class Boundary:
 class Load:
     nodes: str
     force: Vec3 = (0.0, 0.0, 0.0)
-    """Total force, spread over the set (dead load, scaled by the load factor)."""
+    """Total force, spread over the set (scaled by the load factor, or by `curve`)."""
     moment: Vec3 = (0.0, 0.0, 0.0)
-    distribute: Literal["area", "equal"] = "area"
+    distribute: Literal["area", "equal", "length"] = "area"
+    """Shares of the set's nodes: tributary shell area, equal, or tributary length along the
+    element edges joining two nodes of the set (a consistent line load)."""
+    force_per_length: Vec3 = (0.0, 0.0, 0.0)
+    """A line load: force per unit length along the element edges joining two nodes of the set
+    (each node gets it times half the length of its edges: the consistent nodal loads)."""
+    moment_per_length: Vec3 = (0.0, 0.0, 0.0)
+    curve: str | None = None
+    """A [curves.NAME] the load follows (of time in a dynamic run, of the load factor in a
+    static one); None: the load factor (1 in a dynamic run)."""
+    follower: bool = False
+    """Force and moment turn with their node (its orientation quaternion)."""
+
+
+# ---------------------------------------------------------------- curves, motion, pressure, gravity
+CURVE_SHAPES = ("constant", "ramp", "smooth_step")
+
+
+@dataclass(frozen=True)
+class Curve:
+    """A time function f (curves.py): of the time in a dynamic run, of the load factor in a
+    static one."""
+    name: str
+    kind: Literal["points", "constant", "ramp", "smooth_step"]
+    points: tuple[tuple[float, float], ...] = ()
+    """points (also read from `file`): (t, f), t strictly increasing; linear between them, flat
+    beyond the ends."""
+    file: Path | None = None
+    start: float = 0.0
+    end: float = 1.0
+    """ramp: 0 up to start, linear to 1 at end, then 1; smooth_step: the same with the quintic
+    10 s^3 - 15 s^4 + 6 s^5 (zero slope and curvature at both ends)."""
+    scale: float = 1.0
+    """Every value times this."""
+
+
+MOTION_KINDS = ("displacement", "velocity", "acceleration")
+
+
+@dataclass(frozen=True)
+class Motion:
+    """Prescribed motion of DOFs of a node set (stages/motion.py): u, v or a = value x f."""
+    name: str
+    nodes: str
+    dofs: tuple[str, ...]
+    kind: Literal["displacement", "velocity", "acceleration"]
+    value: tuple[float, ...]
+    """One per DOF (a single number in the scene applies to every DOF)."""
+    curve: str | None = None
+    """None: the load factor (1 in a dynamic run; lambda in a static one)."""
+
+
+@dataclass(frozen=True)
+class Pressure:
+    """Follower pressure on elements: force p A n on each element along its current normal
+    (the corner order's), shared by its corners (stages/loads.py)."""
+    value: float
+    elements: str = "all"
+    curve: str | None = None
+
+
+@dataclass(frozen=True)
+class Gravity:
+    """Body force m g on every node (its physical mass)."""
+    acceleration: Vec3
+    curve: str | None = None
 
 
 @dataclass(frozen=True)
@@ -477,6 +544,10 @@ class Scene:
     parts: tuple[Part, ...] = ()
     """[[part]] entries; empty: one part over the mesh ([material] and [section], or the one
     named material and section, or an LS-DYNA deck's parts)."""
+    curves: dict[str, Curve] = field(default_factory=dict)
+    motions: tuple[Motion, ...] = ()
+    pressures: tuple[Pressure, ...] = ()
+    gravity: Gravity | None = None
 
     def nodeset(self, name: str) -> NodeSet:
         for s in self.nodesets:
@@ -812,6 +883,30 @@ def _triangle_split(value: Any) -> TriangleSplit:
                    f"got {_show(value)}")
 
 
+def _numbers(value: Any) -> tuple[float, ...]:
+    """A finite number or a non-empty list of them, as a tuple."""
+    if _is_number(value):
+        return (float(value),)
+    if isinstance(value, list) and value and all(map(_is_number, value)):
+        return tuple(float(x) for x in value)
+    raise _Invalid(f"expected a finite number or a non-empty list of them, got {_show(value)}")
+
+
+def _curve_points(value: Any) -> tuple[tuple[float, float], ...]:
+    """A non-empty list of [t, f] pairs of finite numbers, t strictly increasing."""
+    if not (isinstance(value, list) and value and all(isinstance(p, list) and len(p) == 2 and all(map(_is_number, p))
+                                                      for p in value)):
+        raise _Invalid(f"expected a non-empty list of [t, f] pairs of finite numbers, got {_show(value)}")
+    return _increasing(tuple((float(t), float(f)) for t, f in value))
+
+
+def _increasing(points: tuple[tuple[float, float], ...]) -> tuple[tuple[float, float], ...]:
+    for (t0, _), (t1, _) in zip(points, points[1:]):
+        if t1 <= t0:
+            raise _Invalid(f"expected strictly increasing t, got t = {t0:g} then {t1:g}")
+    return points
+
+
 def _times(value: Any) -> tuple[float, ...]:
     """Increasing list of times >= 0."""
     if not (isinstance(value, list) and all(_is_number(t) and t >= 0 for t in value)):
@@ -852,7 +947,7 @@ def _hardening_curve(value: Any) -> tuple[tuple[float, float], ...]:
 # ================================================================ table layout
 _TABLES = ("scene", "mesh", "material", "section", "materials", "sections", "elementsets", "part", "element",
            "method", "nodesets", "boundary", "load", "initial", "probe", "reference", "solve", "output",
-           "rigid_body", "wall", "contact", "crush")
+           "rigid_body", "wall", "contact", "crush", "curves", "motion", "pressure", "gravity")
 _REQUIRED_TABLES = ("scene", "mesh", "solve")
 DECK_SUFFIXES = (".k", ".key", ".dyn", ".kw")      # file endings read as LS-DYNA keyword decks (dyna.py)
 _SELECTORS = ("all", "box", "plane", "nearest", "ids")
@@ -935,6 +1030,8 @@ class _SceneParser:
         self.messages: list[str] = []
         sets = raw.get("nodesets")
         self.nodeset_names = sorted({"all", *(sets if isinstance(sets, dict) else ())})
+        curves = raw.get("curves")
+        self.curve_names = sorted(curves) if isinstance(curves, dict) else []
         self.recorded: dict[str, tuple[str, ...] | None] = {}
         """Probe name -> recorded components (None when those were invalid)."""
 
@@ -1049,6 +1146,14 @@ class _SceneParser:
             raise _Invalid(f"unknown node set {value!r}" + _hint(value, self.nodeset_names, "defined"))
         return value
 
+    def curve_name(self, value: Any) -> str:
+        """The name of a curve defined in [curves]."""
+        if not isinstance(value, str):
+            raise _Invalid(f"expected a curve name, got {_show(value)}")
+        if value not in self.curve_names:
+            raise _Invalid(f"no [curves.{value}]" + _hint(value, self.curve_names, "defined"))
+        return value
+
     def probe_component(self, value: Any) -> str:
         """'<probe>.<component>' naming a component that this probe records."""
         if not isinstance(value, str) or "." not in value:
@@ -1099,6 +1204,9 @@ class _SceneParser:
         method = self.part("method", self.method)
         nodesets = self.part("nodesets", self.nodesets)
         boundaries = self.array("boundary", self.boundary)
+        curves = self.named("curves", self.curve)
+        if len(curves) > MAX_CURVES:
+            self.error("[curves]", f"expected at most {MAX_CURVES} curves, got {len(curves)}")
         loads = self.array("load", self.load)
         initial = self.array("initial", self.initial)
         probes = self.array("probe", self.probe)            # before [reference], which refers to them
@@ -1117,6 +1225,16 @@ class _SceneParser:
                 if spec is not None and getattr(spec, "rate_law", "none") != "none":
                     self.error(f"{path}.rate_law", "a static solve has no physical time: a rate law needs "
                                                    "[solve].kind = \"dynamic\"")
+        motions = self.array("motion", lambda path, data: self.motion(path, data, solve, curves))
+        names = [m.name for m in motions if m is not None]
+        for i, name in enumerate(names):
+            if name in names[:i]:
+                self.error("[[motion]]", f"duplicate motion name {name!r}")
+        if len(motions) > MAX_MOTIONS:
+            self.error("[[motion]]", f"expected at most {MAX_MOTIONS} entries, got {len(motions)}")
+        pressures = self.array("pressure", lambda path, data: self.pressure(path, data, mesh, elementsets))
+        gravity = self.table_object("[gravity]", self.raw["gravity"], Gravity, {
+            "acceleration": _nonzero_vec3, "curve": self.curve_name}) if "gravity" in self.raw else None
         if self.messages:
             raise SceneError(self.messages, mesh=mesh)
         return Scene(source=self.source, info=info, mesh=mesh, material=material, section=section,
@@ -1124,7 +1242,8 @@ class _SceneParser:
                      nodesets=tuple(nodesets), boundaries=tuple(boundaries), loads=tuple(loads),
                      initial=tuple(initial), probes=tuple(probes), reference=reference,
                      rigid_bodies=tuple(bodies), walls=tuple(walls), contact=contact, crush=crush,
-                     materials=materials, sections=sections, elementsets=tuple(elementsets), parts=tuple(parts))
+                     materials=materials, sections=sections, elementsets=tuple(elementsets), parts=tuple(parts),
+                     curves=curves, motions=tuple(motions), pressures=tuple(pressures), gravity=gravity)
 
     def mesh(self, data: Any) -> MeshSpec | None:
         if not isinstance(data, dict):
@@ -1467,12 +1586,95 @@ class _SceneParser:
     def load(self, path: str, data: Any) -> Load | None:
         mark = len(self.messages)
         v = self.read(path, data, {"nodes": self.nodes, "force": _vec3, "moment": _vec3,
-                                   "distribute": _choice("area", "equal")}, Load)
+                                   "distribute": _choice("area", "equal", "length"), "curve": self.curve_name,
+                                   "follower": _bool, "force_per_length": _vec3, "moment_per_length": _vec3}, Load)
         if v is None:
             return None
-        if v.get("force") == (0, 0, 0) and v.get("moment") == (0, 0, 0):
+        total = [k for k in ("force", "moment") if k in data]
+        line = [k for k in ("force_per_length", "moment_per_length") if k in data]
+        if total and line:
+            self.error(path, f"give either force/moment (totals) or force_per_length/moment_per_length "
+                             f"(a line load), got {', '.join(total + line)}")
+        elif line:
+            if data.get("distribute", "length") != "length":
+                self.error(f"{path}.distribute", f'a line load is distributed by length, got "{data["distribute"]}"')
+            v["distribute"] = "length"
+            if v.get("force_per_length") == (0, 0, 0) and v.get("moment_per_length") == (0, 0, 0):
+                self.error(path, "force_per_length and moment_per_length are both zero")
+        elif v.get("force") == (0, 0, 0) and v.get("moment") == (0, 0, 0):
             self.error(path, "force and moment are both zero (give a non-zero force and/or moment)")
         return self.build(mark, Load, v)
+
+    def curve(self, path: str, data: Any) -> Curve | None:
+        mark = len(self.messages)
+        v = self.read(path, data, {"points": _curve_points, "file": self.file, "shape": _choice(*CURVE_SHAPES),
+                                   "start": _number(), "end": _number(), "scale": _number()})
+        if v is None:
+            return None
+        given = [key for key in ("points", "file", "shape") if key in data]
+        if len(given) != 1:
+            self.error(path, f"expected exactly one of points, file, shape, got {', '.join(given) or 'none'}")
+            return None
+        shape = v.get("shape")
+        for key in ("start", "end"):
+            if key in data and data.get("shape") not in ("ramp", "smooth_step"):
+                self.error(f"{path}.{key}", 'allowed only with shape = "ramp" or "smooth_step"')
+        if shape in ("ramp", "smooth_step"):
+            if "end" not in data:
+                self.error(f"{path}.end", f'missing required key for shape = "{shape}"')
+            elif "start" in v and "end" in v and v["start"] >= v["end"]:
+                self.error(path, f"expected start < end, got start = {v['start']:g}, end = {v['end']:g}")
+        values = {"name": path[len("[curves."):-1], "kind": shape or "points",
+                  **{k: v[k] for k in ("start", "end", "scale") if k in v}}
+        if "file" in v:
+            from .curves import CurveFileError, read_table
+            try:
+                values["points"] = _increasing(read_table(v["file"]))
+                values["file"] = v["file"]
+            except (CurveFileError, _Invalid) as exc:
+                self.error(f"{path}.file", str(exc))
+        elif "points" in v:
+            values["points"] = v["points"]
+        return self.build(mark, Curve, values)
+
+    def motion(self, path: str, data: Any, solve: Solve | None, curves: dict[str, Curve]) -> Motion | None:
+        mark = len(self.messages)
+        v = self.read(path, data, {"name": _identifier, "nodes": self.nodes, "dofs": _dofs(allow_all=True),
+                                   "kind": _choice(*MOTION_KINDS), "value": _numbers, "curve": self.curve_name},
+                      Motion)
+        if v is None:
+            return None
+        dofs, value, kind, curve = v.get("dofs"), v.get("value"), v.get("kind"), v.get("curve")
+        if dofs is not None and value is not None:
+            if len(value) == 1:
+                v["value"] = value * len(dofs)
+            elif len(value) != len(dofs):
+                self.error(f"{path}.value", f"expected one number or one per DOF ({len(dofs)}), got {len(value)}")
+        if solve is not None and kind is not None:
+            if solve.kind == "static" and kind != "displacement":
+                self.error(f"{path}.kind", f'a static solve prescribes displacements only, got "{kind}"')
+            elif solve.kind == "dynamic" and kind == "displacement":
+                if "curve" not in data:
+                    self.error(f"{path}.curve", "missing: a displacement in a dynamic run needs a curve "
+                                                "(a constant displacement would jump at t = 0)")
+                elif curve in curves:
+                    from .curves import evaluate
+                    start = evaluate(curves[curve], 0.0)
+                    if start != 0.0:
+                        self.error(f"{path}.curve", f"the displacement curve {curve!r} is {start:g} at t = 0, not 0 "
+                                                    "(the nodes would jump at t = 0)")
+        return self.build(mark, Motion, v)
+
+    def pressure(self, path: str, data: Any, mesh, elementsets) -> Pressure | None:
+        mark = len(self.messages)
+        v = self.read(path, data, {"elements": _nonempty, "value": _nonzero, "curve": self.curve_name}, Pressure)
+        if v is None:
+            return None
+        names = [s.name for s in elementsets]
+        if v["elements"] != "all" and v["elements"] not in names and not isinstance(mesh, FileMesh):
+            self.error(f"{path}.elements", f"no [elementsets.{v['elements']}]"
+                       + _hint(v["elements"], names + ["all"], "defined"))
+        return self.build(mark, Pressure, v)
 
     def rigid_body(self, path: str, data: Any) -> RigidBody | None:
         return self.table_object(path, data, RigidBody, {
@@ -1566,6 +1768,6 @@ class _SceneParser:
         if v.get("kind") == "dynamic" and v.get("mass_scaling") == "uniform_dt":
             self.error("[solve].mass_scaling", 'expected "auto" or "none" for a dynamic solve, got "uniform_dt" '
                        "(fictitious masses change the dynamics; they are for static solves)")
-        if v.get("kind") == "static" and not self.raw.get("load"):
-            self.error("[[load]]", "a static solve needs at least one [[load]]")
+        if v.get("kind") == "static" and not any(self.raw.get(k) for k in ("load", "motion", "pressure", "gravity")):
+            self.error("[[load]]", "a static solve needs at least one [[load]], [[motion]], [[pressure]] or [gravity]")
         return self.build(mark, Solve, v)

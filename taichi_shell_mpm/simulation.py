@@ -274,9 +274,29 @@ class Simulation:
         nb = len(self.model.rigid_bodies)
         self.history.force_rows.append([key] + st.reaction[None].to_numpy().tolist()
                                        + st.reaction_impulse[None].to_numpy().tolist()
-                                       + [bd.displacement[i] for i in range(nb)] + [bd.force[i] for i in range(nb)])
+                                       + [bd.displacement[i] for i in range(nb)] + [bd.force[i] for i in range(nb)]
+                                       + self.motion_values())
         if frame:
             self.write_frame(key)
+
+    def motion_values(self) -> list[float]:
+        """force.csv's motion columns (:meth:`motion_columns`): each motion's reaction on each
+        of its DOFs (this step's, summed over its nodes) and its work so far."""
+        motions = self.model.loading.motions
+        if not motions:
+            return []
+        reaction = self.state.fetch("nodes.motion_reaction")
+        work = self.state.fetch("nodes.motion_work")
+        from .scene import DOFS
+        out = []
+        for m in motions:
+            dofs = [DOFS.index(d) for d in m.dofs]
+            out += [float(reaction[m.nodes, d].sum()) for d in dofs] + [float(work[m.nodes][:, dofs].sum())]
+        return out
+
+    def motion_columns(self) -> list[str]:
+        return [f"{m.name}.{c}" for m in self.model.loading.motions for c in
+                [f"reaction_{d}" for d in m.dofs] + ["work"]]
 
     def write_frame(self, key: float) -> None:
         if self.frames is None:
@@ -312,6 +332,7 @@ class Simulation:
         self.state.fetch("nodes.grid_velocity")
         for i in range(len(self.model.rigid_bodies)):
             _ = self.state.bodies.displacement[i], self.state.bodies.force[i]
+        self.motion_values()
         self.where()
         ti.sync()
 
@@ -438,7 +459,7 @@ class Simulation:
                   ("energy.csv", [key, *ENERGY_COLUMNS], self.history.energy_rows),
                   ("force.csv", [key, "support_x", "support_y", "support_z", "support_impulse_x", "support_impulse_y",
                                  "support_impulse_z"] + [f"{b}.displacement" for b in names]
-                   + [f"{b}.force" for b in names], self.history.force_rows),
+                   + [f"{b}.force" for b in names] + self.motion_columns(), self.history.force_rows),
                   ("parts.csv", [key, "part", *PART_COLUMNS], self.part_table())]
         failed = None
         for name, header, rows in tables:
@@ -499,6 +520,13 @@ class Simulation:
         }
         if extra:
             summary.update(extra)
+        if self.model.loading.motions:
+            values = self.motion_values()
+            columns = self.motion_columns()
+            summary["motions"] = [
+                {"name": m.name, "kind": self.scene.motions[k].kind, "dofs": list(m.dofs), "nodes": int(len(m.nodes)),
+                 "reaction": {d: values[columns.index(f"{m.name}.reaction_{d}")] for d in m.dofs},
+                 "work": values[columns.index(f"{m.name}.work")]} for k, m in enumerate(self.model.loading.motions)]
         if self.state.contact is not None:
             summary["contact"] = {"max_penetration_over_thickness": float(self.state.contact.max_penetration[None]),
                                   "pairs_last_step": int(self.state.contact.pairs[None])}
