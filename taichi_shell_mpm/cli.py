@@ -346,7 +346,13 @@ def _run(args) -> int:
                      f"{sim.cfg.method}, kernels ready in {time.perf_counter() - t0:.1f} s -> {sim.out_dir}"
                      + (f" (restarted at step {sim.state.step.step[None]})" if ckpt else ""))
         with control.catch_interrupts():
-            extra = run_static(sim, control) if scene.solve.kind == "static" else run_dynamic(sim, control)
+            if scene.solve.kind == "dynamic":
+                extra = run_dynamic(sim, control)
+            elif scene.solve.solver == "newton":
+                from .solvers.newton import run_newton
+                extra = run_newton(sim, control)
+            else:
+                extra = run_static(sim, control)
         summary = sim.write_results(extra)
     except (SceneError, CheckpointError) as exc:
         return _fail(EXIT_SCENE, exc.messages)
