@@ -29,8 +29,6 @@ Drivers (:func:`run_newton`), by ``[solve].control``:
 """
 from __future__ import annotations
 
-import dataclasses
-import math
 import time
 
 import numpy as np
@@ -41,16 +39,14 @@ from ..checkpoint import RunControl
 from ..nodesets import select_nodes
 from ..scene import DOFS
 from ..simulation import Simulation, SimulationError
-from .path import Control, JumpMonitor, Settings, newton_point, weighted
+from .path import JumpMonitor, PathError, Plan, Settings, follow
 from .tangent import DOFS_PER_ELEMENT, IncrementalForces
 
-MAX_ARC_GROWTH = 16.0        # arc length: at most this x the first one
 # SuperLU: minimum degree on K + K^T, pivots on the diagonal unless one is below 1 % of its
 # column (the tangent is nearly symmetric); 6-14x faster than the default partial pivoting,
 # which destroyed the symmetric ordering (docs/newton.md)
 PERMUTATION = "MMD_AT_PLUS_A"
 DIAGONAL_PIVOT = 0.01
-SECANT_PREDICTOR = True         # load/displacement control: start from the last increment, scaled
 
 
 class Factorization:
@@ -178,25 +174,31 @@ def run_newton(sim: Simulation, control: RunControl | None = None) -> dict:
     eq = sim.newton
     settings = Settings(tolerance=sol.tolerance, increment_tolerance=sol.increment_tolerance,
                         energy_tolerance=sol.energy_tolerance, max_iterations=sol.max_iterations)
-    data = sim.driver_data
-    pos = control.resume or {"level": 1, "lam": 0.0, "step": 0.0, "arc": 0.0, "peak": 0.0}
-    data.setdefault("iterations", [])
-    data.setdefault("cutbacks", 0)
-    data.setdefault("limit_points", [])
-    control.start(sim)
-    reporter = sim.reporter
-    reporter.start(int(sim.state.step.step[None]), None)
-    jumps = JumpMonitor(sim.warn)
     selector = None
     if sol.control_nodes:
         selector = eq.selector(select_nodes(scene.nodeset(sol.control_nodes), sim.model.points), sol.control_dof)
+    plan = Plan(control=sol.control, steps=sol.load_steps,
+                final=1.0 if sol.control == "load" else sol.control_displacement, selector=selector,
+                arc_length=sol.arc_length, max_load_factor=sol.max_load_factor,
+                target_iterations=sol.target_iterations, max_cutbacks=sol.max_cutbacks)
+    data = sim.driver_data
+    data.setdefault("iterations", [])
+    control.start(sim)
+    reporter = sim.reporter
+    reporter.start(int(sim.state.step.step[None]), None)
     t_start = time.perf_counter()
+
+    def accept(outcome, lam_old, record):
+        _accept(sim, eq, outcome, lam_old, record, control)
+
     try:
-        if sol.control == "arc_length":
-            _arc_length(sim, eq, settings, control, pos, selector)
-        else:
-            _stepped(sim, eq, settings, control, pos, selector, jumps)
-        jumps.finish()
+        jumps = JumpMonitor(sim.warn) if sol.control == "load" else None
+        follow(eq, settings, plan, accept, position=control.resume, log=data,
+               boundary=lambda pos: control.boundary(sim, pos), note=sim.progress, jumps=jumps)
+        if jumps is not None:
+            jumps.finish()
+    except PathError as exc:
+        raise SimulationError(str(exc)) from None
     finally:
         sim.run_seconds = control.run_seconds()
         reporter.close()
@@ -209,18 +211,7 @@ def run_newton(sim: Simulation, control: RunControl | None = None) -> dict:
             "equations": eq.ndof, "matrix_nonzeros": eq.nnz, "newton_seconds": time.perf_counter() - t_start}
 
 
-def _point(eq, lam0, ctl, settings, scale, d0=None):
-    """Newton on one point: full steps, then (load and displacement control) once more with
-    the energy line search if that failed (solvers/path.py)."""
-    outcome = newton_point(eq, lam0, ctl, settings, lam_scale=scale, d0=d0)
-    if not outcome.converged and ctl.kind != "arc_length":
-        retry = newton_point(eq, lam0, ctl, dataclasses.replace(settings, line_search=True), lam_scale=scale, d0=d0)
-        if retry.converged:
-            return retry
-    return outcome
-
-
-def _accept(sim, eq, outcome, lam_old, key, frame, control):
+def _accept(sim, eq, outcome, lam_old, record, control):
     """Commit a converged point: state, energies, reaction, counters, record, progress."""
     d = eq.full(outcome.d)
     internal = eq.forces.internal.copy()            # at the converged iterate (its last evaluation)
@@ -243,136 +234,8 @@ def _accept(sim, eq, outcome, lam_old, key, frame, control):
     sim.total_steps += outcome.iterations
     sim.driver_data["iterations"].append(outcome.iterations)
     sim.check_hourglass()
-    if key is not None:
-        sim.record(lam, frame=frame)
+    if record:
+        sim.record(lam, frame=sim.scene.output.load_steps)
     ratios = " ".join(f"{r:.1e}" for r in outcome.residual_ratios)
     sim.progress(f"point {len(sim.driver_data['iterations']):3d}  lambda {lam:+.5f}  iterations {outcome.iterations:2d}"
                  f"  residual/load {ratios}  [{control.run_seconds():.1f} s]")
-
-
-def _stepped(sim, eq, settings, control, pos, selector, jumps):
-    """Load or displacement control: load_steps equal steps of the load factor or of the
-    controlled displacement, each reached in sub-steps that are halved on failure."""
-    sol = sim.scene.solve
-    n_levels = sol.load_steps
-    displacement = sol.control == "displacement"
-    final = sol.control_displacement if displacement else 1.0
-    j, lam = int(pos["level"]), float(pos["lam"])
-    done = (j - 1) / n_levels * final                # the controlled quantity reached
-    sub = float(pos.get("step") or final / n_levels)
-    moved = 0.0
-    last = None                                      # (d, control increment, load factor increment)
-    sign = None                                      # of det K at the last converged point
-    peak = float(pos.get("peak", 0.0))
-    while j <= n_levels:
-        target = j / n_levels * final
-        cuts = 0
-        start_lam = lam
-        moved = 0.0
-        sign_change = False
-        while abs(target - done) > 1e-12 * abs(final):
-            value = done + math.copysign(min(abs(sub), abs(target - done)), target - done)
-            if displacement:
-                ctl = Control("displacement", value, selector=selector, start=done)
-            else:
-                ctl = Control("load", value)
-            d0, lam0 = None, lam
-            if last is not None and SECANT_PREDICTOR:       # extrapolate the last increment
-                ratio = (value - done) / last[1]
-                d0, lam0 = ratio * last[0], lam + ratio * last[2]
-            scale = abs(value) if not displacement else 0.1 * peak
-            outcome = _point(eq, lam0, ctl, settings, scale, d0)
-            if not outcome.converged:
-                cuts += 1
-                sim.driver_data["cutbacks"] += 1
-                if cuts > sol.max_cutbacks:
-                    what = "displacement" if displacement else "load factor"
-                    raise SimulationError(
-                        f"load step {j}/{n_levels} ({what} {target:.4g}): Newton failed from {what} {done:.4g} after "
-                        f"{sol.max_cutbacks} cut-backs of the increment ({outcome.message}); raise load_steps or "
-                        "[solve].max_cutbacks, or follow the path with control = \"arc_length\"")
-                sub *= 0.5
-                sim.progress(f"load step {j}/{n_levels}: {outcome.message}; cut back to {abs(sub):.3g}")
-                continue
-            reached = abs(value - target) <= 1e-12 * abs(final)
-            moved += weighted(outcome.d, eq.weight) if not displacement else 0.0
-            sign_change |= sign is not None and outcome.sign != sign
-            sign = outcome.sign
-            peak = max(peak, abs(outcome.lam))
-            last = (outcome.d, value - done, outcome.lam - lam)
-            _accept(sim, eq, outcome, lam, target if reached else None, sim.scene.output.load_steps, control)
-            lam, done = outcome.lam, (target if reached else value)
-            if cuts == 0 and abs(sub) < final / n_levels:
-                sub *= 2.0                                          # recover after a cut-back
-        if not displacement:
-            jumps.add(lam, moved, sign_change)
-        _limit_check(sim, start_lam, lam)
-        j += 1
-        control.boundary(sim, {"level": j, "lam": lam, "step": sub, "peak": peak})
-
-
-def _limit_check(sim, lam_a, lam_b) -> None:
-    """Displacement or arc-length control: remember where the load factor turned."""
-    data = sim.driver_data
-    trend = data.get("trend", 0.0)
-    change = lam_b - lam_a
-    if change != 0.0:
-        if trend != 0.0 and (change > 0) != (trend > 0):
-            data["limit_points"].append(float(lam_a))
-        data["trend"] = change
-
-
-def _arc_length(sim, eq, settings, control, pos, selector):
-    sol = sim.scene.solve
-    data = sim.driver_data
-    j, lam = int(pos["level"]), float(pos["lam"])
-    peak = float(pos.get("peak", 0.0))
-    ds = float(pos.get("arc") or 0.0)
-    if ds == 0.0:
-        ds = sol.arc_length
-        if ds == 0.0:                     # the linear solution at load factor 1, over load_steps points
-            f, K, message = eq.evaluate(np.zeros(eq.ndof), True)
-            solver = eq.factorize(K) if f is not None else None
-            if solver is None:
-                raise SimulationError(f"arc length: the initial tangent cannot be factorized ({message or 'singular'})")
-            ds = weighted(solver.solve(eq.load), eq.weight) / sol.load_steps
-    ds_max = MAX_ARC_GROWTH * ds
-    data.setdefault("first_arc", ds)
-    ds_max = MAX_ARC_GROWTH * float(data["first_arc"])
-    previous = np.asarray(data["previous"]) if data.get("previous") is not None else None
-    monitor = float(data.get("monitor", 0.0))
-    cuts = 0
-    while j <= sol.load_steps:
-        ctl = Control("arc_length", ds, previous=previous)
-        outcome = _point(eq, lam, ctl, settings, 0.1 * peak)
-        if not outcome.converged:
-            cuts += 1
-            data["cutbacks"] += 1
-            if cuts > sol.max_cutbacks:
-                raise SimulationError(
-                    f"arc length point {j} (load factor {lam:.4g}): Newton failed after {sol.max_cutbacks} cut-backs "
-                    f"of the arc length to {ds:.3g} ({outcome.message}); lower [solve].arc_length or raise "
-                    "max_cutbacks")
-            ds *= 0.5
-            sim.progress(f"point {j}: {outcome.message}; arc length cut back to {ds:.3g}")
-            continue
-        _limit_check(sim, lam, outcome.lam)
-        _accept(sim, eq, outcome, lam, outcome.lam, sim.scene.output.load_steps, control)
-        previous = outcome.d.copy()
-        lam = outcome.lam
-        peak = max(peak, abs(lam))
-        if selector is not None:
-            monitor += float(selector @ outcome.d)
-        iterations = max(outcome.iterations, 1)
-        grow = math.sqrt(sol.target_iterations / iterations)
-        ds = min(ds * min(max(grow, 0.5), 2.0), ds_max) if cuts == 0 else ds
-        cuts = 0
-        j += 1
-        data["previous"] = previous.tolist()
-        data["monitor"] = monitor
-        stop = abs(lam) >= sol.max_load_factor or (
-            selector is not None and sol.control_displacement != 0.0
-            and monitor / sol.control_displacement >= 1.0)
-        if stop:
-            j = sol.load_steps + 1
-        control.boundary(sim, {"level": j, "lam": lam, "arc": ds, "peak": peak})

@@ -19,8 +19,8 @@ the control (Batoz & Dhatt 1979; Crisfield 1981):
 
 Convergence (all three): |r|_w <= tolerance |lam F|_w (today's relaxation criterion;
 moments / L in the norm), |W delta|  <= increment_tolerance |W d| (the last correction
-against the increment), |delta . r| <= energy_tolerance |delta_1 . r_1| (the work of the
-last correction against that of the first).  Path following near lam = 0 measures the
+against the increment), |delta . K delta| <= energy_tolerance x that of the first correction
+(delta . K delta = delta . (r + dlam F): the energy of a correction).  Path following near lam = 0 measures the
 residual against max(|lam|, 0.1 max |lam| so far) F.
 
 Steps.  A full Newton step is taken unless its evaluation fails (an element inside out, a
@@ -41,7 +41,7 @@ back (solvers/newton.py).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -169,6 +169,7 @@ def newton_point(eq, lam0: float, control: Control, settings: Settings, lam_scal
                 dlam = _choose_root(roots, d, da, db, W, control.previous, it)
         delta = da + dlam * db if control.kind != "load" else da
         g0 = float(delta @ r)
+        work = float(delta @ (r + dlam * F))        # delta . K delta: the correction's energy
         step = 1.0
         trial = _try(eq, d, delta, step, True)
         if settings.line_search and control.kind != "arc_length":
@@ -191,7 +192,7 @@ def newton_point(eq, lam0: float, control: Control, settings: Settings, lam_scal
                 out.message = message
                 return out
         last_delta = step * delta
-        last_energy = abs(step * g0)
+        last_energy = abs(step * work)
         first_energy = last_energy if first_energy is None else first_energy
         out.d, out.lam, out.iterations = d, lam, it + 1
     return out
@@ -254,6 +255,178 @@ def _choose_root(roots, d, da, db, W, previous, iteration):
             return max(roots)                       # the first point: load rising
         return max(roots, key=lambda x: float((W * (da + x * db)) @ (W * previous)))
     return max(roots, key=lambda x: float((W * (d + da + x * db)) @ (W * d)))
+
+
+class PathError(Exception):
+    """A point failed after every cut-back (one line)."""
+
+
+@dataclass(frozen=True)
+class Plan:
+    """How the path is followed (solvers/newton.py reads it from [solve]): ``control``
+    "load" (``steps`` equal steps of the load factor to 1), "displacement" (``steps`` equal
+    steps of selector . u to ``final``), "arc_length" (at most ``steps`` points from the arc
+    ``arc_length``, 0: the linear |W u| at load factor 1 / steps; stop at |lam| >=
+    ``max_load_factor`` or when selector . u passes ``final`` (0: never))."""
+    control: str
+    steps: int
+    final: float = 1.0
+    selector: np.ndarray | None = None
+    arc_length: float = 0.0
+    max_load_factor: float = 1.0
+    target_iterations: int = 5
+    max_cutbacks: int = 10
+
+
+MAX_ARC_GROWTH = 16.0        # arc length: at most this x the first one
+SECANT_PREDICTOR = True      # load/displacement control: start from the last increment, scaled [choice, measured]
+
+
+def solve_point(eq, lam0: float, control: Control, settings: Settings, scale: float,
+                d0: np.ndarray | None = None) -> Outcome:
+    """Newton on one point: full steps, then (load and displacement control) once more with
+    the energy line search if that failed."""
+    outcome = newton_point(eq, lam0, control, settings, lam_scale=scale, d0=d0)
+    if not outcome.converged and control.kind != "arc_length":
+        retry = newton_point(eq, lam0, control, replace(settings, line_search=True), lam_scale=scale, d0=d0)
+        if retry.converged:
+            return retry
+    return outcome
+
+
+def follow(eq, settings: Settings, plan: Plan, accept, position: dict | None = None, log: dict | None = None,
+           boundary=None, note=None, jumps=None) -> dict:
+    """Follow the path of `eq` by `plan`.  ``accept(outcome, lam_old, record)`` commits each
+    converged point (`record`: it ends a load step, or is an arc-length point);
+    ``boundary(position)`` is called after each step (checkpoints); ``note(text)`` tells of
+    cut-backs; `jumps` (load control) is a JumpMonitor.  `position` resumes, `log` keeps
+    counters (cutbacks, limit_points, ...).  Returns the final position.  Raises PathError."""
+    log = {} if log is None else log
+    log.setdefault("cutbacks", 0)
+    log.setdefault("limit_points", [])
+    boundary = boundary or (lambda pos: None)
+    note = note or (lambda text: None)
+    if plan.control == "arc_length":
+        return _follow_arc(eq, settings, plan, accept, dict(position or {}), log, boundary, note)
+    return _follow_steps(eq, settings, plan, accept, dict(position or {}), log, boundary, note, jumps)
+
+
+def _turn(log: dict, lam_a: float, lam_b: float) -> None:
+    """Remember where the load factor turned (a limit point of the path)."""
+    change = lam_b - lam_a
+    trend = log.get("trend", 0.0)
+    if change != 0.0:
+        if trend != 0.0 and (change > 0) != (trend > 0):
+            log["limit_points"].append(float(lam_a))
+        log["trend"] = change
+
+
+def _follow_steps(eq, settings, plan, accept, pos, log, boundary, note, jumps):
+    """Load or displacement control: plan.steps equal steps of the load factor or of the
+    controlled displacement, each reached in sub-steps that are halved on failure and
+    doubled again after each success."""
+    displacement = plan.control == "displacement"
+    n, final = plan.steps, plan.final
+    j, lam = int(pos.get("level", 1)), float(pos.get("lam", 0.0))
+    peak = float(pos.get("peak", 0.0))
+    done = (j - 1) / n * final
+    sub = float(pos.get("step") or final / n)
+    last = None                                      # (d, control increment, load factor increment)
+    sign = None                                      # of det K at the last converged point
+    while j <= n:
+        target = j / n * final
+        cuts, moved, sign_change, lam_start = 0, 0.0, False, lam
+        while abs(target - done) > 1e-12 * abs(final):
+            value = done + math.copysign(min(abs(sub), abs(target - done)), target - done)
+            control = (Control("displacement", value, selector=plan.selector, start=done) if displacement
+                       else Control("load", value))
+            d0, lam0 = None, lam
+            if last is not None and SECANT_PREDICTOR:       # extrapolate the last increment
+                ratio = (value - done) / last[1]
+                d0, lam0 = ratio * last[0], lam + ratio * last[2]
+            scale = 0.1 * peak if displacement else abs(value)
+            outcome = solve_point(eq, lam0, control, settings, scale, d0)
+            if not outcome.converged:
+                cuts += 1
+                log["cutbacks"] += 1
+                what = "displacement" if displacement else "load factor"
+                if cuts > plan.max_cutbacks:
+                    raise PathError(
+                        f"load step {j}/{n} ({what} {target:.4g}): Newton failed from {what} {done:.4g} after "
+                        f"{plan.max_cutbacks} cut-backs of the increment ({outcome.message}); raise load_steps or "
+                        "[solve].max_cutbacks, or follow the path with control = \"arc_length\"")
+                sub *= 0.5
+                note(f"load step {j}/{n}: {outcome.message}; increment cut back to {abs(sub):.3g}")
+                continue
+            reached = abs(value - target) <= 1e-12 * abs(final)
+            last = (outcome.d, value - done, outcome.lam - lam)
+            moved += weighted(outcome.d, eq.weight)
+            sign_change |= sign is not None and outcome.sign != sign
+            sign = outcome.sign
+            accept(outcome, lam, reached)
+            lam, done = outcome.lam, (target if reached else value)
+            peak = max(peak, abs(lam))
+            if cuts == 0 and abs(sub) < abs(final) / n:
+                sub *= 2.0
+        if jumps is not None and not displacement:
+            jumps.add(lam, moved, sign_change)
+        _turn(log, lam_start, lam)
+        j += 1
+        pos = {"level": j, "lam": lam, "step": sub, "peak": peak}
+        boundary(pos)
+    return pos
+
+
+def _follow_arc(eq, settings, plan, accept, pos, log, boundary, note):
+    """Crisfield's cylindrical arc length, adapted by the iteration count, halved on failure."""
+    j, lam = int(pos.get("level", 1)), float(pos.get("lam", 0.0))
+    peak = float(pos.get("peak", 0.0))
+    ds = float(pos.get("arc") or 0.0)
+    if ds == 0.0:
+        ds = plan.arc_length
+        if ds == 0.0:                     # the linear solution at load factor 1, over the points
+            f, K, message = eq.evaluate(np.zeros_like(eq.load), True)
+            solver = eq.factorize(K) if f is not None else None
+            if solver is None:
+                raise PathError(f"arc length: the initial tangent cannot be factorized ({message or 'singular'})")
+            ds = weighted(solver.solve(eq.load), eq.weight) / plan.steps
+    log.setdefault("first_arc", ds)
+    ds_max = MAX_ARC_GROWTH * float(log["first_arc"])
+    previous = np.asarray(log["previous"]) if log.get("previous") is not None else None
+    monitor = float(log.get("monitor", 0.0))
+    cuts = 0
+    while j <= plan.steps:
+        outcome = solve_point(eq, lam, Control("arc_length", ds, previous=previous), settings, 0.1 * peak)
+        if not outcome.converged:
+            cuts += 1
+            log["cutbacks"] += 1
+            if cuts > plan.max_cutbacks:
+                raise PathError(f"arc-length point {j} (load factor {lam:.4g}): Newton failed after {plan.max_cutbacks} "
+                                f"cut-backs of the arc length to {ds:.3g} ({outcome.message}); lower [solve].arc_length "
+                                "or raise max_cutbacks")
+            ds *= 0.5
+            note(f"point {j}: {outcome.message}; arc length cut back to {ds:.3g}")
+            continue
+        _turn(log, lam, outcome.lam)
+        accept(outcome, lam, True)
+        previous = outcome.d.copy()
+        lam = outcome.lam
+        peak = max(peak, abs(lam))
+        if plan.selector is not None:
+            monitor += float(plan.selector @ outcome.d)
+        if cuts == 0:
+            grow = math.sqrt(plan.target_iterations / max(outcome.iterations, 1))
+            ds = min(ds * min(max(grow, 0.5), 2.0), ds_max)
+        cuts = 0
+        j += 1
+        log["previous"] = previous.tolist()
+        log["monitor"] = monitor
+        if abs(lam) >= plan.max_load_factor or (
+                plan.selector is not None and plan.final != 0.0 and monitor / plan.final >= 1.0):
+            j = plan.steps + 1
+        pos = {"level": j, "lam": lam, "arc": ds, "peak": peak}
+        boundary(pos)
+    return pos
 
 
 class JumpMonitor:
