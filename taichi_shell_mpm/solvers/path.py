@@ -23,6 +23,10 @@ against the increment), |delta . K delta| <= energy_tolerance x that of the firs
 (delta . K delta = delta . (r + dlam F): the energy of a correction).  Path following near lam = 0 measures the
 residual against max(|lam|, 0.1 max |lam| so far) F.
 
+Evaluations.  A trial is evaluated without the tangent (the forces alone: 1/49 of a tangent
+evaluation, solvers/tangent.py); the tangent is computed there only when the point is not
+converged, so the converged iterate of each point costs no tangent.
+
 Steps.  A full Newton step is taken unless its evaluation fails (an element inside out, a
 return map that does not converge): then the step is halved (back-tracking, at most
 LINE_SEARCH_TRIALS times).  With ``Settings.line_search`` (load and displacement control)
@@ -149,6 +153,11 @@ def newton_point(eq, lam0: float, control: Control, settings: Settings, lam_scal
         if it == settings.max_iterations:
             out.message = f"not converged in {settings.max_iterations} iterations (residual {ratio:.2e} of the load)"
             return out
+        if K is None:                   # the tangent where the trial was not converged (module docstring)
+            f, K, message = eq.evaluate(d, True)
+            if f is None:
+                out.message = message
+                return out
         solver = eq.factorize(K)
         if solver is None:
             out.message = "the tangent stiffness is singular"
@@ -171,7 +180,7 @@ def newton_point(eq, lam0: float, control: Control, settings: Settings, lam_scal
         g0 = float(delta @ r)
         work = float(delta @ (r + dlam * F))        # delta . K delta: the correction's energy
         step = 1.0
-        trial = _try(eq, d, delta, step, True)
+        trial = _try(eq, d, delta, step)
         if settings.line_search and control.kind != "arc_length":
             step, trial = _line_search(eq, d, lam, delta, dlam, g0, trial)
         else:
@@ -179,18 +188,13 @@ def newton_point(eq, lam0: float, control: Control, settings: Settings, lam_scal
                 if trial[0] is not None:
                     break
                 step *= 0.5                 # an element failed: back-track
-                trial = _try(eq, d, delta, step, True)
+                trial = _try(eq, d, delta, step)
         if trial[0] is None:
             out.message = trial[2] or "every trial of the line search failed"
             return out
         d = d + step * delta
         lam = lam + step * dlam
-        f, K = trial[0], trial[1]
-        if K is None:
-            f, K, message = eq.evaluate(d, True)
-            if f is None:
-                out.message = message
-                return out
+        f, K = trial[0], None
         last_delta = step * delta
         last_energy = abs(step * work)
         first_energy = last_energy if first_energy is None else first_energy
@@ -198,14 +202,15 @@ def newton_point(eq, lam0: float, control: Control, settings: Settings, lam_scal
     return out
 
 
-def _try(eq, d, delta, step, tangent):
-    return eq.evaluate(d + step * delta, tangent)
+def _try(eq, d, delta, step):
+    """The internal forces of a trial step (without the tangent: it is computed only where
+    the iterations go on from the trial)."""
+    return eq.evaluate(d + step * delta, False)
 
 
 def _line_search(eq, d, lam, delta, dlam, g0, trial):
-    """Regula falsi on g(s) = delta . r(d + s delta) from s = 1 (`trial`, evaluated with the
-    tangent); returns the accepted step and its evaluation (K None when the tangent is still
-    to be computed there)."""
+    """Regula falsi on g(s) = delta . r(d + s delta) from s = 1 (`trial`); returns the
+    accepted step and its evaluation."""
     F = eq.load
     lo, g_lo, hi, g_hi = 0.0, g0, None, None
     s, f = 1.0, trial[0]
@@ -228,7 +233,7 @@ def _line_search(eq, d, lam, delta, dlam, g0, trial):
             else:
                 s = lo + (hi - lo) * g_lo / (g_lo - g_hi)
                 s = min(max(s, lo + 0.1 * (hi - lo)), lo + 0.9 * (hi - lo))
-        trial = _try(eq, d, delta, s, False)
+        trial = _try(eq, d, delta, s)
         f = trial[0]
     if f is not None:
         return s, trial

@@ -36,7 +36,7 @@ import dataclasses
 import numpy as np
 import taichi as ti
 
-from ..energy import EnergyLedger
+from ..energy import ELEMENT_PARTS, EnergyLedger
 from ..stages.shell import ShellElement
 from ..state import STATUS_OK, State
 
@@ -44,6 +44,7 @@ DOFS_PER_ELEMENT = 24
 SLOTS = 1 + 2 * DOFS_PER_ELEMENT          # the trial increment, then +h / -h of each element DOF
 FD_STEP = 1e-6     # central-difference step: relative to the mean edge (translations), radians (rotations)
 ELEMENT_SUBSTEPS = 1        # element updates along the trial increment (docs/newton.md)
+STAGGER = ELEMENT_PARTS.index("stagger")     # the element pass books dt/2 P_e there (energy.py): dt = 1 is no time step
 MAX_VIRTUAL_ELEMENTS = 1 << 22            # ~85 000 shell elements (about 8 GB): a clear error beyond
 
 
@@ -141,13 +142,16 @@ class IncrementalForces:
             self.v.elements.energy[ve] = self.main.elements.energy[e]
 
     @ti.kernel
-    def _substep(self, increment: ti.types.ndarray(), tangent: ti.template(), fraction: ti.f64, share: ti.f64,
+    def _substep(self, increment: ti.types.ndarray(), tangent: ti.i32, fraction: ti.f64, share: ti.f64,
                  restore: ti.i32):
         """One element pass over slot 0 (with `tangent` all slots) of every element: the
         sub-step of the trial increment that ends at `fraction` of it and covers `share` of it
-        (from the converged element state when `restore`)."""
+        (from the converged element state when `restore`).  `tangent` is run-time data: one
+        kernel for both (its front end costs ~4 s, docs/newton.md)."""
         m = self.main.elements.count[None]
-        count = m * (SLOTS if ti.static(tangent) else 1)
+        count = m
+        if tangent:
+            count = m * SLOTS
         self.v.elements.count[None] = count
         self.v.nodes.count[None] = 4 * count
         if restore:
@@ -157,7 +161,7 @@ class IncrementalForces:
         self.shell.element_pass()
 
     @ti.kernel
-    def _collect(self, internal: ti.types.ndarray(), stiffness: ti.types.ndarray(), tangent: ti.template()) -> ti.i32:
+    def _collect(self, internal: ti.types.ndarray(), stiffness: ti.types.ndarray(), tangent: ti.i32) -> ti.i32:
         """The trial's nodal internal forces into `internal` (n, 6) and, with `tangent`, the
         element tangents into `stiffness` (m, 24, 24).  Returns the first failing virtual
         element (status), or -1."""
@@ -172,7 +176,7 @@ class IncrementalForces:
                         load = self.v.elements.corner_loads[e, a]
                         for k in ti.static(range(6)):
                             internal[c[a], k] += load[k]
-        if ti.static(tangent):
+        if tangent:
             for e, j in ti.ndrange(m, DOFS_PER_ELEMENT):
                 h = FD_STEP
                 if j % 6 < 3:
@@ -200,7 +204,9 @@ class IncrementalForces:
             self.main.elements.hourglass_resultant[e] = self.v.elements.hourglass_resultant[e]
             if ti.static(self.drilling):
                 self.main.elements.drilling_moment[e] = self.v.elements.drilling_moment[e]
-            self.main.elements.energy[e] = self.v.elements.energy[e]
+            energy = self.v.elements.energy[e]
+            energy[STAGGER] = self.main.elements.energy[e][STAGGER]     # no kinetic energy: no stagger term
+            self.main.elements.energy[e] = energy
         for c in range(self.main.nodes.count[None]):
             du = ti.Vector([increment[c, 0], increment[c, 1], increment[c, 2]])
             theta = ti.Vector([increment[c, 3], increment[c, 4], increment[c, 5]])
@@ -244,8 +250,8 @@ class IncrementalForces:
     def _run(self, increment: np.ndarray, tangent: bool) -> int:
         n = self.substeps
         for k in range(n):
-            self._substep(increment, tangent, (k + 1) / n, 1.0 / n, int(k == 0))
-        return int(self._collect(self.internal, self.stiffness, tangent))
+            self._substep(increment, int(tangent), (k + 1) / n, 1.0 / n, int(k == 0))
+        return int(self._collect(self.internal, self.stiffness, int(tangent)))
 
     def commit(self, increment: np.ndarray) -> None:
         self._commit(np.ascontiguousarray(increment, dtype=np.float64))
