@@ -280,6 +280,10 @@ class Reference:
     compare: tuple[ReferenceColumn, ...]
     floor: float = 0.1
     """Relative-error floor: e_i = |sim-ref| / max(|ref_i|, floor*max|ref|)."""
+    along: Literal["load", "path"] = "load"
+    """"load": rows matched by load level; "path": each row (compared value, load) against the
+    simulated path, as a distance in the plane scaled by the table's largest values
+    (reference.py; a path with limit points, issue 19)."""
 
 
 @dataclass(frozen=True)
@@ -1270,7 +1274,8 @@ class _SceneParser:
 
     def reference(self, data: Any) -> Reference | None:
         mark = len(self.messages)
-        v = self.read("[reference]", data, {"file": self.file, "load_column": _nonempty, "floor": _fraction},
+        v = self.read("[reference]", data, {"file": self.file, "load_column": _nonempty, "floor": _fraction,
+                                            "along": _choice("load", "path")},
                       Reference, extra=("compare",))
         if v is None:
             return None
