@@ -38,7 +38,7 @@ import scipy.sparse.linalg as spla
 from ..checkpoint import RunControl
 from ..nodesets import select_nodes
 from ..scene import DOFS
-from ..simulation import Simulation, SimulationError
+from ..simulation import FAILURES, Simulation, SimulationError
 from .path import JumpMonitor, PathError, Plan, Settings, follow
 from .tangent import DOFS_PER_ELEMENT, IncrementalForces
 
@@ -143,7 +143,6 @@ class ShellEquations:
         self.tangent_seconds += time.perf_counter() - t0
         if failed >= 0:
             status = self.forces.v.step.status[None]
-            from ..simulation import FAILURES
             what = FAILURES.get(status, ("element {index} failed", ""))[0].format(index=failed, ratio="")
             return None, None, f"trial increment rejected: {what}"
         f = self.forces.internal.ravel()[self.free].copy()
