@@ -316,6 +316,7 @@ def _run(args) -> int:
         os.environ.setdefault("ENABLE_TAICHI_HEADER_PRINT", "false")
     from .simulation import Simulation, SimulationError, init_taichi
     from .solvers.dynamic import run_dynamic
+    from .solvers.newton import ShellEquations, run_newton
     from .solvers.static import run_static
     sim = None
     control = RunControl(args.checkpoint_every, resume=ckpt.position if ckpt else None)
@@ -332,6 +333,9 @@ def _run(args) -> int:
             sim.hourglass_limit = args.hourglass_limit
         if args.energy_limit is not None:
             sim.energy_limit = args.energy_limit
+        newton = None
+        if scene.solve.kind == "static" and scene.solve.solver == "newton":
+            newton = ShellEquations.compiled(sim)
         for w in (*sim.mesh.warnings, *setup_warnings(scene, model)):
             print(f"warning: {w}")
         if ckpt is not None:
@@ -348,9 +352,8 @@ def _run(args) -> int:
         with control.catch_interrupts():
             if scene.solve.kind == "dynamic":
                 extra = run_dynamic(sim, control)
-            elif scene.solve.solver == "newton":
-                from .solvers.newton import run_newton
-                extra = run_newton(sim, control)
+            elif newton is not None:
+                extra = run_newton(sim, newton, control)
             else:
                 extra = run_static(sim, control)
         summary = sim.write_results(extra)

@@ -19,6 +19,7 @@ import math
 import numpy as np
 import pytest
 
+from taichi_shell_mpm.solvers.newton import ShellEquations
 from taichi_shell_mpm.solvers.path import JumpMonitor, Plan, Settings, follow
 
 # ---------------------------------------------------------------- the closed-form problem
@@ -204,7 +205,7 @@ def patch_equations(tmp_path, plastic: bool):
     material = 'model = "j2"\nyield_stress = 0.5\nhardening = 10.0' if plastic else ""
     scene = load_scene(write_scene(tmp_path, PATCH.format(material=material)))
     sim = simulation(scene, tmp_path)
-    eq = sim.newton
+    eq = ShellEquations.compiled(sim)
     # a deformed, stressed converged state: one random increment committed
     first = np.concatenate([rng.normal(0, 0.02, (9, 3)), rng.normal(0, 0.15, (9, 3))], axis=1).ravel()
     f, _, message = eq.evaluate(first[eq.free], False)
@@ -252,7 +253,7 @@ def test_quadratic_convergence_on_the_cantilever(tmp_path):
     from taichi_shell_mpm.solvers.path import Control, newton_point
     scene = load_scene(ROOT / "scenes" / "cantilever.toml", ["method.kind=fem", "solve.solver=newton"])
     sim = simulation(scene, tmp_path)
-    eq = sim.newton
+    eq = ShellEquations.compiled(sim)
     settings = Settings(tolerance=1e-10, increment_tolerance=1e-12, energy_tolerance=1e-20)
     lam = 0.0
     orders = []
