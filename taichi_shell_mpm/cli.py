@@ -317,6 +317,7 @@ def _run(args) -> int:
         os.environ.setdefault("ENABLE_TAICHI_HEADER_PRINT", "false")
     from .simulation import Simulation, SimulationError, init_taichi
     from .solvers.dynamic import run_dynamic
+    from .solvers.newton import ShellEquations, run_newton
     from .solvers.static import run_static
     sim = None
     control = RunControl(args.checkpoint_every, resume=ckpt.position if ckpt else None)
@@ -333,6 +334,9 @@ def _run(args) -> int:
             sim.hourglass_limit = args.hourglass_limit
         if args.energy_limit is not None:
             sim.energy_limit = args.energy_limit
+        newton = None
+        if scene.solve.kind == "static" and scene.solve.solver == "newton":
+            newton = ShellEquations.compiled(sim)
         for w in (*sim.mesh.warnings, *setup_warnings(scene, model)):
             print(f"warning: {w}")
         if ckpt is not None:
@@ -347,7 +351,12 @@ def _run(args) -> int:
                      f"{sim.cfg.method}, kernels ready in {time.perf_counter() - t0:.1f} s -> {sim.out_dir}"
                      + (f" (restarted at step {sim.state.step.step[None]})" if ckpt else ""))
         with control.catch_interrupts():
-            extra = run_static(sim, control) if scene.solve.kind == "static" else run_dynamic(sim, control)
+            if scene.solve.kind == "dynamic":
+                extra = run_dynamic(sim, control)
+            elif newton is not None:
+                extra = run_newton(sim, newton, control)
+            else:
+                extra = run_static(sim, control)
         summary = sim.write_results(extra)
     except (SceneError, CheckpointError) as exc:
         return _fail(EXIT_SCENE, exc.messages)

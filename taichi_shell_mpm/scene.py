@@ -430,6 +430,10 @@ class Reference:
     compare: tuple[ReferenceColumn, ...]
     floor: float = 0.1
     """Relative-error floor: e_i = |sim-ref| / max(|ref_i|, floor*max|ref|)."""
+    along: Literal["load", "path"] = "load"
+    """"load": rows matched by load level; "path": each row (compared value, load) against the
+    simulated path, as a distance in the plane scaled by the table's largest values
+    (reference.py; a path with limit points, issue 19)."""
 
 
 @dataclass(frozen=True)
@@ -504,6 +508,32 @@ class Solve:
     keeps the physical masses.  The equilibrium does not depend on the masses."""
     progress_every: float = 2.0
     """Seconds of wall time between progress lines."""
+    solver: Literal["relaxation", "newton"] = "relaxation"
+    """Static solves: dynamic relaxation (solvers/static.py) or Newton-Raphson with path
+    following (solvers/newton.py, docs/newton.md; fem mode)."""
+    control: Literal["load", "displacement", "arc_length"] = "load"
+    """Newton: what the path is stepped in: the load factor, the mean displacement of a node
+    set's DOF (control_nodes, control_dof, control_displacement), or Crisfield's arc length."""
+    control_nodes: str | None = None
+    """Node set of the controlled (displacement) or monitored (arc length) DOF."""
+    control_dof: str = "uz"
+    control_displacement: float = 0.0
+    """Displacement control: the final mean value of the controlled DOF; arc length: stop
+    once the monitored DOF passes it (0: no such stop)."""
+    arc_length: float = 0.0
+    """Arc length of the first point (0: the linear displacement at load factor 1 / load_steps)."""
+    max_load_factor: float = 1.0
+    """Arc length: stop once |load factor| reaches it."""
+    target_iterations: int = 5
+    """Arc length: the iteration count the arc length is adapted to."""
+    max_iterations: int = 20
+    """Newton iterations of one point before it is cut back."""
+    max_cutbacks: int = 10
+    """Halvings of one increment before the run stops."""
+    increment_tolerance: float = 1e-3
+    """Newton: |last correction| / |increment| that ends a point (with tolerance and energy_tolerance)."""
+    energy_tolerance: float = 1e-6
+    """Newton: |correction . residual| of the last iteration over the first's."""
 
 
 @dataclass(frozen=True)
@@ -993,7 +1023,11 @@ _SOLVE = {"kind": _choice("static", "dynamic"), "load_steps": _int(1),
           "end_time": _non_negative, "dt_safety": _fraction,
           "dt_rule": _choice("both", "shell"), "rotary_inertia": _choice("scaled", "physical"),
           "relaxation": _choice("fire", "kinetic"), "mass_scaling": _choice("auto", "uniform_dt", "none"),
-          "progress_every": _non_negative}
+          "progress_every": _non_negative, "solver": _choice("relaxation", "newton"),
+          "control": _choice("load", "displacement", "arc_length"), "control_dof": _choice(*DOFS),
+          "control_displacement": _number(), "arc_length": _non_negative, "max_load_factor": _positive,
+          "target_iterations": _int(1), "max_iterations": _int(1), "max_cutbacks": _int(0),
+          "increment_tolerance": _number(0, 1, lo_open=True), "energy_tolerance": _number(0, 1, lo_open=True)}
 _OUTPUT = {"every_steps": _int(0), "times": _times, "load_steps": _bool, "history_interval": _non_negative}
 _PLAIN_TABLES: dict[str, tuple[type, dict[str, Validator]]] = {
     "scene": (SceneInfo, _INFO),
@@ -1730,7 +1764,8 @@ class _SceneParser:
 
     def reference(self, data: Any) -> Reference | None:
         mark = len(self.messages)
-        v = self.read("[reference]", data, {"file": self.file, "load_column": _nonempty, "floor": _fraction},
+        v = self.read("[reference]", data, {"file": self.file, "load_column": _nonempty, "floor": _fraction,
+                                            "along": _choice("load", "path")},
                       Reference, extra=("compare",))
         if v is None:
             return None
@@ -1755,11 +1790,43 @@ class _SceneParser:
                 self.error("[reference].file", problem)
         return self.build(mark, Reference, {**v, "compare": tuple(compare)})
 
+    def newton_checks(self, v: dict, data: dict) -> None:
+        """[solve] keys of the Newton solver (issue 19) against the rest of the scene."""
+        raw = self.raw
+        if v.get("solver") == "newton":
+            method = raw.get("method", {})
+            element = raw.get("element", {})
+            if v.get("kind") == "dynamic":
+                self.error("[solve].solver", '"newton" solves static scenes (kind = "static")')
+            if isinstance(method, dict) and method.get("kind", "mpm") == "mpm":
+                self.error("[solve].solver", '"newton" runs in fem mode: set [method].kind = "fem" (mpm statics keep '
+                           '"relaxation"; why: docs/newton.md)')
+            if isinstance(element, dict) and element.get("drilling") == "projection":
+                self.error("[solve].solver", '"newton" needs the drilling spring ([element].drilling = "penalty"): the '
+                           "projection leaves the drilling rotation without stiffness")
+            for key in ("rigid_body", "wall", "contact"):
+                if key in raw:
+                    self.error("[solve].solver", f'"newton" does not handle [{key}] (use "relaxation")')
+        else:
+            for key in ("control", "control_nodes", "control_displacement", "arc_length", "max_load_factor",
+                        "target_iterations", "max_iterations", "max_cutbacks", "increment_tolerance",
+                        "energy_tolerance"):
+                if key in data:
+                    self.error(f"[solve].{key}", 'is a key of the Newton solver: set solver = "newton"')
+        control = v.get("control")
+        if control == "displacement":
+            for key in ("control_nodes", "control_displacement"):
+                if not data.get(key):
+                    self.error(f"[solve].{key}", 'missing (a non-zero value) for control = "displacement"')
+        if data.get("control_displacement") and not data.get("control_nodes"):
+            self.error("[solve].control_nodes", "missing: control_displacement needs the node set it applies to")
+
     def solve(self, data: Any) -> Solve | None:
         mark = len(self.messages)
-        v = self.read("[solve]", data, _SOLVE, Solve)
+        v = self.read("[solve]", data, {**_SOLVE, "control_nodes": self.nodes}, Solve)
         if v is None:
             return None
+        self.newton_checks(v, data)
         if v.get("kind") == "dynamic" and v.get("end_time") == 0:
             if "end_time" in data:
                 self.error("[solve].end_time", "expected a number > 0 for a dynamic solve, got 0")

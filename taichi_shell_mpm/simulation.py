@@ -309,7 +309,11 @@ class Simulation:
     def _compile(self) -> None:
         """Compile (or load from the offline cache) the step kernel before the clock of the
         run starts.  The batched kernel compiles on a zero-step launch; the parallel one has
-        no such launch, so it takes one step and every field is put back as it was."""
+        no such launch, so it takes one step and every field is put back as it was.
+        Newton statics (issue 19) never step: their own kernels are compiled by
+        solvers/newton.ShellEquations.compiled instead."""
+        if self.scene.solve.kind == "static" and self.scene.solve.solver == "newton":
+            return
         if self.stepper.batched:
             self.stepper.advance(0)
         else:

@@ -161,7 +161,9 @@ def write_report(path: Path, out: Path, rows: list[dict], planned: list[Case], c
           "Sze, Liu & Lo (2004), both tabulated components; rows = reference rows compared.  "
           "h / l: grid cell over element size l (cantilever l = 10/nx; quarter hemisphere nominal "
           "l = 8/n, so that the scene's default h = 0.25 at 16×16 is l/2).  For `kratos` rows (implicit "
-          "peer): compile s = model set-up, run s = Newton solve, steps = Newton iterations.", ""]
+          "peer): compile s = model set-up, run s = Newton solve, steps = Newton iterations.  For `newton` "
+          "rows (`[solve].solver = \"newton\"`, fem, issue 19): steps = Newton iterations, run s includes, as for "
+          "every row of ours, recording each load step (probes, energies, a frame), which the peer does not.", ""]
     for scene, title in (("cantilever", "Cantilever strip under end shear (Sze), 20 load steps"),
                          ("hemisphere", "Quarter hemisphere with an 18° hole (Sze)")):
         rs = [r for r in rows if r["scene"] == scene]

@@ -6,7 +6,9 @@ The load is never advanced by comparing with a reference answer (the paper did):
 is done when the out-of-balance force falls below ``tolerance * |F_ext|`` and the kinetic
 energy below 1e-8 of the external work (checked in-kernel every step, see
 :class:`~taichi_shell_mpm.solvers.stepper.Stepper`).  Non-convergence within the step
-budget is an error.  Under displacement control (``[[motion]]``, kind = "displacement":
+budget is an error.  A level whose displacement increment is far larger than its
+neighbours' is reported as a jump to a remote branch (solvers/path.JumpMonitor, issue 19).
+Under displacement control (``[[motion]]``, kind = "displacement":
 u = value x f(lambda), f(lambda) = lambda without a curve) the forces on the prescribed
 DOFs count in the scale: the residual must fall below ``tolerance * sqrt(|F_ext|^2 + |R|^2)``,
 R the prescribed DOFs' reactions (moments over the mean edge, as in the residual), and the
@@ -39,6 +41,7 @@ from ..energy import balance_ratio
 from ..loading import reference_loads
 from ..simulation import Simulation, SimulationError
 from ..state import STATUS_CONVERGED, STATUS_OK
+from .path import JumpMonitor
 from .stepper import FIRE_ALPHA_START
 
 BATCH_ELEMENT_STEPS = 1_000_000   # one batch ~ 1 s at most, so a Ctrl-C is answered promptly
@@ -94,6 +97,10 @@ def run_static(sim: Simulation, control: RunControl | None = None) -> dict:
     pos = control.resume or {"level": 1, "steps": 0, "started": False}
     j, steps, started = int(pos["level"]), int(pos["steps"]), bool(pos["started"])
     control.start(sim)
+    jumps = JumpMonitor(sim.warn)            # a jump to a remote branch between two levels (issue 19)
+    for level, size in sim.driver_data.get("level_increments", []):
+        jumps.add(level, size)
+    previous = sim.state.fetch("nodes.position")
     reporter = sim.reporter
     reporter.start(int(s.step[None]), (j - 1) / n_levels)
     try:
@@ -134,12 +141,18 @@ def run_static(sim: Simulation, control: RunControl | None = None) -> dict:
             started = False                          # this level's steps are counted
             s.status[None] = STATUS_OK
             sim.record(lam, frame=scene.output.load_steps)
+            position = sim.state.fetch("nodes.position")
+            size = float(np.linalg.norm(position - previous))
+            previous = position
+            jumps.add(lam, size)
+            sim.driver_data.setdefault("level_increments", []).append((lam, size))
             e = sim.energies()
             sim.progress(f"load step {j:3d}/{n_levels}  lambda {lam:.3f}  steps {steps:7d}  dt {s.dt[None]:.3e}  "
                          f"W_ext {e['external_work']:.4e}  E_int {e['internal']:.4e}  E_hg {e['hourglass']:.2e}  "
                          f"[{control.run_seconds():.1f} s]")
             j, steps, started = j + 1, 0, False
             control.boundary(sim, {"level": j, "steps": 0, "started": False})
+        jumps.finish()
     except BaseException:
         if started:          # a failed or interrupted level: its steps were taken too (summary, us/step)
             sim.total_steps += steps
