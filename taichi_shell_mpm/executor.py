@@ -1,0 +1,210 @@
+"""Running the cases of a study (``sweep``, ``bench``): one after the other in this process,
+or in parallel on Dask (dask.distributed), on a local cluster or on an existing one.
+
+:class:`Executor` takes :class:`Task` objects (a module-level function and its arguments, so
+that Dask can send it to a worker by name) and calls ``on_done(Outcome)`` in this process as
+each one finishes, in the order they finish.  Between them it prints a status line: cases
+done / running / failed, elapsed time and an estimate of the time left at the rate so far
+(elapsed x cases left / cases done).
+
+Back ends [choice, issue 21: we do not write our own job pool]:
+
+* ``workers=None``: in this process, in the given order (``bench``'s default: its timings
+  need a quiet machine, and a case already is a subprocess).
+* ``workers=N``: a ``distributed.LocalCluster`` of N worker processes with one thread each,
+  so each runs one case at a time; a case may use ``case_threads`` = cores / N CPU threads.
+* ``scheduler="tcp://host:8786"``: the cluster whose scheduler is there (SLURM through
+  dask-jobqueue, a cloud cluster, ``dask scheduler`` + ``dask worker`` by hand); its workers
+  need this package installed and the scene files and output folder on a shared filesystem.
+
+A case is tried once: a worker that dies under a case (a crash of the native code, memory)
+fails that case (``distributed.scheduler.allowed-failures`` = 0 on the local cluster) and the
+study goes on.  Ctrl-C (KeyboardInterrupt in :meth:`Executor.run`) cancels the cases not
+finished and closes the local cluster, which stops the worker processes and their cases;
+cases already started on an external cluster run to their end, their results unused.
+"""
+from __future__ import annotations
+
+import logging
+import os
+import sys
+import time
+from dataclasses import dataclass
+from typing import Any, Callable
+
+from .progress import format_seconds
+
+STATUS_EVERY = 30.0          # s: a status line at least this often while cases run
+POLL = 0.2                   # s between looks at the futures (keeps Ctrl-C prompt)
+
+
+@dataclass(frozen=True)
+class Task:
+    key: str                 # the case's name: unique in a study
+    function: Callable       # a module-level function (Dask pickles it by reference)
+    args: tuple = ()
+
+
+@dataclass
+class Outcome:
+    task: Task
+    value: Any = None        # what the function returned
+    error: str | None = None  # set when the function raised or its worker died: one line
+
+
+def _one_line(text: object) -> str:
+    return " ".join(str(text).split())
+
+
+class Executor:
+    """Context manager: ``with Executor(workers=2) as ex: ex.run(tasks, on_done)``."""
+
+    def __init__(self, workers: int | None = None, scheduler: str | None = None, label: str = "study",
+                 stream=None):
+        self.workers = workers
+        self.scheduler = scheduler
+        self.label = label
+        self.stream = stream if stream is not None else sys.stdout
+        self.cluster = None
+        self.client = None
+        self.slots = 1                       # cases that run at once
+        self.case_threads: int | None = None  # CPU threads a case may use (local cluster), None = all
+        self.dashboard: str | None = None
+
+    # ------------------------------------------------------------------ set-up
+    def __enter__(self) -> "Executor":
+        if self.scheduler is None and self.workers is None:
+            return self
+        import dask
+        from distributed import Client, LocalCluster
+        dask.config.set({"distributed.scheduler.allowed-failures": 0,
+                         "distributed.scheduler.worker-saturation": 1.0})
+        try:
+            if self.scheduler is not None:
+                self.client = Client(self.scheduler, timeout="20s")
+            else:
+                cores = os.cpu_count() or 1
+                self.case_threads = max(1, cores // self.workers)
+                self.cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1, processes=True,
+                                            dashboard_address=":0", silence_logs=logging.ERROR)
+                self.client = Client(self.cluster)
+        except BaseException:
+            self.__exit__(None, None, None)
+            raise
+        info = self.client.scheduler_info()
+        self.slots = max(1, sum(w.get("nthreads", 1) for w in info.get("workers", {}).values()))
+        if "dashboard" in info.get("services", {}) and _have_bokeh():
+            self.dashboard = self.client.dashboard_link
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for thing in (self.client, self.cluster):
+            if thing is not None:
+                try:
+                    thing.close()
+                except Exception:   # closing after Ctrl-C or a lost connection: nothing left to save
+                    pass
+        self.client = self.cluster = None
+
+    def describe(self) -> str:
+        """One line: where the cases run."""
+        if self.client is None:
+            return "in this process, one after the other"
+        where = (f"Dask cluster at {self.scheduler}" if self.scheduler is not None
+                 else f"local Dask cluster of {self.workers} worker process(es), {self.case_threads} CPU "
+                      f"thread(s) per case")
+        return f"{where}, {self.slots} case(s) at a time" + (f"; dashboard {self.dashboard}" if self.dashboard
+                                                              else "")
+
+    # ------------------------------------------------------------------ running
+    def run(self, tasks: list[Task], on_done: Callable[[Outcome], bool]) -> None:
+        """Run `tasks`; ``on_done(outcome)`` (in this process) returns whether the case
+        succeeded.  KeyboardInterrupt cancels what is left and propagates."""
+        status = _Status(self, len(tasks))
+        if self.client is None:
+            for task in tasks:
+                try:
+                    outcome = Outcome(task, value=task.function(*task.args))
+                except KeyboardInterrupt:
+                    raise
+                except Exception as exc:
+                    outcome = Outcome(task, error=f"{type(exc).__name__}: {_one_line(exc)}")
+                status.finish(on_done(outcome))
+            return
+        from distributed import as_completed
+        futures = {self.client.submit(t.function, *t.args, key=f"{self.label}-{t.key}", pure=False): t
+                   for t in tasks}
+        queue = as_completed(list(futures))
+        try:
+            while not queue.is_empty():
+                if not queue.has_ready():
+                    time.sleep(POLL)
+                    status.heartbeat()
+                    continue
+                for future in queue.next_batch(block=False):
+                    task = futures[future]
+                    try:
+                        outcome = Outcome(task, value=future.result())
+                    except KeyboardInterrupt:
+                        raise
+                    except Exception as exc:      # raised in the task, or its worker died (KilledWorker)
+                        outcome = Outcome(task, error=f"{type(exc).__name__}: {_one_line(exc)}")
+                    future.release()
+                    status.finish(on_done(outcome))
+        except BaseException:
+            self.client.cancel(list(futures), force=True)
+            raise
+
+
+def _have_bokeh() -> bool:
+    """The Dask dashboard needs bokeh (optional: ``pip install bokeh``)."""
+    try:
+        import bokeh  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+class _Status:
+    """The status line: done / running / failed, elapsed, ETA.
+
+    The cases run `slots` at a time; each finished case is taken to free its slot for the
+    next one, the oldest running case to be the one that finished.  ETA = (what the running
+    cases still need at the mean wall time of the finished ones, plus the mean wall time of
+    each case not started) / slots."""
+
+    def __init__(self, executor: Executor, total: int):
+        self.ex = executor
+        self.total = total
+        self.done = self.failed = 0
+        self.t0 = self.last = time.perf_counter()
+        self.started = [self.t0] * min(executor.slots, total)     # start times of the running cases
+        self.walls: list[float] = []
+
+    def line(self) -> str:
+        now = time.perf_counter()
+        queued = self.total - self.done - len(self.started)
+        eta = None
+        if self.walls:
+            mean = sum(self.walls) / len(self.walls)
+            eta = (sum(max(mean - (now - t), 0.0) for t in self.started) + queued * mean) / self.ex.slots
+        return (f"{self.ex.label}: {self.done}/{self.total} done, {len(self.started)} running, {self.failed} "
+                f"failed; elapsed {format_seconds(now - self.t0)}, ETA {format_seconds(eta)}")
+
+    def finish(self, ok: bool) -> None:
+        now = time.perf_counter()
+        self.done += 1
+        self.failed += not ok
+        if self.started:
+            self.walls.append(now - self.started.pop(0))
+        if self.done + len(self.started) < self.total:
+            self.started.append(now)
+        self.show()
+
+    def heartbeat(self) -> None:
+        if time.perf_counter() - self.last >= STATUS_EVERY:
+            self.show()
+
+    def show(self) -> None:
+        self.last = time.perf_counter()
+        print(self.line(), file=self.ex.stream, flush=True)
