@@ -36,6 +36,7 @@ from .progress import format_seconds
 
 STATUS_EVERY = 30.0          # s: a status line at least this often while cases run
 POLL = 0.2                   # s between looks at the futures (keeps Ctrl-C prompt)
+CONNECT_TIMEOUT = "10s"      # to reach the scheduler of --scheduler
 
 
 @dataclass(frozen=True)
@@ -81,7 +82,7 @@ class Executor:
                          "distributed.scheduler.worker-saturation": 1.0})
         try:
             if self.scheduler is not None:
-                self.client = Client(self.scheduler, timeout="20s")
+                self.client = Client(self.scheduler, timeout=CONNECT_TIMEOUT)
             else:
                 cores = os.cpu_count() or 1
                 self.case_threads = max(1, cores // self.workers)
@@ -97,7 +98,9 @@ class Executor:
             self.dashboard = self.client.dashboard_link
         return self
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, kind=None, *exc) -> None:
+        if kind is not None:      # Ctrl-C, a lost scheduler: the cluster's own complaints while it stops are noise
+            logging.getLogger("distributed").setLevel(logging.CRITICAL + 1)
         for thing in (self.client, self.cluster):
             if thing is not None:
                 try:

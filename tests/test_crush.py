@@ -47,6 +47,18 @@ def test_reduced_crush(tmp_path):
     assert c["lobes"] >= 2
     assert abs(c["mean_crush_force"] - REDUCED_MEAN_FORCE) <= 0.15 * REDUCED_MEAN_FORCE
     assert abs(c["half_wavelength"] - REDUCED_HALF_WAVELENGTH) <= 0.15 * REDUCED_HALF_WAVELENGTH
+    # the scene's closed-form references at t = 1 mm, sigma0 = 0.2 GPa, C = 60 mm (benchmarks.md 3.2)
+    assert np.allclose(c["mean_force_reference"], [7.46, 10.22], atol=0.005)
+    # crushed mass: rho t x the perimeter of the meshed section (4 flats of 50 mm, each 90-degree
+    # fillet of r = 5 mm as 2 chords) x the crush distance; SEA = absorbed energy / crushed mass
+    perimeter = 4 * 50.0 + 8 * 2 * 5.0 * np.sin(np.pi / 16)
+    crushed = 7.85e-6 * 1.0 * perimeter * c["crush_distance"]
+    print(f"SEA {c['specific_energy_absorption']:.1f} J/kg, crushed mass {c['crushed_mass']:.5f} kg "
+          f"(rho t perimeter x crush {crushed:.5f} kg), SEA / reference {c['specific_energy_absorption_over_reference']}")
+    assert c["crushed_mass"] == pytest.approx(crushed, rel=1e-9)
+    assert c["specific_energy_absorption"] == pytest.approx(c["absorbed_energy"] / crushed, rel=1e-9)
+    for ratio, force in zip(c["specific_energy_absorption_over_reference"], c["mean_force_reference"]):
+        assert ratio == pytest.approx(c["absorbed_energy"] / c["crush_distance"] / force, rel=1e-9)
 
 
 def test_fold_geometry_reads_lobes_and_half_wavelength():
