@@ -58,7 +58,8 @@ def _one_line(text: object) -> str:
 
 
 class Executor:
-    """Context manager: ``with Executor(workers=2) as ex: ex.run(tasks, on_done)``."""
+    """Context manager: ``with Executor(workers=2) as ex: ex.run(tasks, on_done)`` (entering
+    calls :meth:`start`, leaving closes the client and the local cluster)."""
 
     def __init__(self, workers: int | None = None, scheduler: str | None = None, label: str = "study",
                  stream=None):
@@ -73,8 +74,10 @@ class Executor:
         self.dashboard: str | None = None
 
     # ------------------------------------------------------------------ set-up
-    def __enter__(self) -> "Executor":
-        if self.scheduler is None and self.workers is None:
+    def start(self) -> "Executor":
+        """Start the local cluster or connect to the scheduler (nothing in this process's
+        mode, or when started already).  Raises OSError when that fails."""
+        if (self.scheduler is None and self.workers is None) or self.client is not None:
             return self
         import dask
         from distributed import Client, LocalCluster
@@ -97,6 +100,9 @@ class Executor:
         if "dashboard" in info.get("services", {}) and _have_bokeh():
             self.dashboard = self.client.dashboard_link
         return self
+
+    def __enter__(self) -> "Executor":
+        return self.start()
 
     def __exit__(self, kind=None, *exc) -> None:
         if kind is not None:      # Ctrl-C, a lost scheduler: the cluster's own complaints while it stops are noise
@@ -122,41 +128,71 @@ class Executor:
     # ------------------------------------------------------------------ running
     def run(self, tasks: list[Task], on_done: Callable[[Outcome], bool]) -> None:
         """Run `tasks`; ``on_done(outcome)`` (in this process) returns whether the case
-        succeeded.  KeyboardInterrupt cancels what is left and propagates."""
+        succeeded.  KeyboardInterrupt cancels what is left and propagates.
+
+        On Dask, only as many tasks as the cluster has threads are submitted at a time, the
+        next one as one finishes: a worker then holds only the case it runs, so a worker
+        that dies fails that case alone (the scheduler would count every task assigned to
+        it as suspect), and the status line's running count is exact."""
         status = _Status(self, len(tasks))
         if self.client is None:
             for task in tasks:
+                status.start(task.key)
+                if status.done:
+                    status.show()
                 try:
                     outcome = Outcome(task, value=task.function(*task.args))
                 except KeyboardInterrupt:
                     raise
                 except Exception as exc:
-                    outcome = Outcome(task, error=f"{type(exc).__name__}: {_one_line(exc)}")
-                status.finish(on_done(outcome))
+                    outcome = Outcome(task, error=_describe(exc))
+                status.finish(task.key, on_done(outcome))
+            status.show()
             return
         from distributed import as_completed
-        futures = {self.client.submit(t.function, *t.args, key=f"{self.label}-{t.key}", pure=False): t
-                   for t in tasks}
-        queue = as_completed(list(futures))
+        waiting, futures, queue = list(tasks), {}, as_completed()
+
+        def submit() -> None:
+            while waiting and len(futures) < self.slots:
+                task = waiting.pop(0)
+                future = self.client.submit(task.function, *task.args, key=f"{self.label}-{task.key}", pure=False)
+                futures[future] = task
+                queue.add(future)
+                status.start(task.key)
         try:
-            while not queue.is_empty():
+            submit()
+            while futures:
                 if not queue.has_ready():
                     time.sleep(POLL)
                     status.heartbeat()
                     continue
                 for future in queue.next_batch(block=False):
-                    task = futures[future]
+                    task = futures.pop(future)
                     try:
                         outcome = Outcome(task, value=future.result())
                     except KeyboardInterrupt:
                         raise
                     except Exception as exc:      # raised in the task, or its worker died (KilledWorker)
-                        outcome = Outcome(task, error=f"{type(exc).__name__}: {_one_line(exc)}")
+                        outcome = Outcome(task, error=_describe(exc))
                     future.release()
-                    status.finish(on_done(outcome))
+                    status.finish(task.key, on_done(outcome))
+                self.slots = self._threads()      # an existing cluster may have grown or shrunk
+                submit()
+                status.show()
         except BaseException:
             self.client.cancel(list(futures), force=True)
             raise
+
+    def _threads(self) -> int:
+        """Threads of the cluster's workers (at least 1: with none, a case waits for one)."""
+        return max(1, sum(self.client.nthreads().values()))
+
+
+def _describe(exc: Exception) -> str:
+    """One line for a task that raised, or whose worker died."""
+    if type(exc).__name__ == "KilledWorker":
+        return "its worker died while running it (KilledWorker: a crash or out of memory; see the worker's log)"
+    return f"{type(exc).__name__}: {_one_line(exc)}"
 
 
 def _have_bokeh() -> bool:
@@ -169,20 +205,20 @@ def _have_bokeh() -> bool:
 
 
 class _Status:
-    """The status line: done / running / failed, elapsed, ETA.
-
-    The cases run `slots` at a time; each finished case is taken to free its slot for the
-    next one, the oldest running case to be the one that finished.  ETA = (what the running
-    cases still need at the mean wall time of the finished ones, plus the mean wall time of
-    each case not started) / slots."""
+    """The status line: done / running / failed, elapsed, ETA = (what the running cases
+    still need at the mean wall time of the finished ones, plus that mean for each case not
+    started) / the cases that run at once."""
 
     def __init__(self, executor: Executor, total: int):
         self.ex = executor
         self.total = total
         self.done = self.failed = 0
         self.t0 = self.last = time.perf_counter()
-        self.started = [self.t0] * min(executor.slots, total)     # start times of the running cases
+        self.started: dict[str, float] = {}      # running cases: key -> start time
         self.walls: list[float] = []
+
+    def start(self, key: str) -> None:
+        self.started[key] = time.perf_counter()
 
     def line(self) -> str:
         now = time.perf_counter()
@@ -190,19 +226,14 @@ class _Status:
         eta = None
         if self.walls:
             mean = sum(self.walls) / len(self.walls)
-            eta = (sum(max(mean - (now - t), 0.0) for t in self.started) + queued * mean) / self.ex.slots
+            eta = (sum(max(mean - (now - t), 0.0) for t in self.started.values()) + queued * mean) / self.ex.slots
         return (f"{self.ex.label}: {self.done}/{self.total} done, {len(self.started)} running, {self.failed} "
                 f"failed; elapsed {format_seconds(now - self.t0)}, ETA {format_seconds(eta)}")
 
-    def finish(self, ok: bool) -> None:
-        now = time.perf_counter()
+    def finish(self, key: str, ok: bool) -> None:
         self.done += 1
         self.failed += not ok
-        if self.started:
-            self.walls.append(now - self.started.pop(0))
-        if self.done + len(self.started) < self.total:
-            self.started.append(now)
-        self.show()
+        self.walls.append(time.perf_counter() - self.started.pop(key))
 
     def heartbeat(self) -> None:
         if time.perf_counter() - self.last >= STATUS_EVERY:

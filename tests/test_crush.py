@@ -50,13 +50,15 @@ def test_reduced_crush(tmp_path):
     # the scene's closed-form references at t = 1 mm, sigma0 = 0.2 GPa, C = 60 mm (benchmarks.md 3.2)
     assert np.allclose(c["mean_force_reference"], [7.46, 10.22], atol=0.005)
     # crushed mass: rho t x the perimeter of the meshed section (4 flats of 50 mm, each 90-degree
-    # fillet of r = 5 mm as 2 chords) x the crush distance; SEA = absorbed energy / crushed mass
-    perimeter = 4 * 50.0 + 8 * 2 * 5.0 * np.sin(np.pi / 16)
+    # fillet of r = 5 mm as 2 chords of 2 r sin(pi/8)) x the crush distance.  Measured +2.2e-4: the
+    # trigger's bumps add that much area (mean |grad w|^2 / 2 over the bumps, estimated 2.4e-4)
+    perimeter = 4 * 50.0 + 8 * 2 * 5.0 * np.sin(np.pi / 8)
     crushed = 7.85e-6 * 1.0 * perimeter * c["crush_distance"]
-    print(f"SEA {c['specific_energy_absorption']:.1f} J/kg, crushed mass {c['crushed_mass']:.5f} kg "
-          f"(rho t perimeter x crush {crushed:.5f} kg), SEA / reference {c['specific_energy_absorption_over_reference']}")
-    assert c["crushed_mass"] == pytest.approx(crushed, rel=1e-9)
-    assert c["specific_energy_absorption"] == pytest.approx(c["absorbed_energy"] / crushed, rel=1e-9)
+    print(f"SEA {c['specific_energy_absorption']:.1f} J/kg, crushed mass {c['crushed_mass']:.5f} kg (rho t perimeter "
+          f"x crush {crushed:.5f} kg, {c['crushed_mass'] / crushed - 1:+.2e}), SEA / reference "
+          f"{c['specific_energy_absorption_over_reference']}")
+    assert c["crushed_mass"] == pytest.approx(crushed, rel=3.3e-4)
+    assert c["specific_energy_absorption"] == pytest.approx(c["absorbed_energy"] / c["crushed_mass"], rel=1e-12)
     for ratio, force in zip(c["specific_energy_absorption_over_reference"], c["mean_force_reference"]):
         assert ratio == pytest.approx(c["absorbed_energy"] / c["crush_distance"] / force, rel=1e-9)
 

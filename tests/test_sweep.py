@@ -207,6 +207,24 @@ def test_ctrl_c_stops_the_study_cleanly(tmp_path):
 
 
 # ------------------------------------------------------------------ in-process
+def test_executor_records_a_worker_that_dies():
+    """A case whose worker process dies (here: os._exit) is a failure with its reason; the
+    next case runs on the worker the nanny restarts."""
+    import operator
+
+    from taichi_shell_mpm.executor import Executor, Task
+    seen = {}
+
+    def on_done(outcome) -> bool:
+        seen[outcome.task.key] = outcome
+        return outcome.error is None
+
+    with Executor(workers=1, label="test") as ex:
+        ex.run([Task("dies", os._exit, (1,)), Task("adds", operator.add, (1, 2))], on_done)
+    print({k: (o.value, o.error) for k, o in seen.items()})
+    assert "KilledWorker" in seen["dies"].error and seen["adds"].value == 3
+
+
 def test_values_split_outside_brackets_and_quotes():
     assert split_values("0.8, 1.0,1.2") == ["0.8", "1.0", "1.2"]
     assert split_values("[0,0,1],[0, 1, 0]") == ["[0,0,1]", "[0, 1, 0]"]

@@ -164,9 +164,17 @@ def main(args: argparse.Namespace, run) -> int:
     record()
     scene_file = str(args.scene.resolve())
     start = time.perf_counter()
+    executor = Executor(workers=None if args.scheduler else (args.workers or os.cpu_count() or 1),
+                        scheduler=args.scheduler, label="sweep")
     try:
-        with Executor(workers=None if args.scheduler else (args.workers or os.cpu_count() or 1),
-                      scheduler=args.scheduler, label="sweep") as ex:
+        executor.start()
+    except OSError as exc:          # no scheduler at --scheduler, a port or process that cannot be had
+        return _fail(EXIT_SCENE, [f"{'--scheduler ' + args.scheduler if args.scheduler else 'local cluster'}: "
+                                  f"cannot start ({type(exc).__name__}: {exc})"])
+    except KeyboardInterrupt:
+        return _fail(EXIT_INTERRUPT, ["interrupted while the cluster started; nothing run"])
+    try:
+        with executor as ex:
             state["where"] = ex.describe()
             print(f"sweep: {state['where']}", flush=True)
             tasks = [Task(c.name, run_case, (run, scene_file, (*args.overrides, *c.overrides),
@@ -187,10 +195,8 @@ def main(args: argparse.Namespace, run) -> int:
         record(final=True)
         return _fail(EXIT_INTERRUPT, [f"interrupted; the finished cases are in {csv_file}; continue with: "
                                       f"{command} --resume"])
-    except OSError as exc:          # no scheduler at --scheduler, a port or process that cannot be had
-        record()
-        return _fail(EXIT_SCENE, [f"{'--scheduler ' + args.scheduler if args.scheduler else 'local cluster'}: "
-                                  f"cannot start ({type(exc).__name__}: {exc})"])
+    except OSError as exc:          # output.OutputError: sweep.csv / sweep.md / a plot could not be written
+        return _fail(EXIT_FAILED, [f"{exc} (disk full, read-only or no permission?)"])
     record(final=True)
     failures = sum(1 for r in rows() if r.get("status") != "ok")
     print(f"sweep: done in {time.perf_counter() - start:.0f} s; {len(rows()) - failures} ok, {failures} failed; "
