@@ -81,8 +81,7 @@ class Executor:
             return self
         import dask
         from distributed import Client, LocalCluster
-        dask.config.set({"distributed.scheduler.allowed-failures": 0,
-                         "distributed.scheduler.worker-saturation": 1.0})
+        dask.config.set({"distributed.scheduler.allowed-failures": 0})
         try:
             if self.scheduler is not None:
                 self.client = Client(self.scheduler, timeout=CONNECT_TIMEOUT)
@@ -95,9 +94,8 @@ class Executor:
         except BaseException:
             self.__exit__(None, None, None)
             raise
-        info = self.client.scheduler_info()
-        self.slots = max(1, sum(w.get("nthreads", 1) for w in info.get("workers", {}).values()))
-        if "dashboard" in info.get("services", {}) and _have_bokeh():
+        self.slots = self._threads()
+        if "dashboard" in self.client.scheduler_info().get("services", {}) and _have_bokeh():
             self.dashboard = self.client.dashboard_link
         return self
 

@@ -140,3 +140,18 @@ def test_fixed_wall_force_counts_in_the_support_reaction(tmp_path, method):
     print(f"{method}: support impulse {impulse:.6e}, M v {momentum:.6e}, speed after {speed:.1e}")
     assert speed < 1e-9 * v                   # the plate has landed and stopped
     assert abs(impulse - momentum) <= 1e-9 * momentum
+
+
+def test_formula_references_need_a_tube():
+    """[crush].mean_force_reference: a formula name is a tube's closed form, so a scene of
+    another mesh is refused with a one-line error naming the key (exit 2); a bad entry too."""
+    from .test_reliability import cli_run
+    tube = str(ROOT / "scenes" / "square_tube.toml")
+    assert cli_run("validate", tube).code == 0                  # the scene names both formulas
+    other = cli_run("validate", tube, "--set", "mesh.kind=plate", "--set", "mesh.lx=60", "--set", "mesh.ly=300",
+                    "--set", "mesh.nx=4", "--set", "mesh.ny=4")
+    print(other.err)
+    assert other.code == 2
+    assert "[crush].mean_force_reference: 'wierzbicki_abramowicz' is a formula for a tube" in other.err
+    bad = cli_run("validate", tube, "--set", "crush.mean_force_reference=[8.0, 'jones']")
+    assert bad.code == 2 and "[crush].mean_force_reference: expected a non-empty list of numbers > 0" in bad.err

@@ -75,7 +75,7 @@ def study(tmp_path_factory):
 
 def test_study_on_a_local_cluster_matches_direct_runs(study, tmp_path):
     from taichi_shell_mpm.cli import main
-    work, out, proc = study
+    _, out, proc = study
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     assert "local Dask cluster of 2 worker process(es)" in proc.stdout
     rows = read_csv(out / "sweep.csv")
@@ -105,7 +105,7 @@ def test_study_on_a_local_cluster_matches_direct_runs(study, tmp_path):
 
 
 def test_resume_runs_only_the_missing_case(study, tmp_path):
-    work, out, proc = study
+    _, out, proc = study
     assert proc.returncode == 0
     copy = tmp_path / "out"
     shutil.copytree(out, copy)

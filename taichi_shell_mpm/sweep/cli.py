@@ -16,7 +16,7 @@ from ..executor import Executor, Task
 from .cases import SweepError, plan, short_keys
 from .metrics import default_metrics, parse_metrics
 from .plot import plot_all
-from .results import case_row, fmt, metric_columns, read_csv, write_csv, write_markdown
+from .results import case_row, fmt, metric_columns, read_csv, retabulate, write_csv, write_markdown
 from .task import run_case
 
 EXIT_SCENE, EXIT_FAILED, EXIT_INTERRUPT = 2, 3, 130
@@ -95,6 +95,29 @@ def _check(scene_file: Path, overrides: list[str]):
         return None, exc.messages
 
 
+class _Study:
+    """The table of a study (its rows in the planned order) and its files, rewritten after
+    every case; the plots with ``final``."""
+
+    def __init__(self, out: Path, keys: list[str], cases, title: str, command: str):
+        self.out, self.keys, self.cases, self.title, self.command = out, keys, cases, title, command
+        self.csv, self.md = out / "sweep.csv", out / "sweep.md"
+        self.table: dict[str, dict] = {}
+        self.where = "not started"
+        self.plots: dict[str, Path] = {}
+
+    def rows(self) -> list[dict]:
+        return [self.table[c.name] for c in self.cases if c.name in self.table]
+
+    def record(self, final: bool = False) -> None:
+        rows = self.rows()
+        write_csv(self.csv, rows, self.keys)
+        if final:
+            self.plots = plot_all(rows, self.keys, short_keys(self.keys), self.cases, metric_columns(rows, self.keys),
+                                  self.out / "plots")
+        write_markdown(self.md, rows, self.keys, self.cases, self.title, self.command, self.where, self.plots)
+
+
 def main(args: argparse.Namespace, run) -> int:
     """The study; `run` is the ``run`` command's entry point (``cli.main``), which each case
     calls in its worker (task.py)."""
@@ -121,48 +144,43 @@ def main(args: argparse.Namespace, run) -> int:
         (out / "cases").mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         return _fail(EXIT_SCENE, [f"--out {out}: cannot create the directory ({exc.strerror or exc})"])
-    command = command_line(args)
-    labels = short_keys(keys)
-    table, csv_file, md_file = {}, out / "sweep.csv", out / "sweep.md"
-    planned = {c.name for c in cases}
-    earlier = [r for r in read_csv(csv_file) if r.get("case") in planned]
-    if args.resume:
-        table.update({r["case"]: r for r in earlier if r.get("status") == "ok"})
+    study = _Study(out, keys, cases, f"{scene.info.name} ({args.scene})", command_line(args))
+    if args.resume:                 # the ok rows stay, their metrics read again from their summary.json
+        planned = {c.name for c in cases}
+        for r in read_csv(study.csv):
+            if r.get("case") in planned and r.get("status") == "ok":
+                summary = _summary(out / "cases" / r["case"])
+                study.table[r["case"]] = retabulate(r, keys, summary, metrics) if summary else r
     todo, failed_before = [], []
     for case in cases:
-        if case.name in table:
+        if case.name in study.table:
             continue
         _, lines = _check(args.scene, [*args.overrides, *case.overrides])
         if lines:
             failed_before.append((case, lines))
         else:
             todo.append(case)
-    if failed_before and not todo and not table:
+    if failed_before and not todo and not study.table:
         return _fail(EXIT_SCENE, [f"case {c.name}: {line}" for c, lines in failed_before for line in lines])
     for case, lines in failed_before:
-        table[case.name] = case_row(case, keys, None, metrics, error="; ".join(lines))
-        table[case.name]["exit_code"] = EXIT_SCENE
-
-    def rows() -> list[dict]:
-        return [table[c.name] for c in cases if c.name in table]
-
-    state = {"where": "not started", "plots": {}}
-
-    def record(final: bool = False) -> None:
-        write_csv(csv_file, rows(), keys)
-        if final:
-            state["plots"] = plot_all(rows(), keys, labels, cases, metric_columns(rows(), keys), out / "plots")
-        write_markdown(md_file, rows(), keys, cases, f"{scene.info.name} ({args.scene})", command, state["where"],
-                       state["plots"])
-
+        study.table[case.name] = case_row(case, keys, None, metrics, error="; ".join(lines), exit_code=EXIT_SCENE)
     skipped = len(cases) - len(todo) - len(failed_before)
     print(f"sweep: {len(todo)} case(s) to run of {len(cases)}" + (f" ({skipped} done before)" if skipped else "")
-          + (f", {len(failed_before)} with a scene error" if failed_before else "") + f"; results in {csv_file}",
+          + (f", {len(failed_before)} with a scene error" if failed_before else "") + f"; results in {study.csv}",
           flush=True)
     for case, lines in failed_before:
         print(f"  {case.name}: failed (exit {EXIT_SCENE}): {lines[0]}", flush=True)
-    record()
-    scene_file = str(args.scene.resolve())
+    if not todo:                    # everything done before (--resume): the table and plots again
+        study.where = "no case left to run"
+        study.record(final=True)
+        print(f"sweep: nothing to run; wrote {study.csv}, {study.md}", flush=True)
+        return EXIT_FAILED if failed_before else 0
+    study.record()
+    return _execute(study, todo, metrics, args, run)
+
+
+def _execute(study: _Study, todo, metrics: list[str], args: argparse.Namespace, run) -> int:
+    """Run the cases `todo` on the executor, each row recorded as it comes back."""
     start = time.perf_counter()
     executor = Executor(workers=None if args.scheduler else (args.workers or os.cpu_count() or 1),
                         scheduler=args.scheduler, label="sweep")
@@ -173,36 +191,46 @@ def main(args: argparse.Namespace, run) -> int:
                                   f"cannot start ({type(exc).__name__}: {exc})"])
     except KeyboardInterrupt:
         return _fail(EXIT_INTERRUPT, ["interrupted while the cluster started; nothing run"])
+    scene_file = str(args.scene.resolve())
+    by_name = {c.name: c for c in todo}
+
+    def on_done(outcome) -> bool:
+        case = by_name[outcome.task.key]
+        row = case_row(case, study.keys, outcome.value, metrics, error=outcome.error)
+        study.table[case.name] = row
+        study.record()
+        print(_case_line(row, metrics), flush=True)
+        return row["status"] == "ok"
+
     try:
         with executor as ex:
-            state["where"] = ex.describe()
-            print(f"sweep: {state['where']}", flush=True)
-            tasks = [Task(c.name, run_case, (run, scene_file, (*args.overrides, *c.overrides),
-                                             str((out / "cases" / c.name).resolve()), args.arch, ex.case_threads))
-                     for c in todo]
-            by_name = {c.name: c for c in todo}
-
-            def on_done(outcome) -> bool:
-                case = by_name[outcome.task.key]
-                row = case_row(case, keys, outcome.value, metrics, error=outcome.error)
-                table[case.name] = row
-                record()
-                print(_case_line(row, metrics), flush=True)
-                return row["status"] == "ok"
-
-            ex.run(tasks, on_done)
+            study.where = ex.describe()
+            print(f"sweep: {study.where}", flush=True)
+            ex.run([Task(c.name, run_case, (run, scene_file, (*args.overrides, *c.overrides),
+                                            str((study.out / "cases" / c.name).resolve()), args.arch, ex.case_threads))
+                    for c in todo], on_done)
     except KeyboardInterrupt:
-        record(final=True)
-        return _fail(EXIT_INTERRUPT, [f"interrupted; the finished cases are in {csv_file}; continue with: "
-                                      f"{command} --resume"])
+        study.record(final=True)
+        return _fail(EXIT_INTERRUPT, [f"interrupted; the finished cases are in {study.csv}; continue with: "
+                                      f"{study.command} --resume"])
     except OSError as exc:          # output.OutputError: sweep.csv / sweep.md / a plot could not be written
         return _fail(EXIT_FAILED, [f"{exc} (disk full, read-only or no permission?)"])
-    record(final=True)
-    failures = sum(1 for r in rows() if r.get("status") != "ok")
-    print(f"sweep: done in {time.perf_counter() - start:.0f} s; {len(rows()) - failures} ok, {failures} failed; "
-          f"wrote {csv_file}, {md_file}" + (f" and {len(state['plots'])} plot(s) in {out / 'plots'}"
-                                            if state["plots"] else ""), flush=True)
+    study.record(final=True)
+    rows = study.rows()
+    failures = sum(1 for r in rows if r.get("status") != "ok")
+    print(f"sweep: done in {time.perf_counter() - start:.0f} s; {len(rows) - failures} ok, {failures} failed; "
+          f"wrote {study.csv}, {study.md}" + (f" and {len(study.plots)} plot(s) in {study.out / 'plots'}"
+                                              if study.plots else ""), flush=True)
     return EXIT_FAILED if failures else 0
+
+
+def _summary(folder: Path) -> dict | None:
+    import json
+    try:
+        summary = json.loads((folder / "summary.json").read_text())
+    except (OSError, ValueError):
+        return None
+    return summary if isinstance(summary, dict) else None
 
 
 def _case_line(row: dict, metrics: list[str]) -> str:

@@ -91,7 +91,9 @@ def _surface(ax, ok, keys, labels, values, metric, fig) -> None:
     for setter, ticks in ((ax.set_xticks, tx), (ax.set_yticks, ty)):
         if ticks:
             setter(range(len(ticks)), ticks)
-    ax.margins(0.12)
+    for set_limits, ends in ((ax.set_xlim, xs), (ax.set_ylim, ys)):     # room for the marks at the edges
+        pad = 0.12 * ((ends[-1] - ends[0]) or 1.0)
+        set_limits(ends[0] - pad, ends[-1] + pad)
     ax.set_xlabel(labels[kx])
     ax.set_ylabel(labels[ky])
     ax.set_title("response surface", fontsize=9)

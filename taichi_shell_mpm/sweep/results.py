@@ -20,12 +20,14 @@ MIDDLE = ["status", "exit_code", "wall_s", *RUN_COLUMNS]
 BACK = ["worker", "message"]
 
 
-def case_row(case, keys: list[str], result: dict | None, metrics: list[str], error: str | None = None) -> dict:
+def case_row(case, keys: list[str], result: dict | None, metrics: list[str], error: str | None = None,
+             exit_code: int | None = None) -> dict:
     """The sweep.csv row of `case` from what :func:`task.run_case` returned (`result`), or
-    from `error` when it could not run (a scene error found before, a worker that died)."""
+    from `error` (and `exit_code`) when it could not run (a scene error found before, a
+    worker that died)."""
     row = {"case": case.name, **{k: "" for k in keys}, **dict(case.params)}
     if result is None:
-        row.update(status="failed", exit_code=None, message=error or "")
+        row.update(status="failed", exit_code=exit_code, message=error or "")
         return row
     summary = result.get("summary") if isinstance(result.get("summary"), dict) else {}
     ok = result["exit_code"] == 0 and bool(summary) and not summary.get("error")
@@ -34,6 +36,13 @@ def case_row(case, keys: list[str], result: dict | None, metrics: list[str], err
     row.update(extract(summary, metrics) if summary else {})
     row.update(worker=result.get("worker"), message=result.get("message") or "")
     return row
+
+
+def retabulate(row: dict, keys: list[str], summary: dict, metrics: list[str]) -> dict:
+    """`row` (read back from sweep.csv) with its metric columns taken anew from the case's
+    `summary` (``--resume`` with other ``--metrics``)."""
+    fixed = set(FRONT + keys + MIDDLE + BACK)
+    return {**{k: v for k, v in row.items() if k in fixed}, **extract(summary, metrics)}
 
 
 def columns(rows: list[dict], keys: list[str]) -> list[str]:
@@ -119,7 +128,8 @@ def write_markdown(path: Path, rows: list[dict], keys: list[str], cases, title: 
          f"in `{rel(path.parent / 'cases')}/CASE/` (its console log is `run.log` there); every number is in "
          f"`{rel(path.parent / 'sweep.csv')}` with 10 digits, its metric columns under their full summary.json paths.",
          "",
-         "| " + " | ".join(["case"] + [short[k] for k in keys] + ["status", "wall s", "steps"] + [label[m] for m in metric]) + " |",
+         "| " + " | ".join(["case", *(short[k] for k in keys), "status", "wall s", "steps",
+                            *(label[m] for m in metric)]) + " |",
          "|" + "---|" * (len(keys) + 4 + len(metric))]
     for case in cases:
         r = by_name.get(case.name, {"case": case.name, **dict(case.params), "status": "not run"})
