@@ -12,10 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import materials
+from . import laminate, materials
 from .mesh import Mesh
 from .nodesets import select_nodes
-from .quadrature import through_thickness_rule
 from .scene import DOFS, Scene, SceneError
 
 AXES = {"x": 0, "y": 1, "z": 2}
@@ -82,7 +81,7 @@ class WallSpec:
 class PartSpec:
     name: str
     elements: np.ndarray                    # element ids
-    material: str
+    material: str | None                    # None: a layered section (its plies name their materials)
     section: str
 
 
@@ -95,21 +94,28 @@ class ElementData:
     shear_factor: np.ndarray                # (m,) kappa
     wave_speed: np.ndarray                  # (m,) plane-stress c_e of its stiffest material (physical density)
     rotational_frequency: np.ndarray        # (m,) sqrt(12 kappa G / rho) / t with physical rotary inertia, else 0
+    # E, G below: the material's; a laminate's or an orthotropic material's effective isotropic
+    # moduli (laminate.Layup: membrane E, bending E, mean transverse G)
     hourglass_membrane: np.ndarray          # (m,) r E t / 8      (stages/hourglass.py: x A beta -> C3)
     hourglass_bending: np.ndarray           # (m,) r E t^3 / 192  (x A beta -> C1)
     hourglass_transverse: np.ndarray        # (m,) r kappa G t^3 / 12 (x beta -> C2)
     drilling_factor: np.ndarray             # (m,) alpha E t^3 / 48 (stages/drilling.py: x A beta -> k)
+    density: np.ndarray                     # (m,) mass per volume over the thickness (laminate.Layup)
+    rotary_density: np.ndarray              # (m,) 12 I / t^3, I = int rho z^2 dz (= density for one material)
+    material_axis: np.ndarray               # (m, 2) cos, sin of the angle from e1 to the section's material axis
 
 
 @dataclass(frozen=True)
 class SectionTable:
     """Through-thickness rules: point positions zeta in [-1, 1], weights (sum 2) and the
-    material of each point, per section (padded to the most points of any section)."""
+    material and ply angle of each point, per section (padded to the most points of any section)."""
     names: tuple[str, ...]
     point_count: np.ndarray                 # (ns,)
     zeta: np.ndarray                        # (ns, nk)
     weight: np.ndarray                      # (ns, nk)
     point_material: np.ndarray              # (ns, nk) material index
+    point_angle: np.ndarray                 # (ns, nk) ply angle from the material axis, radians
+    layered: np.ndarray                     # (ns,) bool: the points' materials come from plies
 
     @property
     def points(self) -> int:
@@ -177,10 +183,9 @@ class Model:
     neighbor_nodes: np.ndarray | None = None
 
 
-def cpdi2_weights(points: np.ndarray, elements: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Element areas and CPDI2 corner weights (method.md 2.1), in each element's projected
-    local frame (e3 from the diagonals). A parallelogram gives 1/4 each; a triangle (a
-    linear domain) 1/3 at each corner and 0 in the unused 4th column."""
+def element_frames(points: np.ndarray, elements: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """e1, e2, e3 (each (m, 3)) of every element's BT frame at `points` (method.md 3.1): e3
+    from the diagonals (a triangle: from edges 1-2 and 1-3), e1 along edge 1-2 projected."""
     quad = elements[:, 3] >= 0
     x = points[np.where(elements >= 0, elements, elements[:, :1])]     # (m, 4, 3), a triangle's 4th = 1st
     e3 = np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])
@@ -189,7 +194,16 @@ def cpdi2_weights(points: np.ndarray, elements: np.ndarray) -> tuple[np.ndarray,
     r21 = x[:, 1] - x[:, 0]
     e1 = r21 - np.sum(r21 * e3, axis=1)[:, None] * e3
     e1 /= np.linalg.norm(e1, axis=1)[:, None]
-    e2 = np.cross(e3, e1)
+    return e1, np.cross(e3, e1), e3
+
+
+def cpdi2_weights(points: np.ndarray, elements: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Element areas and CPDI2 corner weights (method.md 2.1), in each element's projected
+    local frame (e3 from the diagonals). A parallelogram gives 1/4 each; a triangle (a
+    linear domain) 1/3 at each corner and 0 in the unused 4th column."""
+    quad = elements[:, 3] >= 0
+    x = points[np.where(elements >= 0, elements, elements[:, :1])]     # (m, 4, 3), a triangle's 4th = 1st
+    e1, e2, e3 = element_frames(points, elements)
     centre = x.mean(axis=1)[:, None, :]
     lx = np.sum((x - centre) * e1[:, None, :], axis=2)
     ly = np.sum((x - centre) * e2[:, None, :], axis=2)
@@ -374,7 +388,11 @@ def _part_data(scene: Scene, mesh: Mesh, points: np.ndarray, elements: np.ndarra
         return (PartSpec("all", np.arange(m), "material", "section"),), {"material": scene.material}, \
             {"section": scene.section}, thickness, notes
     if not scene.parts and mesh.deck is None:
-        (mname, mat), (sname, sec) = next(iter(materials.items())), next(iter(sections.items()))
+        (sname, sec), = sections.items()
+        if sec.layered:
+            used = {ply.material: materials[ply.material] for ply in sec.plies}
+            return (PartSpec("all", np.arange(m), None, sname),), used, {sname: sec}, thickness, notes
+        (mname, mat), = materials.items()
         return (PartSpec("all", np.arange(m), mname, sname),), {mname: mat}, {sname: sec}, thickness, notes
     if not scene.parts:                          # an LS-DYNA deck's parts
         deck_materials, deck_sections, notes = _deck_specs(mesh.deck, scene.source.name)
@@ -392,9 +410,14 @@ def _part_data(scene: Scene, mesh: Mesh, points: np.ndarray, elements: np.ndarra
     parts = []
     for i, part in enumerate(entries):
         path = f"[[part]][{i}]" if scene.parts else f"part {part.name}"
-        for key, table in (("material", materials), ("section", sections)):
-            if getattr(part, key) not in table:
-                errors.append(f"{scene.source.name}: {path}.{key}: no {key} named {getattr(part, key)!r}")
+        section = sections.get(part.section)
+        if section is None:
+            errors.append(f"{scene.source.name}: {path}.section: no section named {part.section!r}")
+        elif section.layered:
+            errors += [f"{scene.source.name}: section {part.section}.plies[{j}].material: no material named "
+                       f"{ply.material!r}" for j, ply in enumerate(section.plies) if ply.material not in materials]
+        elif part.material not in materials:
+            errors.append(f"{scene.source.name}: {path}.material: no material named {part.material!r}")
         try:
             ids = _element_selection(part.elements, scene, mesh, points, elements, path)
         except SceneError as exc:
@@ -406,15 +429,16 @@ def _part_data(scene: Scene, mesh: Mesh, points: np.ndarray, elements: np.ndarra
             errors.append(f"{scene.source.name}: {path} '{part.name}': {len(taken)} elements also in part '{other}' "
                           f"(e.g. {', '.join(map(str, taken[:5]))}): every element belongs to one part")
         owner[ids] = i
-        parts.append(PartSpec(part.name, ids, part.material, part.section))
+        parts.append(PartSpec(part.name, ids, None if section is not None and section.layered else part.material,
+                              part.section))
     orphans = np.flatnonzero(owner < 0)
     if len(orphans) and not errors:
         errors.append(f"{scene.source.name}: [[part]]: {len(orphans)} elements belong to no part "
                       f"(e.g. {', '.join(map(str, orphans[:5]))})")
     if errors:
         raise SceneError(errors)
-    used_m = {p.material for p in parts}
     used_s = {p.section for p in parts}
+    used_m = {p.material for p in parts} | {ply.material for name in used_s for ply in sections[name].plies}
     return tuple(parts), {k: v for k, v in materials.items() if k in used_m}, \
         {k: v for k, v in sections.items() if k in used_s}, thickness, notes
 
@@ -439,12 +463,16 @@ def _deck_element_thickness(deck, scene: Scene, notes: list) -> np.ndarray | Non
     return mean if np.isfinite(mean).any() else None
 
 
-def _tables(scene: Scene, parts, material_specs: dict, section_specs: dict, m: int,
+def _tables(scene: Scene, parts, material_specs: dict, section_specs: dict, frames,
             element_thickness: np.ndarray | None = None):
     """SectionTable, MaterialTable and ElementData of the parts.  A row of the section table
-    is a (section, material) pair of some part: its through-thickness rule and the material
-    of each point.  `element_thickness` (NaN: the section's) overrides the section's thickness
-    element by element (an LS-DYNA deck's *ELEMENT_SHELL_THICKNESS)."""
+    is a (section, material) pair of some part (a layered section's material is None): its
+    through-thickness points, and the material and ply angle of each (laminate.layup).
+    `frames` = (e1, e2) of every element (element_frames) for the material axes.
+    `element_thickness` (NaN: the section's) overrides the section's thickness element by
+    element (an LS-DYNA deck's *ELEMENT_SHELL_THICKNESS)."""
+    e1, e2 = frames
+    m = len(e1)
     material_names = tuple(material_specs)
     kinds = tuple(k for k in materials.KINDS if any(spec.model == k for spec in material_specs.values()))
     material_table = MaterialTable(
@@ -454,42 +482,66 @@ def _tables(scene: Scene, parts, material_specs: dict, section_specs: dict, m: i
                        for n in material_names]),
         dilatational_speed=max(materials.dilatational_speed(spec) for spec in material_specs.values()))
     pairs = tuple(dict.fromkeys((p.section, p.material) for p in parts))
-    rules = [through_thickness_rule(section_specs[sec].rule, section_specs[sec].points) for sec, _ in pairs]
-    nk = max(len(z) for z, _ in rules)
-    zeta = np.zeros((len(rules), nk))
-    weight = np.zeros((len(rules), nk))
-    for i, (z, w) in enumerate(rules):
-        zeta[i, :len(z)], weight[i, :len(w)] = z, w
-    point_material = np.array([[material_names.index(mat)] * nk for _, mat in pairs], dtype=np.int32)
-    section_table = SectionTable(names=tuple(f"{sec}/{mat}" for sec, mat in pairs),
-                                 point_count=np.array([len(z) for z, _ in rules], np.int32),
-                                 zeta=zeta, weight=weight, point_material=point_material)
+    layups = [laminate.layup(section_specs[sec], material_specs, mat) for sec, mat in pairs]
+    nk = max(len(lay.zeta) for lay in layups)
+    zeta, weight, angle = (np.zeros((len(pairs), nk)) for _ in range(3))
+    point_material = np.zeros((len(pairs), nk), dtype=np.int32)
+    for i, lay in enumerate(layups):
+        n = len(lay.zeta)
+        zeta[i, :n], weight[i, :n], angle[i, :n] = lay.zeta, lay.weight, lay.point_angle
+        point_material[i] = [material_names.index(name) for name in lay.point_material] \
+            + [material_names.index(lay.point_material[0])] * (nk - n)
+    section_table = SectionTable(names=tuple(sec if mat is None else f"{sec}/{mat}" for sec, mat in pairs),
+                                 point_count=np.array([len(lay.zeta) for lay in layups], np.int32),
+                                 zeta=zeta, weight=weight, point_material=point_material, point_angle=angle,
+                                 layered=np.array([section_specs[sec].layered for sec, _ in pairs]))
     el = scene.element
     columns = {name: np.zeros(m) for name in ("thickness", "shear_factor", "wave_speed", "rotational_frequency",
                                               "hourglass_membrane", "hourglass_bending", "hourglass_transverse",
-                                              "drilling_factor")}
+                                              "drilling_factor", "density", "rotary_density")}
+    material_axis = np.tile([1.0, 0.0], (m, 1))
     part_of = np.zeros(m, dtype=np.int32)
     section_of = np.zeros(m, dtype=np.int32)
+    errors = []
     for i, part in enumerate(parts):
-        mat, sec = material_specs[part.material], section_specs[part.section]
+        sec = section_specs[part.section]
+        row = pairs.index((part.section, part.material))
+        lay = layups[row]
         ids = part.elements
         t = np.full(len(ids), sec.thickness)
         if element_thickness is not None:
             t = np.where(np.isfinite(element_thickness[ids]), element_thickness[ids], t)
-        kappa, G = sec.shear_factor, materials.shear_modulus(mat)
+        kappa = sec.shear_factor
         part_of[ids] = i
-        section_of[ids] = pairs.index((part.section, part.material))
+        section_of[ids] = row
         r = sec.hourglass if sec.hourglass is not None else el.hourglass
         alpha = sec.drilling_stiffness if sec.drilling_stiffness is not None else el.drilling_stiffness
-        values = {"thickness": t, "shear_factor": kappa, "wave_speed": materials.wave_speed(mat),
-                  "rotational_frequency": (np.sqrt(12.0 * kappa * G / mat.density) / t
+        # artificial stiffnesses of a laminate: the effective isotropic moduli of laminate.Layup
+        values = {"thickness": t, "shear_factor": kappa, "wave_speed": lay.wave_speed,
+                  "rotational_frequency": (np.sqrt(12.0 * kappa * lay.transverse_shear_max / lay.rotary_density) / t
                                            if scene.solve.rotary_inertia == "physical" else 0.0),
-                  "hourglass_membrane": r * mat.E * t / 8.0, "hourglass_bending": r * mat.E * t ** 3 / 192.0,
-                  "hourglass_transverse": r * kappa * G * t ** 3 / 12.0,
-                  "drilling_factor": alpha * mat.E * t ** 3 / 48.0 if el.drilling == "penalty" else 0.0}
+                  "hourglass_membrane": r * lay.membrane_modulus * t / 8.0,
+                  "hourglass_bending": r * lay.bending_modulus * t ** 3 / 192.0,
+                  "hourglass_transverse": r * kappa * lay.transverse_shear_modulus * t ** 3 / 12.0,
+                  "drilling_factor": alpha * lay.bending_modulus * t ** 3 / 48.0 if el.drilling == "penalty" else 0.0,
+                  "density": lay.density, "rotary_density": lay.rotary_density}
         for name, value in values.items():
             columns[name][ids] = value
-    return section_table, material_table, ElementData(part=part_of, section=section_of, **columns)
+        if lay.oriented and sec.reference_direction is not None:
+            axis, undefined = laminate.material_axis(e1[ids], e2[ids], sec.reference_direction)
+            material_axis[ids] = axis
+            bad = ids[undefined]
+            if len(bad):
+                where = "[section]" if scene.section is not None else f"[sections.{part.section}]"
+                errors.append(f"{scene.source.name}: {where}.reference_direction: "
+                              f"{list(sec.reference_direction)} is within {laminate.AXIS_TOLERANCE_DEG:g} degree of "
+                              f"the normal of element {int(bad[0])}"
+                              + (f" (and {len(bad) - 1} more)" if len(bad) > 1 else "")
+                              + ", where the material axis is undefined: choose a direction further from the normals")
+    if errors:
+        raise SceneError(errors)
+    return section_table, material_table, ElementData(part=part_of, section=section_of, material_axis=material_axis,
+                                                      **columns)
 
 
 def assemble(scene: Scene, mesh: Mesh) -> Model:
@@ -497,20 +549,19 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
     points, elements = mesh.points.astype(np.float64), mesh.elements.astype(np.int64)
     n, m = len(points), len(elements)
     parts, material_specs, section_specs, element_thickness, notes = _part_data(scene, mesh, points, elements)
-    sections, material_table, element = _tables(scene, parts, material_specs, section_specs, m, element_thickness)
+    sections, material_table, element = _tables(scene, parts, material_specs, section_specs,
+                                                element_frames(points, elements)[:2], element_thickness)
     area0, weight = cpdi2_weights(points, elements)
     edges = _edge_lengths(points, elements)
-    density = material_table.rows[sections.point_material[element.section, 0], materials.COL["density"]]
-    element_mass = density * element.thickness * area0
+    element_mass = element.density * element.thickness * area0
     if scene.solve.kind == "static" and scene.solve.mass_scaling != "none":
         element_mass *= uniform_dt_mass_factor(points, elements, area0)
     node_mass = np.zeros(n)
     node_area = np.zeros(n)
     node_inertia = np.zeros(n)
+    inertia_arm = element.thickness ** 2 / 12.0 * (element.rotary_density / element.density)   # I / (rho t)
     if scene.solve.rotary_inertia == "scaled":
-        inertia_arm = np.maximum(element.thickness ** 2 / 12.0, area0 / 8.0)
-    else:
-        inertia_arm = element.thickness ** 2 / 12.0
+        inertia_arm = np.maximum(inertia_arm, area0 / 8.0)
     corners = np.where(elements >= 0, elements, 0)       # a triangle's 4th weight is 0
     corner_mass = weight * element_mass[:, None]
     corner_inertia = weight * (element_mass * inertia_arm)[:, None]

@@ -23,6 +23,7 @@ class Features:
     fire: bool                  # static: FIRE velocity mixing instead of plain kinetic damping
     points: int                 # through-thickness points: the most of any section
     materials: tuple[str, ...]  # material models the scene uses (materials.KINDS order)
+    layered: bool               # a layered section: each point reads its own material (docs/laminates.md)
     kirchhoff_w_hourglass: bool  # stages/hourglass.py: w-mode rate less the Kirchhoff field's
     drilling_spring: bool       # drilling spring (stages/drilling.py); else the projection (method.md 2.3)
     warping_correction: bool    # BWC curvature of warped quads (stages/warping.py, method.md 3.8)
@@ -61,6 +62,13 @@ class Features:
         from .materials import PLASTIC
         return any(PLASTIC[k] for k in self.materials)
 
+    @property
+    def oriented(self) -> bool:
+        """A material with axes (orthotropic): the points read the element's material axis and
+        their ply angle."""
+        from .materials import ORIENTED
+        return any(ORIENTED[k] for k in self.materials)
+
     @staticmethod
     def from_scene(scene: Scene, model: Model, launch: str = "batched") -> "Features":
         el = scene.element
@@ -68,6 +76,7 @@ class Features:
             method=scene.method.kind, transfer=scene.method.transfer, static=scene.solve.kind == "static",
             fire=scene.solve.kind == "static" and scene.solve.relaxation == "fire",
             points=model.sections.points, materials=model.materials.kinds,
+            layered=bool(model.sections.layered.any()),
             kirchhoff_w_hourglass=el.w_hourglass == "kirchhoff", drilling_spring=el.drilling == "penalty",
             warping_correction=el.warping == "bwc",
             physical_rotary_inertia=scene.solve.rotary_inertia == "physical",

@@ -130,16 +130,17 @@ def fold_geometry(points: np.ndarray, positions: np.ndarray, thickness: float,
 
 def reference_forces(sim) -> list[float | None]:
     """The values of ``[crush].mean_force_reference``: numbers as given, formulas evaluated
-    (None when the shell has more than one thickness or yield stress)."""
+    (None when the shell has more than one thickness or yield stress, or a layered part)."""
     model, mesh = sim.model, sim.scene.mesh
     thickness = model.element.thickness
     index = {name: i for i, name in enumerate(model.materials.names)}
-    yield_stress = np.array([model.materials.rows[index[p.material], COL["yield_stress"]] for p in model.parts])
+    yield_stress = np.array([model.materials.rows[index[p.material], COL["yield_stress"]] if p.material in index
+                             else np.nan for p in model.parts])
     out = []
     for ref in sim.scene.crush.mean_force_reference:
         if not isinstance(ref, str):
             out.append(float(ref))
-        elif np.ptp(thickness) > 0 or np.ptp(yield_stress) > 0 or yield_stress[0] <= 0:
+        elif np.ptp(thickness) > 0 or not np.ptp(yield_stress) == 0 or not yield_stress[0] > 0:
             out.append(None)
         else:
             size = 0.5 * (mesh.width + mesh.depth)

@@ -143,16 +143,59 @@ class Material:
 
 
 @dataclass(frozen=True)
+class OrthotropicMaterial:
+    """Linear elastic, orthotropic in plane stress with its own transverse shear moduli
+    (docs/laminates.md): 1 = the fibre direction, 2 = across it in the shell's plane,
+    3 = the shell normal.  Its axes are the section's material axes turned by the ply angle."""
+    E1: float
+    E2: float
+    G12: float
+    G13: float
+    G23: float
+    nu12: float
+    """Major Poisson ratio (strain in 2 from stress in 1); nu21 = nu12 E2 / E1."""
+    density: float
+    model: Literal["orthotropic"] = "orthotropic"
+
+
+AnyMaterial = Union[Material, OrthotropicMaterial]
+
+
+@dataclass(frozen=True)
+class Ply:
+    """One layer of a layered section (docs/laminates.md)."""
+    material: str
+    """A [materials.NAME]."""
+    thickness: float
+    angle: float = 0.0
+    """Degrees from the section's material axis to the ply's 1-axis, counter-clockwise about
+    the element normal e3."""
+
+
+@dataclass(frozen=True)
 class Section:
     thickness: float
+    """Shell thickness; of a layered section the sum of its plies' thicknesses."""
     points: int = 3
-    """Number of through-thickness integration points."""
+    """Number of through-thickness integration points (layered: plies x points_per_ply)."""
     rule: Literal["lobatto", "gauss"] = "lobatto"
     shear_factor: float = 5.0 / 6.0
     hourglass: float | None = None
     """Hourglass coefficient r of this section's elements (None: [element].hourglass)."""
     drilling_stiffness: float | None = None
     """Drilling-spring alpha of this section's elements (None: [element].drilling_stiffness)."""
+    plies: tuple[Ply, ...] = ()
+    """Layered section: the plies from the bottom (-e3) to the top (+e3) surface, each with its
+    own material; empty: one material over the thickness (the part's)."""
+    points_per_ply: int = 2
+    """Layered: Gauss points through each ply (2 integrate a linear elastic ply exactly)."""
+    reference_direction: Vec3 | None = None
+    """The material axis (ply angle 0): this vector projected onto each element in the
+    reference configuration; None: the element's edge 1-2 (LS-DYNA's AOPT = 0)."""
+
+    @property
+    def layered(self) -> bool:
+        return bool(self.plies)
 
 
 @dataclass(frozen=True)
@@ -170,10 +213,11 @@ class ElementSet:
 
 @dataclass(frozen=True)
 class Part:
-    """A group of elements with one material and one section."""
+    """A group of elements with one section and, unless the section is layered (its plies
+    name their materials), one material."""
     name: str
-    material: str
     section: str
+    material: str | None = None
     elements: str = "all"
     """An [elementsets.NAME], a set of the mesh file (its name), or "all"."""
 
@@ -372,7 +416,7 @@ class Scene:
     source: Path
     info: SceneInfo
     mesh: MeshSpec
-    material: Material | None
+    material: AnyMaterial | None
     """The one material of a scene without [[part]] (None with [materials.NAME] / a deck)."""
     section: Section | None
     element: ElementOptions
@@ -389,7 +433,7 @@ class Scene:
     walls: tuple[Wall, ...] = ()
     contact: Contact | None = None
     crush: Crush | None = None
-    materials: dict[str, Material] = field(default_factory=dict)
+    materials: dict[str, AnyMaterial] = field(default_factory=dict)
     """Named materials ([materials.NAME]); with [[part]]."""
     sections: dict[str, Section] = field(default_factory=dict)
     elementsets: tuple[ElementSet, ...] = ()
@@ -713,6 +757,17 @@ def _force_references(value: Any) -> tuple[float | str, ...]:
                    f"got {_show(value)}")
 
 
+def _layered_table(data: Any) -> bool:
+    """Whether the raw section table `data` is a layered section (has plies)."""
+    return isinstance(data, dict) and "plies" in data
+
+
+def _lone_layered_section(data: Any) -> bool:
+    """Whether the raw [sections] `data` is one layered section (its plies name the materials:
+    no [[part]] needed)."""
+    return isinstance(data, dict) and len(data) == 1 and _layered_table(next(iter(data.values())))
+
+
 def _times(value: Any) -> tuple[float, ...]:
     """Increasing list of times >= 0."""
     if not (isinstance(value, list) and all(_is_number(t) and t >= 0 for t in value)):
@@ -731,12 +786,19 @@ DECK_SUFFIXES = (".k", ".key", ".dyn", ".kw")      # file endings read as LS-DYN
 _SELECTORS = ("all", "box", "plane", "nearest", "ids")
 
 _INFO = {"name": _file_name, "units": _nonempty, "description": _text}
+_MATERIAL_MODELS = ("elastic", "j2", "orthotropic")
 _MATERIAL = {"E": _positive, "nu": _number(-1, 0.5, lo_open=True, hi_open=True),
-             "density": _positive, "model": _choice("elastic", "j2"), "yield_stress": _positive,
+             "density": _positive, "model": _choice(*_MATERIAL_MODELS), "yield_stress": _positive,
              "hardening": _non_negative}
+_ORTHOTROPIC = {"E1": _positive, "E2": _positive, "G12": _positive, "G13": _positive, "G23": _positive,
+                "nu12": _number(), "density": _positive, "model": _choice(*_MATERIAL_MODELS)}
 _SECTION = {"thickness": _positive, "points": _int(1, 10),
             "rule": _choice("lobatto", "gauss"), "shear_factor": _fraction, "hourglass": _unit_interval,
-            "drilling_stiffness": _positive}
+            "drilling_stiffness": _positive, "reference_direction": _nonzero_vec3}
+_LAYERED_ONLY = {"points_per_ply": _int(1, 5)}
+_SINGLE_ONLY = ("thickness", "points", "rule")        # a layered section derives them from its plies
+MAX_PLIES = 64
+_PLY = {"material": _nonempty, "thickness": _positive, "angle": _number(-360, 360)}
 _ELEMENT = {"hourglass": _unit_interval, "w_hourglass": _choice("kirchhoff", "bt"),
             "drilling": _choice("projection", "penalty"), "drilling_stiffness": _positive,
             "warping": _choice("none", "bwc")}
@@ -751,7 +813,7 @@ _SOLVE = {"kind": _choice("static", "dynamic"), "load_steps": _int(1),
           "progress_every": _non_negative}
 _OUTPUT = {"every_steps": _int(0), "times": _times, "load_steps": _bool, "history_interval": _non_negative}
 _PLAIN_TABLES: dict[str, tuple[type, dict[str, Validator]]] = {
-    "scene": (SceneInfo, _INFO), "material": (Material, _MATERIAL),
+    "scene": (SceneInfo, _INFO),
     "element": (ElementOptions, _ELEMENT), "output": (Output, _OUTPUT)}
 _MESHES: dict[str, tuple[type, dict[str, Validator]]] = {
     "plate": (PlateMesh, {"lx": _positive, "ly": _positive, "nx": _int(1), "ny": _int(1),
@@ -1000,7 +1062,14 @@ class _SceneParser:
                 self.error("[mesh].n_corner", "expected an integer >= 1 when corner_radius > 0, got 0")
         return self.build(mark, cls, v)
 
-    def material_table(self, path: str, data: Any) -> Material | None:
+    def material_table(self, path: str, data: Any) -> AnyMaterial | None:
+        if isinstance(data, dict) and data.get("model") == "orthotropic":
+            material = self.table_object(path, data, OrthotropicMaterial, _ORTHOTROPIC)
+            if material is not None and material.nu12 ** 2 >= material.E1 / material.E2:
+                self.error(f"{path}.nu12", f"expected |nu12| < sqrt(E1/E2) = {math.sqrt(material.E1 / material.E2):g} "
+                                           f"(a positive definite plane-stress stiffness), got {material.nu12:g}")
+                return None
+            return material
         material = self.table_object(path, data, Material, _MATERIAL)
         if material is not None and material.model == "j2" and material.yield_stress <= 0:
             self.error(f"{path}.yield_stress", "missing required key for model = \"j2\"")
@@ -1008,13 +1077,41 @@ class _SceneParser:
         return material
 
     def section(self, data: Any, path: str = "[section]") -> Section | None:
+        """A section: one material over the thickness (`thickness`, `points`, `rule`), or
+        layered (`plies`, `points_per_ply`; docs/laminates.md)."""
         mark = len(self.messages)
-        v = self.read(path, data, _SECTION, Section)
-        if v is None:
+        if not _layered_table(data):
+            v = self.read(path, data, _SECTION, Section, extra=tuple(_LAYERED_ONLY))
+            if v is None:
+                return None
+            for key in _LAYERED_ONLY:
+                if key in data:
+                    self.error(f"{path}.{key}", "only for a layered section (with plies)")
+            if v.get("rule") == "lobatto" and v.get("points") == 1:
+                self.error(f"{path}.points", "expected an integer in [2, 10] for rule = lobatto, got 1")
+            return self.build(mark, Section, v)
+        spec = {key: check for key, check in _SECTION.items() if key not in _SINGLE_ONLY}
+        v = self.read(path, data, {**spec, **_LAYERED_ONLY}, extra=("plies", *_SINGLE_ONLY))
+        defaults = {f.name: f.default for f in fields(Section) if f.default is not MISSING}
+        for key in _SINGLE_ONLY:
+            if key in data:
+                self.error(f"{path}.{key}", "a layered section takes it from its plies (thickness: their sum; "
+                                            "points: points_per_ply Gauss points in each): leave it out")
+        plies = self.plies(f"{path}.plies", data["plies"])
+        if plies is None:
             return None
-        if v.get("rule") == "lobatto" and v.get("points") == 1:
-            self.error(f"{path}.points", "expected an integer in [2, 10] for rule = lobatto, got 1")
+        v = {**defaults, **v, "plies": plies, "thickness": math.fsum(p.thickness for p in plies), "rule": "gauss"}
+        v["points"] = len(plies) * v["points_per_ply"]
         return self.build(mark, Section, v)
+
+    def plies(self, path: str, value: Any) -> tuple[Ply, ...] | None:
+        """The `plies` array of a layered section: tables {material, thickness, angle}, bottom to top."""
+        if not (isinstance(value, list) and 0 < len(value) <= MAX_PLIES):
+            self.error(path, f"expected an array of 1 to {MAX_PLIES} ply tables "
+                             f"{{material = \"NAME\", thickness = t, angle = degrees}}, got {_show(value)}")
+            return None
+        plies = [self.table_object(f"{path}[{i}]", item, Ply, _PLY) for i, item in enumerate(value)]
+        return tuple(plies) if all(p is not None for p in plies) else None
 
     def named(self, key: str, reader) -> dict:
         """The [key.NAME] tables read by reader(path, data), by name (invalid ones left out)."""
@@ -1040,11 +1137,11 @@ class _SceneParser:
         deck = isinstance(mesh, FileMesh) and mesh.path.suffix.lower() in DECK_SUFFIXES
         legacy = [k for k in ("material", "section") if k in raw]
         named = [k for k in ("materials", "sections", "part") if k in raw]
-        material = self.plain("material") if "material" in raw else None
-        if material is not None and material.model == "j2" and material.yield_stress <= 0:
-            self.error("[material].yield_stress", "missing required key for model = \"j2\"")
-            material = None
+        material = self.material_table("[material]", raw["material"]) if "material" in raw else None
         section = self.section(raw["section"]) if "section" in raw else None
+        if section is not None and section.layered:
+            self.error("[section].plies", "a layered section is a [sections.NAME] table: its plies name "
+                                          "[materials.NAME] tables")
         materials = self.named("materials", self.material_table)
         sections = self.named("sections", lambda path, data: self.section(data, path))
         elementsets = [self.elementset(name, value) for name, value in
@@ -1063,9 +1160,16 @@ class _SceneParser:
                 if key not in raw:
                     self.error(f"[{key}]", "missing required table")
         elif "part" not in raw and not deck and ("materials" in raw or "sections" in raw) \
-                and (len(raw.get("materials", {})) != 1 or len(raw.get("sections", {})) != 1):
+                and (len(raw.get("materials", {})) != 1 or len(raw.get("sections", {})) != 1) \
+                and not _lone_layered_section(raw.get("sections")):
             self.error("[[part]]", "missing: with several [materials.NAME] or [sections.NAME], [[part]] entries "
                                    "say which elements get which")
+        defined = list(raw["materials"]) if isinstance(raw.get("materials"), dict) else []   # valid or not
+        for name, sec in sections.items():        # the plies' materials (a deck's are checked in assembly.py)
+            for i, ply in enumerate(sec.plies):
+                if ply.material not in defined and not deck:
+                    self.error(f"[sections.{_key(name)}].plies[{i}].material", f"no [materials.{ply.material}]"
+                               + _hint(ply.material, defined, "defined"))
         if "part" in raw:
             names = [p.name for p in parts if p is not None]
             for i, name in enumerate(names):
@@ -1080,8 +1184,15 @@ class _SceneParser:
                     continue
                 for key, table, label in (("material", materials, "materials"), ("section", sections, "sections")):
                     value = getattr(part, key)
-                    if table and value not in table and not deck:
+                    if value is not None and table and value not in table and not deck:
                         self.error(f"[[part]][{i}].{key}", f"no [{label}.{value}]" + _hint(value, list(table), "defined"))
+                section_of = sections.get(part.section)
+                if section_of is not None and section_of.layered and part.material is not None:
+                    self.error(f"[[part]][{i}].material", f"section {part.section!r} is layered (its plies name "
+                                                          "their materials): leave material out")
+                elif section_of is not None and not section_of.layered and part.material is None:
+                    self.error(f"[[part]][{i}].material", f"missing required key (section {part.section!r} "
+                                                          "is not layered)")
                 if part.elements in set_names or part.elements == "all":
                     continue
                 if not isinstance(mesh, FileMesh):

@@ -6,8 +6,9 @@
 ``elements``   element topology and state: corners, hourglass and drilling resultants,
                energy accumulators, the parallel launches' corner-load slots
 ``sections``   per-element section and material data (thickness, shear factor, hourglass
-               and drilling factors, wave speed, material and section ids) and the tables they
-               index (through-thickness rules per section, parameters per material)
+               and drilling factors, wave speed, section id, material axis) and the tables
+               they index (through-thickness points per section with each point's material
+               and ply angle, parameters per material)
 ``points``     through-thickness point state: stress, equivalent plastic strain
 ``grid``       the background grid (mpm) and its geometry
 ``contact``    self-contact: forces, candidate lists, side memory, spatial hash
@@ -222,10 +223,14 @@ class State:
         # hourglass_*: r E t / 8, r E t^3 / 192, r kappa G t^3 / 12 (stages/hourglass.py);
         # drilling_factor: alpha E t^3 / 48 (stages/drilling.py)
         g.entity("section", ti.field(i32), m)
+        # cos, sin of the angle from e1 to the section's material axis (docs/laminates.md)
+        g.entity("material_axis", ti.Vector.field(2, f64), m, used=fx.oriented)
         g.table("point_count", ti.field(i32), (MAX_SECTIONS,))                 # points of each section's rule
         g.table("zeta", ti.field(f64), (MAX_SECTIONS, nk))                      # point positions, -1..1
         g.table("weight", ti.field(f64), (MAX_SECTIONS, nk))                    # and weights (sum 2)
         g.table("point_material", ti.field(i32), (MAX_SECTIONS, nk))            # material of each point
+        g.table("ply_axis", ti.Vector.field(2, f64), (MAX_SECTIONS, nk),       # cos, sin of its ply angle
+                used=fx.oriented)
         g.table("material_kind", ti.field(i32), (MAX_MATERIALS,))              # index into Features.materials
         g.table("material", ti.field(f64), (MAX_MATERIALS, MATERIAL_PARAMETERS))   # parameters (stages/material.py)
 
@@ -383,6 +388,10 @@ class State:
         w(sec.zeta, np.concatenate([tables.zeta, pad]))
         w(sec.weight, np.concatenate([tables.weight, pad]))
         w(sec.point_material, np.concatenate([tables.point_material, pad.astype(np.int32)]))
+        if self.features.oriented:
+            w(sec.material_axis, data.material_axis)
+            angle = np.concatenate([tables.point_angle, pad])
+            w(sec.ply_axis, np.stack([np.cos(angle), np.sin(angle)], axis=-1))
         mats = model.materials
         nm = len(mats.names)
         w(sec.material_kind, np.concatenate([mats.kind, np.zeros(MAX_MATERIALS - nm, np.int32)]))

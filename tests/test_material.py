@@ -55,7 +55,8 @@ class Points:
                 s = ti.Vector([stress[p, 0], stress[p, 1], stress[p, 2], stress[p, 3], stress[p, 4]])
                 ep = ebar[p]
                 for k in range(incr.shape[1]):
-                    s, ep, w, _ = mat.update(row, s, ep, ti.Vector([incr[p, k, 0], incr[p, k, 1], incr[p, k, 2]]),
+                    s, ep, w, _ = mat.update(row, ti.Vector([1.0, 0.0]), s, ep,
+                                             ti.Vector([incr[p, k, 0], incr[p, k, 1], incr[p, k, 2]]),
                                              ti.Vector([incr[p, k, 3], incr[p, k, 4]]))
                     for i in ti.static(range(5)):
                         out_stress[p, k, i] = s[i]
