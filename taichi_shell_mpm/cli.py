@@ -1,4 +1,4 @@
-"""Command line: ``python -m taichi_shell_mpm run|validate|render ...`` (thin: no physics here).
+"""Command line: ``python -m taichi_shell_mpm run|validate|render|bench|sweep ...`` (thin: no physics here).
 
 Exit codes: 0 success, 1 internal error (a bug: one line; set TAICHI_SHELL_MPM_TRACEBACK=1
 for the traceback), 2 scene/mesh/checkpoint error (user mistake, one line per problem,
@@ -104,6 +104,14 @@ def _parser() -> argparse.ArgumentParser:
     from .bench import add_arguments as bench_arguments
     bench_arguments(sub.add_parser("bench", help="speed against error: refinement study of the benchmark "
                                                  "scenes, results.csv, plots and BENCHMARKS.md"))
+    from .sweep import add_arguments as sweep_arguments
+    sweep_arguments(sub.add_parser("sweep", help="parameter study: a scene run for each combination of values, "
+                                                 "on a local or existing Dask cluster",
+                                   description="Run a scene for each case of a parameter study (--param, "
+                                               "--cases) on Dask; sweep.csv, sweep.md and plots in --out.",
+                                   epilog="docs/sweep.md.  Exit codes: 0 every case ok, 2 a mistake in the "
+                                          "options or the scene, 3 some case failed (recorded in sweep.csv), "
+                                          "130 interrupted."))
     return p
 
 
@@ -409,10 +417,15 @@ def _bench(args) -> int:
     return bench_main(args)
 
 
+def _sweep(args) -> int:
+    from .sweep import main as sweep_main
+    return sweep_main(args, run=main)      # each case calls main(["run", ...]) in its worker
+
+
 def main(argv=None) -> int:
     import numpy as np
     args = _parser().parse_args(argv)
-    command = {"validate": _validate, "render": _render, "bench": _bench}.get(args.command, _run)
+    command = {"validate": _validate, "render": _render, "bench": _bench, "sweep": _sweep}.get(args.command, _run)
     try:
         with np.errstate(all="ignore"):      # a diverging run overflows: reported as a failure, not warnings
             return command(args)

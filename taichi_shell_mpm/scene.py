@@ -482,8 +482,10 @@ class Crush:
     """Name of the [[rigid_body]] whose motion is the crush (None = the first one)."""
     folds: bool = False
     """Count lobes and the fold half-wavelength on the flat faces of a prismatic tube along `axis`."""
-    mean_force_reference: tuple[float, ...] = ()
-    """Reference mean forces (e.g. closed-form estimates); the summary gives the ratio to each."""
+    mean_force_reference: tuple[float | str, ...] = ()
+    """Reference mean forces: numbers, or the names of closed-form estimates for a tube mesh
+    (CRUSH_FORMULAS, evaluated with the run's yield stress, thickness and tube size); the
+    summary gives the ratio to each."""
     half_wavelength_reference: float | None = None
     """Reference fold half-wavelength (e.g. Wierzbicki-Abramowicz); the summary gives the ratio."""
 
@@ -883,6 +885,18 @@ def _window(value: Any) -> tuple[float, float]:
     raise _Invalid(f"expected [from, to] with 0 <= from < to, got {_show(value)}")
 
 
+CRUSH_FORMULAS = ("wierzbicki_abramowicz", "abramowicz_jones")
+"""Closed-form mean crush forces of a tube that [crush].mean_force_reference may name (crush.py)."""
+
+
+def _force_references(value: Any) -> tuple[float | str, ...]:
+    """A non-empty list of numbers > 0 and names of CRUSH_FORMULAS."""
+    if isinstance(value, list) and value and all((_is_number(x) and x > 0) or x in CRUSH_FORMULAS for x in value):
+        return tuple(x if isinstance(x, str) else float(x) for x in value)
+    raise _Invalid(f"expected a non-empty list of numbers > 0 and of {' / '.join(map(repr, CRUSH_FORMULAS))}, "
+                   f"got {_show(value)}")
+
+
 def _layered_table(data: Any) -> bool:
     """Whether the raw section table `data` is a layered section (has plies)."""
     return isinstance(data, dict) and "plies" in data
@@ -892,13 +906,6 @@ def _lone_layered_section(data: Any) -> bool:
     """Whether the raw [sections] `data` is one layered section (its plies name the materials:
     no [[part]] needed)."""
     return isinstance(data, dict) and len(data) == 1 and _layered_table(next(iter(data.values())))
-
-
-def _positive_list(value: Any) -> tuple[float, ...]:
-    """A non-empty list of numbers > 0."""
-    if isinstance(value, list) and value and all(_is_number(x) and x > 0 for x in value):
-        return tuple(float(x) for x in value)
-    raise _Invalid(f"expected a non-empty list of numbers > 0, got {_show(value)}")
 
 
 def _triangle_split(value: Any) -> TriangleSplit:
@@ -1730,7 +1737,7 @@ class _SceneParser:
     def crush(self, data: Any, solve: Solve | None) -> Crush | None:
         mark = len(self.messages)
         v = self.read("[crush]", data, {"axis": _nonzero_vec3, "window": _window, "body": _identifier,
-                                        "folds": _bool, "mean_force_reference": _positive_list,
+                                        "folds": _bool, "mean_force_reference": _force_references,
                                         "half_wavelength_reference": _positive}, Crush)
         if v is None:
             return None
@@ -1743,6 +1750,11 @@ class _SceneParser:
             self.error("[crush].body", f"no [[rigid_body]] named {v['body']!r}" + _hint(v["body"], bodies, "defined"))
         if solve is not None and solve.kind != "dynamic":
             self.error("[crush]", "crush post-processing needs [solve].kind = \"dynamic\"")
+        named = [x for x in v.get("mean_force_reference", ()) if isinstance(x, str)]
+        mesh = self.raw.get("mesh")
+        if named and not (isinstance(mesh, dict) and mesh.get("kind") == "tube"):
+            self.error("[crush].mean_force_reference", f"{named[0]!r} is a formula for a tube: it needs "
+                       "[mesh].kind = \"tube\" (its width and depth give the size C); give a number instead")
         return self.build(mark, Crush, v)
 
     def initial(self, path: str, data: Any) -> InitialVelocity | None:

@@ -85,9 +85,20 @@ def choose_launch(arch: str, n_elements: int, static: bool) -> str:
         return FORCE_LAUNCH
     if arch != "cpu":
         return "gpu"
-    if static or (os.cpu_count() or 1) < 2 or n_elements < THREADS_MIN_ELEMENTS:
+    if static or cpu_threads() < 2 or n_elements < THREADS_MIN_ELEMENTS:
         return "batched"
     return "threads"
+
+
+def cpu_threads() -> int:
+    """CPU threads of a run: $TAICHI_SHELL_MPM_THREADS when set (a sweep's local cluster sets
+    cores / workers in each worker, so that the cases running at once do not share cores),
+    else every core."""
+    text = os.environ.get("TAICHI_SHELL_MPM_THREADS", "")
+    try:
+        return max(1, int(text))
+    except ValueError:
+        return os.cpu_count() or 1
 
 
 def init_taichi(arch: str = "cpu", quiet: bool = False) -> str:
@@ -100,7 +111,7 @@ def init_taichi(arch: str = "cpu", quiet: bool = False) -> str:
     level = ti.WARN if arch == "cpu" else ti.ERROR
     with contextlib.redirect_stdout(io.StringIO()) if quiet else contextlib.nullcontext():
         ti.init(arch=getattr(ti, ARCHS[arch]), default_fp=ti.f64, default_ip=ti.i32, offline_cache=True,
-                offline_cache_file_path=kernel_cache_dir(), log_level=level)
+                offline_cache_file_path=kernel_cache_dir(), log_level=level, cpu_max_num_threads=cpu_threads())
     if level != ti.WARN:
         ti.set_logging_level(ti.WARN)
     used = ti.lang.impl.current_cfg().arch

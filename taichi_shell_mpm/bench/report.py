@@ -136,6 +136,11 @@ def _relaxation_section(rows: list[dict]) -> list[str]:
     return L + [""]
 
 
+def _parallel(rows: list[dict]) -> bool:
+    """Some row was measured with other cases running at once (bench --workers: machine_tag)."""
+    return any("cases at a time" in (r.get("machine") or "") for r in rows)
+
+
 def write_report(path: Path, out: Path, rows: list[dict], planned: list[Case], command: str, info: dict,
                  arch: str, peers: bool, plots: dict[str, Path | None], quick: bool) -> None:
     rel = lambda p: Path(os.path.relpath(p, path.parent)).as_posix()   # noqa: E731
@@ -146,8 +151,10 @@ def write_report(path: Path, out: Path, rows: list[dict], planned: list[Case], c
          "(regenerated after every case: it shows everything measured so far).", "",
          f"**Machine:** {info['cpu']}, {info['cores']} cores available, {info['memory_GB']:.0f} GB memory, "
          f"{info['os']}; Python {info['python']}, Taichi {info['taichi']}, arch `{arch}`, f64.  "
-         "Cases run one after the other, each in its own process "
-         "(`python -m taichi_shell_mpm run SCENE --quiet --out RUN --set ...`; the exact command is the "
+         + ("Cases run one after the other, each in its own process " if not _parallel(rows) else
+            "**Some cases ran several at a time** (`--workers`; their machine column says how many), so their "
+            "timings shared the cores and do not compare with a quiet machine's.  Each case runs in its own process ")
+         + "(`python -m taichi_shell_mpm run SCENE --quiet --out RUN --set ...`; the exact command is the "
          f"first line of `{rel(out / 'runs')}/CASE/bench.log`).", ""]
     other = sorted({r.get("machine", "") for r in rows if r.get("machine") and r.get("machine") != this})
     if other:
