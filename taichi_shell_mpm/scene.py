@@ -929,8 +929,8 @@ def _numbers(value: Any) -> tuple[float, ...]:
     raise _Invalid(f"expected a finite number or a non-empty list of them, got {_show(value)}")
 
 
-def _curve_points(value: Any) -> tuple[tuple[float, float], ...]:
-    """A non-empty list of [t, f] pairs of finite numbers, t strictly increasing."""
+def _time_curve_points(value: Any) -> tuple[tuple[float, float], ...]:
+    """A [curves.NAME] table: a non-empty list of [t, f] pairs of finite numbers, t strictly increasing."""
     if not (isinstance(value, list) and value and all(isinstance(p, list) and len(p) == 2 and all(map(_is_number, p))
                                                       for p in value)):
         raise _Invalid(f"expected a non-empty list of [t, f] pairs of finite numbers, got {_show(value)}")
@@ -1648,7 +1648,7 @@ class _SceneParser:
 
     def curve(self, path: str, data: Any) -> Curve | None:
         mark = len(self.messages)
-        v = self.read(path, data, {"points": _curve_points, "file": self.file, "shape": _choice(*CURVE_SHAPES),
+        v = self.read(path, data, {"points": _time_curve_points, "file": self.file, "shape": _choice(*CURVE_SHAPES),
                                    "start": _number(), "end": _number(), "scale": _number()})
         if v is None:
             return None
