@@ -349,7 +349,7 @@ BAD_VALUES = [  # (dotted path, value, expected message after "case.toml: ")
     ("output.load_steps", 1, "[output].load_steps: expected true or false, got 1"),
     ("output.every_steps", -1, "[output].every_steps: expected an integer >= 0, got -1"),
     ("method.cel_size", 0.5, "[method].cel_size: unknown key (did you mean 'cell_size'?)"),
-    ("mesh.radius", 10, "[mesh].radius: unknown key (allowed: lx, ly, nx, ny, origin, kind)"),
+    ("mesh.radius", 10, "[mesh].radius: unknown key (allowed: lx, ly, nx, ny, origin, triangles, kind)"),
     ("nodesets.tip.bx", 1, "[nodesets.tip].bx: unknown key (did you mean 'box'?)"),
     ("methd", {}, "[methd]: unknown key (did you mean 'method'?)"),
     ("boundary", {"nodes": "tip"}, "[[boundary]]: expected an array of tables ([[boundary]] sections), "
