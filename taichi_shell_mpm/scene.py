@@ -1712,7 +1712,7 @@ class _SceneParser:
         if v is None:
             return None
         names = [s.name for s in elementsets]
-        if v["elements"] != "all" and v["elements"] not in names and not isinstance(mesh, FileMesh):
+        if "elements" in v and v["elements"] != "all" and v["elements"] not in names and not isinstance(mesh, FileMesh):
             self.error(f"{path}.elements", f"no [elementsets.{v['elements']}]"
                        + _hint(v["elements"], names + ["all"], "defined"))
         return self.build(mark, Pressure, v)
