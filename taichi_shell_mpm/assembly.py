@@ -17,6 +17,7 @@ from .loading import Loading, assemble_loading
 from .mesh import Mesh
 from .nodesets import select_nodes
 from .scene import DOFS, Scene, SceneError
+from .tools import ToolTable, build_tools
 
 AXES = {"x": 0, "y": 1, "z": 2}
 SYMMETRY_FIXES = {0: ("ux", "ry", "rz"), 1: ("uy", "rx", "rz"), 2: ("uz", "rx", "ry")}
@@ -186,6 +187,7 @@ class Model:
     notes: tuple[str, ...] = ()           # warnings of the assembly (e.g. an LS-DYNA card approximated)
     rigid_bodies: tuple[RigidBodySpec, ...] = ()
     walls: tuple[WallSpec, ...] = ()
+    tools: ToolTable | None = None        # rigid tools ([[tool]], tools.py); None: none
     node_body: np.ndarray | None = None   # (n,) rigid body index of each node, -1 = none
     neighbor_start: np.ndarray | None = None   # CSR: nodes sharing an element with node c (incl. c)
     neighbor_nodes: np.ndarray | None = None
@@ -717,6 +719,7 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
     names = [b.name for b in bodies]
     walls = tuple(WallSpec(tuple(w.point), tuple(np.asarray(w.normal) / np.linalg.norm(w.normal)),
                            names.index(w.moves_with) if w.moves_with else -1) for w in scene.walls)
+    tools = build_tools(scene.tools, names, list(scene.curves), float(node_thickness.max())) if scene.tools else None
     for d in range(3):                       # supports do not move: no initial velocity there
         velocity0[(fix_mask >> d) & 1 == 1, d] = 0.0
         omega0[(fix_mask >> (3 + d)) & 1 == 1, d] = 0.0
@@ -737,7 +740,7 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
                  node_inertia=node_inertia, node_area=node_area, fix_mask=fix_mask, load_force=load_force,
                  load_moment=load_moment, velocity0=velocity0, omega0=omega0,
                  grid=grid, probes=probes, min_edge=min_edge, mean_edge=float(edges.mean()),
-                 max_edge=float(edges.max()), rigid_bodies=tuple(bodies), walls=walls, node_body=node_body,
+                 max_edge=float(edges.max()), rigid_bodies=tuple(bodies), walls=walls, tools=tools, node_body=node_body,
                  loading=loading,
                  **(node_neighbors(elements, n) if scene.contact else {}))
 

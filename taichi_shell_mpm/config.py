@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 from .assembly import Model
 from .scene import Scene
+from .tools import TOOL_KINDS
 
 
 @dataclass(frozen=True)
@@ -44,6 +45,7 @@ class Features:
     #                             (stages/loads.py, stages/motion.py): one switch [choice: a
     #                             configuration costs 25-60 s to compile, and a scene with any of
     #                             them pays next to nothing for the others' empty loops]
+    tool_kinds: tuple[str, ...] = ()   # rigid tool kinds the scene uses (tools.TOOL_KINDS order; stages/tools.py)
 
     @property
     def serial(self) -> bool:
@@ -64,6 +66,11 @@ class Features:
         FLIP needs v- and v+ separately, statics the grid residual; APIC and PIC dynamics
         scatter p + dt f in one field."""
         return self.transfer == "flip" or self.static
+
+    @property
+    def tools(self) -> bool:
+        """Rigid tools (stages/tools.py)."""
+        return bool(self.tool_kinds)
 
     @property
     def plastic(self) -> bool:
@@ -97,4 +104,5 @@ class Features:
             moving_walls=any(w.body >= 0 for w in model.walls),
             contact=scene.contact is not None,
             friction=scene.contact is not None and scene.contact.friction > 0.0,
-            launch=launch, loads=model.loading.loads)
+            tool_kinds=tuple(k for k in TOOL_KINDS if model.tools is not None and k in model.tools.kinds),
+            launch=launch, loads=model.loading.loads or (model.tools is not None and model.tools.prescribed))

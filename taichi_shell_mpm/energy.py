@@ -11,6 +11,9 @@ sum in a fixed order (the same bits on any number of threads and across a restar
   :meth:`EnergyLedger.motion`, summed per motion on the host);
 * per rigid body (``bodies.wall_energy``, ``bodies.external_work``): the work of the walls
   moving with it on the body, and of gravity on its added mass;
+* per rigid tool (``tools.energy``, ``tools.work``): its contact energy, of which ``work`` is
+  booked at the tool's own motion (stages/tools.py; in the ``contact`` column, and for a tool
+  moved by a curve in ``motion_work`` too: the work its driver does);
 * damped energy (0-d): kinetic energy removed by dynamic relaxation (batched launch only).
 
 The step keeps 0-d running totals of the same increments for its in-kernel decisions
@@ -63,6 +66,7 @@ import taichi as ti
 
 from .stages.accumulate import Accumulator
 from .state import STATUS_ENERGY, STATUS_OK
+from .tools import DISPLACEMENT, VELOCITY
 
 ENERGY_COLUMNS = ("kinetic", "internal", "hourglass", "external_work", "damped", "wall", "contact",
                   "plastic_work", "drilling", "stagger", "motion_work", "balance_error")
@@ -107,7 +111,7 @@ class EnergyLedger:
         self.acc.total(self.s.step.external_work, external)
         if ti.static(self.cfg.loads):
             self.acc.total(self.s.step.motion_work, motion)
-        if ti.static(self.cfg.contact):
+        if ti.static(self.cfg.contact or self.cfg.tools):
             self.acc.total(self.s.step.contact_energy, contact)
         if ti.static(self.cfg.walls):
             self.acc.total(self.s.step.wall_energy, wall)
@@ -177,6 +181,11 @@ def totals(state, model, initial_kinetic: float) -> dict[str, float]:
     if model.rigid_bodies:
         e["wall"] += float(state.read(state.bodies.wall_energy, len(model.rigid_bodies)).sum())
         e["external_work"] += float(state.read(state.bodies.external_work, len(model.rigid_bodies)).sum())
+    if model.tools is not None:        # the tools' work at their own motion (stages/tools.py)
+        work = state.read(state.tools.work, len(model.tools.names))
+        e["contact"] += float(work.sum())
+        prescribed = (model.tools.motion == VELOCITY) | (model.tools.motion == DISPLACEMENT)
+        e["motion_work"] += float(work[prescribed].sum())
     e["kinetic"] = kinetic_energy(state, model)
     e["kinetic_bodies"] = bodies_kinetic_energy(state, model)      # (not a column: the guard's scale)
     e["damped"] = float(state.step.damped_energy[None])

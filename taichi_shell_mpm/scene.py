@@ -456,6 +456,35 @@ class Wall:
     """Name of a [[rigid_body]] the wall translates with (None = fixed)."""
 
 
+TOOL_KINDS = ("plane", "rectangle", "cylinder", "sphere", "mesh")     # tools.TOOL_KINDS
+
+
+@dataclass(frozen=True)
+class Tool:
+    """A rigid tool (stages/tools.py, docs/scenes.md [[tool]]): penalty contact with the
+    shell's mid-surface at half its thickness, Coulomb friction; fixed, moving with a rigid
+    body, or moved by a velocity or displacement (times a curve)."""
+    name: str
+    kind: Literal["plane", "rectangle", "cylinder", "sphere", "mesh"]
+    center: Vec3 = (0.0, 0.0, 0.0)
+    normal: Vec3 | None = None
+    """plane, rectangle: the side the shell stays on."""
+    axis: Vec3 | None = None
+    """cylinder: its axis; rectangle: the direction of its first side (size[0])."""
+    radius: float | None = None
+    length: float | None = None
+    size: tuple[float, float] | None = None
+    file: Path | None = None
+    scale: float = 1.0
+    stiffness: float = 0.1
+    damping: float = 0.1
+    friction: float = 0.0
+    moves_with: str | None = None
+    velocity: Vec3 | None = None
+    displacement: Vec3 | None = None
+    curve: str | None = None
+
+
 @dataclass(frozen=True)
 class Contact:
     """Penalty node-to-segment self-contact (method.md 7.3); present table = enabled."""
@@ -567,6 +596,7 @@ class Scene:
     reference: Reference | None = None
     rigid_bodies: tuple[RigidBody, ...] = ()
     walls: tuple[Wall, ...] = ()
+    tools: tuple[Tool, ...] = ()
     contact: Contact | None = None
     crush: Crush | None = None
     materials: dict[str, AnyMaterial] = field(default_factory=dict)
@@ -849,6 +879,13 @@ def _nonzero_vec3(value: Any) -> Vec3:
     return vec
 
 
+def _size2(value: Any) -> tuple[float, float]:
+    if not (isinstance(value, list) and len(value) == 2 and all(_is_number(x) and x > 0 and math.isfinite(x)
+                                                                for x in value)):
+        raise _Invalid(f"expected two positive numbers [a, b], got {_show(value)}")
+    return float(value[0]), float(value[1])
+
+
 def _dofs(allow_all: bool) -> Validator:
     """Non-empty list of distinct DOF names (or the string "all" when `allow_all`)."""
     expected = f"a non-empty list of DOFs (some of {', '.join(DOFS)})" + (' or "all"' if allow_all else "")
@@ -985,8 +1022,15 @@ def _hardening_curve(value: Any) -> tuple[tuple[float, float], ...]:
 # ================================================================ table layout
 _TABLES = ("scene", "mesh", "material", "section", "materials", "sections", "elementsets", "part", "element",
            "method", "nodesets", "boundary", "load", "initial", "probe", "reference", "solve", "output",
-           "rigid_body", "wall", "contact", "crush", "curves", "motion", "pressure", "gravity")
+           "rigid_body", "wall", "tool", "contact", "crush", "curves", "motion", "pressure", "gravity")
 _REQUIRED_TABLES = ("scene", "mesh", "solve")
+# [[tool]] keys of each kind (required, optional); a shape key of another kind is an error
+_TOOL_KEYS = {"plane": (("normal",), ("center",)),
+              "rectangle": (("normal", "size"), ("center", "axis")),
+              "cylinder": (("axis", "radius", "length"), ("center",)),
+              "sphere": (("radius",), ("center",)),
+              "mesh": (("file",), ("center", "scale"))}
+_TOOL_SHAPE_KEYS = ("normal", "axis", "radius", "length", "size", "file", "scale")
 DECK_SUFFIXES = (".k", ".key", ".dyn", ".kw")      # file endings read as LS-DYNA keyword decks (dyna.py)
 _SELECTORS = ("all", "box", "plane", "nearest", "ids")
 
@@ -1257,6 +1301,14 @@ class _SceneParser:
         output = self.plain("output")
         bodies = self.array("rigid_body", self.rigid_body)
         walls = self.array("wall", self.wall)
+        tools = self.array("tool", lambda path, data: self.tool(path, data, solve, curves))
+        names = [t.name for t in tools if t is not None]
+        for i, name in enumerate(names):
+            if name in names[:i]:
+                self.error("[[tool]]", f"duplicate tool name {name!r}")
+        from .tools import MAX_TOOLS
+        if len(tools) > MAX_TOOLS:
+            self.error("[[tool]]", f"expected at most {MAX_TOOLS} tools, got {len(tools)}")
         contact = self.table_object("[contact]", self.raw["contact"], Contact, {
             "thickness": _positive, "stiffness": _number(0, 1, lo_open=True), "friction": _non_negative,
             "damping": _unit_interval}) if "contact" in self.raw else None
@@ -1283,7 +1335,7 @@ class _SceneParser:
                      element=element, method=method, solve=solve, output=output,
                      nodesets=tuple(nodesets), boundaries=tuple(boundaries), loads=tuple(loads),
                      initial=tuple(initial), probes=tuple(probes), reference=reference,
-                     rigid_bodies=tuple(bodies), walls=tuple(walls), contact=contact, crush=crush,
+                     rigid_bodies=tuple(bodies), walls=tuple(walls), tools=tuple(tools), contact=contact, crush=crush,
                      materials=materials, sections=sections, elementsets=tuple(elementsets), parts=tuple(parts),
                      curves=curves, motions=tuple(motions), pressures=tuple(pressures), gravity=gravity)
 
@@ -1735,6 +1787,68 @@ class _SceneParser:
                        + _hint(v["moves_with"], bodies, "defined"))
         return self.build(mark, Wall, v)
 
+    def tool(self, path: str, data: Any, solve: Solve | None, curves: dict[str, Curve]) -> Tool | None:
+        """A [[tool]]: its kind's keys (a key of another kind is an error), at most one way to
+        move, a surface mesh read here (so that an unusable file is a scene error)."""
+        mark = len(self.messages)
+        v = self.read(path, data, {"name": _identifier, "kind": _choice(*TOOL_KINDS), "center": _vec3,
+                                   "normal": _nonzero_vec3, "axis": _nonzero_vec3, "radius": _positive,
+                                   "length": _positive, "size": _size2, "file": self.file, "scale": _positive,
+                                   "stiffness": _number(0, 1, lo_open=True), "damping": _unit_interval,
+                                   "friction": _non_negative, "moves_with": _identifier, "velocity": _vec3,
+                                   "displacement": _vec3, "curve": self.curve_name}, Tool)
+        if v is None:
+            return None
+        kind = v.get("kind")
+        if kind in _TOOL_KEYS:
+            required, optional = _TOOL_KEYS[kind]
+            own = (*required, *optional)
+            for name in data:
+                if name in _TOOL_SHAPE_KEYS and name not in own:
+                    self.error(f"{path}.{_key(name)}", f'not used by kind = "{kind}" (its keys: {", ".join(own)})')
+            for name in required:
+                if name not in data:
+                    self.error(f"{path}.{name}", f'missing required key for kind = "{kind}"')
+            if kind == "rectangle" and "axis" in v and "normal" in v:
+                (a1, a2, a3), (n1, n2, n3) = v["axis"], v["normal"]
+                cross = math.hypot(a2 * n3 - a3 * n2, a3 * n1 - a1 * n3, a1 * n2 - a2 * n1)
+                if cross <= 1e-9 * math.hypot(a1, a2, a3) * math.hypot(n1, n2, n3):
+                    self.error(f"{path}.axis", "is parallel to normal (it gives the direction of the first side, "
+                                               "in the rectangle's plane)")
+        moving = [key for key in ("moves_with", "velocity", "displacement") if key in data]
+        if len(moving) > 1:
+            self.error(f"{path}.{moving[1]}", f"a tool moves one way: give one of moves_with, velocity, "
+                                              f"displacement, got {', '.join(moving)}")
+        if "curve" in data and not ({"velocity", "displacement"} & set(data)):
+            self.error(f"{path}.curve", "only with velocity or displacement (the curve scales them)")
+        if v.get("moves_with") is not None:
+            listed = self.raw.get("rigid_body", [])
+            bodies = [b["name"] for b in (listed if isinstance(listed, list) else [])
+                      if isinstance(b, dict) and isinstance(b.get("name"), str)]
+            if v["moves_with"] not in bodies:
+                self.error(f"{path}.moves_with", f"no [[rigid_body]] named {v['moves_with']!r}"
+                           + _hint(v["moves_with"], bodies, "defined"))
+        if solve is not None and solve.kind == "static" and ({"velocity", "displacement"} & set(data)):
+            self.error(f"{path}.{'velocity' if 'velocity' in data else 'displacement'}",
+                       'a tool moved by a curve needs [solve].kind = "dynamic"')
+        if "displacement" in data and len(self.messages) == mark:
+            if "curve" not in data:
+                self.error(f"{path}.curve", "missing: a displacement needs a curve (a constant displacement "
+                                            "would jump at t = 0)")
+            elif v.get("curve") in curves:
+                from .curves import evaluate
+                start = evaluate(curves[v["curve"]], 0.0)
+                if start != 0.0:
+                    self.error(f"{path}.curve", f"the displacement curve {v['curve']!r} is {start:g} at t = 0, "
+                                                "not 0 (the tool would jump at t = 0)")
+        if kind == "mesh" and v.get("file") is not None and len(self.messages) == mark:
+            from .tools import ToolMeshError, read_surface
+            try:
+                read_surface(v["file"], v.get("scale", 1.0))
+            except ToolMeshError as exc:
+                self.error(f"{path}.file", str(exc))
+        return self.build(mark, Tool, v)
+
     def crush(self, data: Any, solve: Solve | None) -> Crush | None:
         mark = len(self.messages)
         v = self.read("[crush]", data, {"axis": _nonzero_vec3, "window": _window, "body": _identifier,
@@ -1817,7 +1931,7 @@ class _SceneParser:
             if isinstance(element, dict) and element.get("drilling") == "projection":
                 self.error("[solve].solver", '"newton" needs the drilling spring ([element].drilling = "penalty"): the '
                            "projection leaves the drilling rotation without stiffness")
-            for key in ("rigid_body", "wall", "contact"):
+            for key in ("rigid_body", "wall", "tool", "contact"):
                 if key in raw:
                     self.error("[solve].solver", f'"newton" does not handle [{key}] (use "relaxation")')
         else:

@@ -286,7 +286,7 @@ class Simulation:
         self.history.force_rows.append([key] + st.reaction[None].to_numpy().tolist()
                                        + st.reaction_impulse[None].to_numpy().tolist()
                                        + [bd.displacement[i] for i in range(nb)] + [bd.force[i] for i in range(nb)]
-                                       + self.motion_values())
+                                       + self.motion_values() + self.tool_values())
         if frame:
             self.write_frame(key)
 
@@ -304,6 +304,23 @@ class Simulation:
             dofs = [DOFS.index(d) for d in m.dofs]
             out += [float(reaction[m.nodes, d].sum()) for d in dofs] + [float(work[m.nodes][:, dofs].sum())]
         return out
+
+    def tool_values(self) -> list[float]:
+        """force.csv's tool columns (:meth:`tool_columns`): each tool's force on the shell (this
+        step's), its contact energy and the part of it booked at the tool's motion."""
+        tt = self.model.tools
+        if tt is None:
+            return []
+        k = len(tt.names)
+        force = self.state.read(self.state.tools.force, k)
+        energy_ = self.state.read(self.state.tools.energy, k)
+        work = self.state.read(self.state.tools.work, k)
+        return [float(x) for i in range(k) for x in (*force[i], energy_[i], work[i])]
+
+    def tool_columns(self) -> list[str]:
+        tt = self.model.tools
+        return [] if tt is None else [f"{name}.{c}" for name in tt.names
+                                      for c in ("force_x", "force_y", "force_z", "energy", "work")]
 
     def motion_columns(self) -> list[str]:
         return [f"{m.name}.{c}" for m in self.model.loading.motions for c in
@@ -348,6 +365,7 @@ class Simulation:
         for i in range(len(self.model.rigid_bodies)):
             _ = self.state.bodies.displacement[i], self.state.bodies.force[i]
         self.motion_values()
+        self.tool_values()
         self.where()
         ti.sync()
 
@@ -474,7 +492,8 @@ class Simulation:
                   ("energy.csv", [key, *ENERGY_COLUMNS], self.history.energy_rows),
                   ("force.csv", [key, "support_x", "support_y", "support_z", "support_impulse_x", "support_impulse_y",
                                  "support_impulse_z"] + [f"{b}.displacement" for b in names]
-                   + [f"{b}.force" for b in names] + self.motion_columns(), self.history.force_rows),
+                   + [f"{b}.force" for b in names] + self.motion_columns() + self.tool_columns(),
+                   self.history.force_rows),
                   ("parts.csv", [key, "part", *PART_COLUMNS], self.part_table())]
         failed = None
         for name, header, rows in tables:
@@ -542,6 +561,14 @@ class Simulation:
                 {"name": m.name, "kind": self.scene.motions[k].kind, "dofs": list(m.dofs), "nodes": int(len(m.nodes)),
                  "reaction": {d: values[columns.index(f"{m.name}.reaction_{d}")] for d in m.dofs},
                  "work": values[columns.index(f"{m.name}.work")]} for k, m in enumerate(self.model.loading.motions)]
+        if self.model.tools is not None:
+            values, tt = self.tool_values(), self.model.tools
+            contacts = self.state.read(self.state.tools.contacts, len(tt.names))
+            moves = {0: "fixed", 1: "body", 2: "velocity", 3: "displacement"}
+            summary["tools"] = [
+                {"name": name, "kind": tt.kinds[i], "motion": moves[int(tt.motion[i])],
+                 "force": values[5 * i:5 * i + 3], "energy": values[5 * i + 3], "work": values[5 * i + 4],
+                 "nodes_in_contact": int(contacts[i])} for i, name in enumerate(tt.names)]
         if self.state.contact is not None:
             summary["contact"] = {"max_penetration_over_thickness": float(self.state.contact.max_penetration[None]),
                                   "pairs_last_step": int(self.state.contact.pairs[None])}

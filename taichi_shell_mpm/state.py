@@ -58,6 +58,7 @@ import taichi as ti
 from .curves import COLUMNS as CURVE_COLUMNS
 from .materials import MATERIAL_PARAMETERS
 from .scene import MAX_CURVES, MAX_MOTIONS
+from .tools import MAX_TOOLS
 
 (STATUS_OK, STATUS_CONVERGED, STATUS_INVERTED, STATUS_LEFT_GRID, STATUS_NONFINITE, STATUS_DT_COLLAPSE,
  STATUS_CONTACT_FULL, STATUS_ENERGY, STATUS_RETURN_FAILED) = range(9)
@@ -355,6 +356,50 @@ class State:
         g.table("motion_rate", ti.field(f64), (MAX_MOTIONS,), nm, persistent=False, used=on)
         g.table("motion_mean", ti.field(f64), (MAX_MOTIONS,), nm, used=on)
 
+        # --- rigid tools ([[tool]]; tools.py, stages/tools.py)
+        g = self.tools = Group("tools")
+        tt = model.tools
+        on = fx.tools
+        nt = len(tt.names) if tt is not None else 0
+        g.table("count", ti.field(i32), (), persistent=False)
+        g.table("slip_speed", ti.field(f64), (), persistent=False, used=on)   # v_eps of the friction law
+        g.table("reach", ti.field(f64), (), persistent=False, used=on)        # how far behind a mesh nodes are caught
+        for name, dtype in (("kind", i32), ("motion", i32), ("body", i32), ("curve", i32)):
+            g.table(name, ti.field(dtype), (MAX_TOOLS,), nt, persistent=False, used=on)
+        for name in ("origin", "size", "value", "coefficients"):
+            g.table(name, ti.Vector.field(3, f64), (MAX_TOOLS,), nt, persistent=False, used=on)
+        g.table("frame", ti.Matrix.field(3, 3, f64), (MAX_TOOLS,), nt, persistent=False, used=on)
+        # this step's pose at t^n (centre, frame rows) and velocity of the tool's points (its
+        # mean over the step for a prescribed motion; V^(n-1/2) of its body)
+        g.table("centre", ti.Vector.field(3, f64), (MAX_TOOLS,), nt, persistent=False, used=on)
+        g.table("axes", ti.Matrix.field(3, 3, f64), (MAX_TOOLS,), nt, persistent=False, used=on)
+        g.table("velocity", ti.Vector.field(3, f64), (MAX_TOOLS,), nt, persistent=False, used=on)
+        # force and moment (about the centre) the tool exerts on the shell this step; nodes touching
+        g.table("force", ti.Vector.field(3, f64), (MAX_TOOLS,), nt, used=on)
+        g.table("moment", ti.Vector.field(3, f64), (MAX_TOOLS,), nt, used=on)
+        g.table("contacts", ti.field(i32), (MAX_TOOLS,), nt, used=on)
+        # energy: the contact energy booked so far (energy.py); work: the part of it booked at
+        # the tool's own motion, kick F . V_tool (the work its driver or body put in)
+        g.table("energy", ti.field(f64), (MAX_TOOLS,), nt, used=on)
+        g.table("work", ti.field(f64), (MAX_TOOLS,), nt, used=on)
+        # each node's force from each tool, and their sum (this step's)
+        g.entity("node_force", ti.Vector.field(3, f64), n, (MAX_TOOLS,), persistent=False, used=on, host=False)
+        g.entity("total_force", ti.Vector.field(3, f64), n, persistent=False, used=on, host=False)
+        # surface meshes (tools.ToolTable): triangles in the tool's frame, their normals, buckets
+        meshes = "mesh" in fx.tool_kinds
+        ntri = len(tt.triangles) if meshes else 0
+        g.table("tri_first", ti.field(i32), (MAX_TOOLS,), nt, persistent=False, used=meshes)
+        g.table("bucket_first", ti.field(i32), (MAX_TOOLS,), nt, persistent=False, used=meshes)
+        g.table("grid_lo", ti.Vector.field(3, f64), (MAX_TOOLS,), nt, persistent=False, used=meshes)
+        g.table("grid_h", ti.field(f64), (MAX_TOOLS,), nt, persistent=False, used=meshes)
+        g.table("grid_dims", ti.Vector.field(3, i32), (MAX_TOOLS,), nt, persistent=False, used=meshes)
+        g.entity("triangles", ti.Matrix.field(3, 3, f64), ntri, persistent=False, used=meshes)
+        g.entity("tri_normal", ti.Vector.field(3, f64), ntri, persistent=False, used=meshes)
+        g.entity("bucket_start", ti.field(i32), len(tt.bucket_start) if meshes else 0, persistent=False,
+                 used=meshes)
+        g.entity("bucket_items", ti.field(i32), len(tt.bucket_items) if meshes else 0, persistent=False,
+                 used=meshes)
+
         # --- self-contact (method.md 7.3), used only when the scene asks for it
         g = contact = Group("contact")
         self.contact = g if fx.contact else None
@@ -433,7 +478,7 @@ class State:
             placed.append(g.force)
         cells = model.grid.n_nodes if on else 0
         g._builder.dense(ti.i, grid_capacity(cells)).place(*placed)
-        for group in (self.nodes, self.elements, self.sections, self.step, self.bodies, self.loads, contact,
+        for group in (self.nodes, self.elements, self.sections, self.step, self.bodies, self.loads, self.tools, contact,
                       self.points, grid):
             group.finalize()
     
@@ -495,6 +540,7 @@ class State:
         for i, wall in enumerate(model.walls):
             bd.wall_point[i], bd.wall_normal[i], bd.wall_body[i] = wall.point, wall.normal, wall.body
         self._load_loading(model.loading)
+        self._load_tools(model.tools)
         # the step's run-time parameters
         p = model.parameters
         c_max = float(data.wave_speed.max())
@@ -505,6 +551,7 @@ class State:
         st.restart_factor[None] = 1.0
         st.velocity_keep[None] = 1.0
         st.time_limit[None] = np.inf
+        self.tools.slip_speed[None] = 1e-6 * c_max if self.features.tools else 0.0
         if self.contact is not None:
             ct = self.contact
             w(ct.neighbor_start, model.neighbor_start)
@@ -526,6 +573,22 @@ class State:
             for i, (axis, index) in enumerate(geo.planes):
                 gg.plane_axis[i], gg.plane_index[i] = axis, index
             st.dilatational_speed[None] = model.materials.dilatational_speed
+
+    def _load_tools(self, tt) -> None:
+        """The tables of tools.ToolTable."""
+        g, w = self.tools, self.write
+        g.count[None] = len(tt.names) if tt is not None else 0
+        if not self.features.tools:
+            return
+        for name in ("kind", "motion", "body", "curve", "origin", "size", "value", "coefficients", "frame"):
+            w(getattr(g, name), getattr(tt, name))
+        w(g.axes, tt.frame)
+        g.reach[None] = tt.reach
+        w(g.centre, tt.origin)
+        if "mesh" in self.features.tool_kinds:
+            for name in ("tri_first", "bucket_first", "grid_lo", "grid_h", "grid_dims", "triangles", "tri_normal",
+                         "bucket_start", "bucket_items"):
+                w(getattr(g, name), getattr(tt, name))
 
     def _load_loading(self, ld) -> None:
         """The tables of loading.Loading (curves, load entries, pressure, gravity, motions)."""
@@ -559,7 +622,7 @@ class State:
         return {name: g for name, g in (("nodes", self.nodes), ("elements", self.elements),
                                         ("sections", self.sections), ("points", self.points),
                                         ("step", self.step), ("bodies", self.bodies), ("loads", self.loads),
-                                        ("contact", self.contact), ("grid", self.grid)) if g is not None}
+                                        ("tools", self.tools), ("contact", self.contact), ("grid", self.grid)) if g is not None}
 
     @staticmethod
     def read(field, size: int) -> np.ndarray:

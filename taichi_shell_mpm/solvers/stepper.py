@@ -36,6 +36,7 @@ from ..stages.mapping import Mapping
 from ..stages.motion import PrescribedMotion
 from ..stages.shell import ShellElement
 from ..stages.timestep import TimeStep
+from ..stages.tools import RigidTools
 
 KINETIC_CONVERGED = 1e-8     # KE <= 1e-8 W_ext (method.md 6.4)
 # FIRE (Bitzek et al., PRL 97, 170201, 2006), their standard parameters; the time step is not
@@ -54,8 +55,9 @@ class Stepper:
         self.energy = EnergyLedger(state, cfg, cfg.plastic)
         self.loads = ExternalLoads(state, cfg)
         self.motion = PrescribedMotion(state, cfg, self.loads, self.energy)
-        self.bodies = RigidBodies(state, cfg, self.energy, self.loads)
-        self.nodes = NodeUpdate(state, cfg, self.bodies, self.energy, self.loads, self.motion)
+        self.tools = RigidTools(state, cfg, self.loads) if cfg.tools else None
+        self.bodies = RigidBodies(state, cfg, self.energy, self.loads, self.tools)
+        self.nodes = NodeUpdate(state, cfg, self.bodies, self.energy, self.loads, self.motion, self.tools)
         self.contact = SelfContact(state, cfg, model) if cfg.contact else None
         self.shell = ShellElement(state, cfg, self.energy)
         self.timestep = TimeStep(state, cfg)
@@ -82,6 +84,9 @@ class Stepper:
             self.s.contact.velocity_high[None] = ti.Vector([-1e300, -1e300, -1e300])
             self.s.contact.velocity_low[None] = ti.Vector([1e300, 1e300, 1e300])
             self.contact.forces()
+        if ti.static(self.cfg.tools):
+            self.tools.begin()
+            self.tools.forces()
 
     @ti.func
     def velocity_update(self):
@@ -105,6 +110,8 @@ class Stepper:
         if ti.static(self.cfg.bodies):
             self.bodies.apply_wall_impulses()
             self.bodies.add_kinetic_energy()
+        if ti.static(self.cfg.tools):
+            self.tools.end()
         self.energy.guard(shell_kinetic)         # before a relaxation reset books the KE as damped
         self.s.step.reaction_impulse[None] += self.s.step.dt[None] * self.s.step.reaction[None]
         self.s.step.time[None] += self.s.step.dt[None]

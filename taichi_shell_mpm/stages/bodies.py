@@ -22,9 +22,10 @@ class RigidBodies:
     """Bodies and walls are run-time tables (state.bodies); Features.bodies / walls decide
     whether their code is compiled."""
 
-    def __init__(self, state, cfg, energy, loads):
+    def __init__(self, state, cfg, energy, loads, tools):
         self.s = state
         self.cfg = cfg
+        self.tools = tools              # stages/tools.RigidTools (None without tools)
         self.energy = energy            # energy.EnergyLedger
         self.loads = loads              # stages/loads.ExternalLoads
         self.acc = Accumulator(cfg.serial)
@@ -47,7 +48,11 @@ class RigidBodies:
                 f = external - self.s.nodes.force_int[c]
                 if ti.static(self.cfg.contact):
                     f += self.s.contact.force[c]
+                if ti.static(self.cfg.tools):
+                    f += self.s.tools.total_force[c]
                 force += f.dot(d)
+            if ti.static(self.cfg.tools):        # the tools moving with it are pushed back
+                force += self.tools.on_body(b).dot(d)
             self.s.bodies.force[b] = force
             if ti.static(self.cfg.static):      # the body's own equilibrium (its slaves are not free nodes)
                 self.s.step.residual_sq[None] += force * force

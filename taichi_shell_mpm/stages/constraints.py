@@ -28,10 +28,11 @@ def drop_fixed(vec, mask, first_bit: ti.template()):
 
 @ti.data_oriented
 class NodeUpdate:
-    def __init__(self, state: State, cfg, bodies, energy, loads, motion):
+    def __init__(self, state: State, cfg, bodies, energy, loads, motion, tools):
         self.s = state
         self.cfg = cfg
         self.bodies = bodies
+        self.tools = tools              # stages/tools.RigidTools (None without tools)
         self.energy = energy            # energy.EnergyLedger
         self.loads = loads              # stages/loads.ExternalLoads
         self.motion = motion            # stages/motion.PrescribedMotion
@@ -64,12 +65,22 @@ class NodeUpdate:
         return n, ok
 
     @ti.func
+    def contact_force(self, c):
+        """f_con: the self-contact's and the rigid tools' force on node c this step."""
+        f = ti.Vector([0.0, 0.0, 0.0])
+        if ti.static(self.cfg.contact):
+            f += self.s.contact.force[c]
+        if ti.static(self.cfg.tools):
+            f += self.s.tools.total_force[c]
+        return f
+
+    @ti.func
     def residual_force(self, c):
         """Out-of-balance nodal force f_ext - f_int (+ f_con) with fixed and prescribed components dropped."""
         force, _ = self.loads.at_node(c)
         r = force - self.s.nodes.force_int[c]
-        if ti.static(self.cfg.contact):
-            r += self.s.contact.force[c]
+        if ti.static(self.cfg.contact or self.cfg.tools):
+            r += self.contact_force(c)
         return drop_fixed(r, self.held(c), 0)
 
     @ti.func
@@ -122,8 +133,8 @@ class NodeUpdate:
         if (mask & FIXED_TRANSLATION) == FIXED_TRANSLATION:
             # support reaction R = f_int - f_ext - f_con (method.md 2.5a)
             reaction = self.s.nodes.force_int[c] - force_ext
-            if ti.static(self.cfg.contact):
-                reaction -= self.s.contact.force[c]
+            if ti.static(self.cfg.contact or self.cfg.tools):
+                reaction -= self.contact_force(c)
             self.acc.total(self.s.step.reaction, reaction)
         elif ti.static(self.cfg.walls):
             if not rigid and (moved & FIXED_TRANSLATION) == 0:      # walls leave prescribed nodes alone
@@ -166,7 +177,10 @@ class NodeUpdate:
         force = force_ext - self.s.nodes.force_int[c]
         if ti.static(self.cfg.contact):
             contact = -kick * self.s.contact.force[c].dot(v_mid)
-            force += self.s.contact.force[c]
+        if ti.static(self.cfg.tools):
+            contact += self.tools.book_node(c, v_mid, kick)
+        if ti.static(self.cfg.contact or self.cfg.tools):
+            force += self.contact_force(c)
         wall = -self.s.nodes.mass[c] * (vg - before_walls).dot(v_mid)     # minus the walls' impulse . v_mid
         motion = 0.0
         if ti.static(self.cfg.loads):

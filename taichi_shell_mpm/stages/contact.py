@@ -79,6 +79,15 @@ def closest_point_on_triangle(p, a, b, c):
     return bary[0] * a + bary[1] * b + bary[2] * c, bary
 
 
+@ti.func
+def coulomb_friction(mu, f_n, v_rel, normal, slip_speed):
+    """Coulomb friction regularised by the tangential slip speed [choice: needs no per-pair
+    history]: -mu |F_n| v_t / sqrt(|v_t|^2 + v_eps^2), v_t the relative velocity's part
+    normal to `normal`; the self-contact's and the rigid tools' (stages/tools.py) law."""
+    slip = v_rel - v_rel.dot(normal) * normal
+    return -(mu * f_n / ti.sqrt(slip.norm_sqr() + slip_speed ** 2)) * slip
+
+
 def skin_width(t_c: float, min_edge: float) -> float:
     """The candidate lists' skin s [choice, measured in the note of issue 4]: t_c, unless
     the elements are small against t_c.  A node's excluded one-ring reaches about two
@@ -325,8 +334,8 @@ class SelfContact:
             f_n = ti.max(0.0, k * gap + self.s.contact.damping[None] * 2.0 * ti.sqrt(k * m_eff) * closing)
             force = f_n * normal
             if ti.static(self.cfg.friction):
-                slip = v_rel - v_rel.dot(normal) * normal
-                force -= (self.s.contact.friction[None] * f_n / ti.sqrt(slip.norm_sqr() + self.s.contact.slip_speed[None] ** 2)) * slip
+                force += coulomb_friction(self.s.contact.friction[None], f_n, v_rel, normal,
+                                          self.s.contact.slip_speed[None])
             self.s.contact.pair_force[c] = force
             self.s.contact.pair_weight[c] = best_w
             self.acc.maximum(self.s.contact.max_penetration, gap / t_c)
