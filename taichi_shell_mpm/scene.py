@@ -1809,7 +1809,7 @@ class _SceneParser:
             for name in required:
                 if name not in data:
                     self.error(f"{path}.{name}", f'missing required key for kind = "{kind}"')
-            if kind == "rectangle" and "axis" in v and "normal" in v:
+            if kind == "rectangle" and v.get("axis") is not None and v.get("normal") is not None:
                 (a1, a2, a3), (n1, n2, n3) = v["axis"], v["normal"]
                 cross = math.hypot(a2 * n3 - a3 * n2, a3 * n1 - a1 * n3, a1 * n2 - a2 * n1)
                 if cross <= 1e-9 * math.hypot(a1, a2, a3) * math.hypot(n1, n2, n3):

@@ -6,7 +6,6 @@ not test sit far away (DUMMIES).
 
 Run with ``python -m pytest -q -s tests/test_tools.py`` to see the measured errors.
 """
-from __future__ import annotations
 
 import json
 import time
@@ -400,7 +399,7 @@ def test_bad_tool_input_is_one_line_exit_2(tmp_path, body, message):
     with pytest.raises(SceneError) as caught:
         load_scene(scene)
     assert any(message in line and "[[tool]]" in line for line in caught.value.messages), caught.value.messages
-    r = cli_run("check", str(scene))
+    r = cli_run("validate", str(scene))
     assert r.code == 2 and "Traceback" not in r.out + r.err
     assert any(message in line for line in r.err.splitlines())
 
