@@ -185,21 +185,20 @@ class RigidTools:
         """Signed distance, outward normal (tool frame) and whether tool k can touch q."""
         d, n, hit = 0.0, ti.Vector([0.0, 0.0, 1.0]), False
         kind = self.g.kind[k]
-        used = self.cfg.tool_kinds
-        if ti.static("plane" in used):
-            if kind == TOOL_KINDS.index("plane"):
+        if ti.static("plane" in self.cfg.tool_kinds):
+            if kind == ti.static(TOOL_KINDS.index("plane")):
                 d, n, hit = self.plane(k, q)
-        if ti.static("rectangle" in used):
-            if kind == TOOL_KINDS.index("rectangle"):
+        if ti.static("rectangle" in self.cfg.tool_kinds):
+            if kind == ti.static(TOOL_KINDS.index("rectangle")):
                 d, n, hit = self.rectangle(k, q)
-        if ti.static("cylinder" in used):
-            if kind == TOOL_KINDS.index("cylinder"):
+        if ti.static("cylinder" in self.cfg.tool_kinds):
+            if kind == ti.static(TOOL_KINDS.index("cylinder")):
                 d, n, hit = self.cylinder(k, q)
-        if ti.static("sphere" in used):
-            if kind == TOOL_KINDS.index("sphere"):
+        if ti.static("sphere" in self.cfg.tool_kinds):
+            if kind == ti.static(TOOL_KINDS.index("sphere")):
                 d, n, hit = self.sphere(k, q)
-        if ti.static("mesh" in used):
-            if kind == TOOL_KINDS.index("mesh"):
+        if ti.static("mesh" in self.cfg.tool_kinds):
+            if kind == ti.static(TOOL_KINDS.index("mesh")):
                 d, n, hit = self.mesh(k, q)
         return d, n, hit
 
