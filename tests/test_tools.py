@@ -328,24 +328,31 @@ def test_sheet_on_tilted_rectangle_slides_at_the_coulomb_limit(tmp_path):
     force = np.stack([f["slopeforce_x"], f["slopeforce_y"], f["slopeforce_z"]], axis=1)[late]
     normal_force = force @ n_vec
     friction = -(force @ down_slope)
+    # the friction law is Coulomb's regularised by the slip speed (v_eps = 1e-6 c, stages/contact.py):
+    # mu N v / sqrt(v^2 + v_eps^2) with v = a t, which is within 1.5 % of mu N from t = 10 ms on
+    a_exact = G * (np.sin(th) - mu * np.cos(th))
+    v_eps = 1e-6 * np.sqrt(E / (RHO * (1 - NU ** 2)))
+    v = a_exact * f["time"][late]
+    regularised = mu * weight * np.cos(th) * v / np.sqrt(v * v + v_eps * v_eps)
     normal_err = float(np.max(np.abs(normal_force / (weight * np.cos(th)) - 1)))
-    friction_err = float(np.max(np.abs(friction / (mu * weight * np.cos(th)) - 1)))
+    coulomb_err = float(np.max(np.abs(friction / (mu * weight * np.cos(th)) - 1)))
+    friction_err = float(np.max(np.abs(friction / regularised - 1)))
     support = np.stack([f["support_x"], f["support_y"], f["support_z"]], axis=1)[late]
     # slide along the slope from the probes: s(t) = a t^2 / 2
-    s = -(np.stack([p["sheetuy"], p["sheetuz"]], axis=1) @ down_slope[1:])
+    s = np.stack([p["sheetuy"], p["sheetuz"]], axis=1) @ down_slope[1:]
     t = p["time"]
     a_fit = np.polyfit(t[t >= 0.005], s[t >= 0.005], 2)[0] * 2
-    a_exact = G * (np.sin(th) - mu * np.cos(th))
-    print(f"\nnormal force / (m g cos th) - 1: {normal_err:.2e}; friction / (mu m g cos th) - 1: {friction_err:.2e}; "
-          f"acceleration {a_fit:.5f} vs g (sin th - mu cos th) = {a_exact:.5f} ({a_fit / a_exact - 1:+.2e})")
+    print(f"\nnormal force / (m g cos th) - 1: {normal_err:.2e}; friction / (mu m g cos th) - 1: {coulomb_err:.2e} "
+          f"(against the regularised law: {friction_err:.2e}); acceleration {a_fit:.5f} vs g (sin th - mu cos th) "
+          f"= {a_exact:.5f} ({a_fit / a_exact - 1:+.2e}: the regularisation's lower friction while slow)")
     assert np.allclose(support, force, rtol=0, atol=1e-12 * weight)
-    assert normal_err < 0.02 and friction_err < 0.02
-    assert abs(a_fit / a_exact - 1) < 0.02
+    assert normal_err < 1e-6 and friction_err < 2.5e-3 and coulomb_err < 0.015
+    assert abs(a_fit / a_exact - 1) < 0.008
 
 
 def test_plate_struck_by_sphere_momentum_and_energy(tmp_path):
     """A sphere tool (R = 0.1 m) on a rigid body (1 kg added, 10 m/s) hits a free plate: the total
-    momentum of body + plate is kept, and the energy balance closes (printed: both errors)."""
+    momentum of body + plate along the body's direction is kept, and the energy balance closes (printed: both errors)."""
     tools = {"striker": 'kind = "sphere"\ncenter = [0, 0, 0.106]\nradius = 0.1\nmoves_with = "ram"\ndamping = 0.1'}
     extra = '[[initial]]\nnodes = "ram"\nvelocity = [0, 0, -10]'
     text = scene_text(tools, end_time=0.003, extra=extra, history=1e-4).replace(
@@ -361,14 +368,15 @@ def test_plate_struck_by_sphere_momentum_and_energy(tmp_path):
     v = sim.state.fetch("nodes.grid_velocity")
     plate_p = (sim.model.node_mass[free, None] * v[free]).sum(axis=0)
     body_p = body.total_mass * float(sim.state.bodies.velocity[0]) * np.array(body.direction)
-    p_err = float(np.linalg.norm(plate_p + body_p - p0) / np.linalg.norm(p0))
+    d = np.array(body.direction)        # the body moves along d only: its guide takes the rest
+    p_err = float(abs((plate_p + body_p - p0) @ d) / np.linalg.norm(p0))
     e = sim.energies()
     ke0 = sim.initial_kinetic
     rows = np.array(sim.history.force_rows)
     first_tool = 1 + 6 + 2 * len(sim.model.rigid_bodies) + len(sim.motion_columns())
     peak = float(np.abs(rows[:, first_tool + sim.tool_columns().index("striker.force_z")]).max())
     plate_ke = 0.5 * float((sim.model.node_mass[free] * (v[free] ** 2).sum(axis=1)).sum())
-    print(f"\nplate momentum {plate_p[2]:.6f}, body {body_p[2]:.6f}, initial {p0[2]:.6f}: error {p_err:.2e} of |p0|; "
+    print(f"\nplate momentum {plate_p[2]:.6f}, body {body_p[2]:.6f}, initial {p0[2]:.6f}: error {p_err:.2e} of |p0| (lateral {np.linalg.norm(plate_p[:2]):.1e}); "
           f"KE0 {ke0:.4f} J, plate KE {plate_ke:.4f} J, internal {e['internal']:.4f} J, contact {e['contact']:.3e} J, "
           f"balance error {e['balance_error']:.3e} J ({e['balance_error'] / ke0:.2e} of KE0); peak force {peak:.1f} N")
     assert plate_p[2] < -0.5 * 10 * 0.6, "the plate was not struck"
