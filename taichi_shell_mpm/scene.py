@@ -1931,9 +1931,14 @@ class _SceneParser:
             if isinstance(element, dict) and element.get("drilling") == "projection":
                 self.error("[solve].solver", '"newton" needs the drilling spring ([element].drilling = "penalty"): the '
                            "projection leaves the drilling rotation without stiffness")
-            for key in ("rigid_body", "wall", "tool", "contact"):
-                if key in raw:
+            for key in ("rigid_body", "wall", "tool", "contact", "motion", "pressure", "gravity"):
+                if key in raw:       # loads and constraints the element pass of the tangent does not see
                     self.error("[solve].solver", f'"newton" does not handle [{key}] (use "relaxation")')
+            loads = raw.get("load", [])
+            for k, load in enumerate(loads if isinstance(loads, list) else []):
+                if isinstance(load, dict) and (load.get("curve") or load.get("follower")):
+                    self.error(f"[[load]] {k + 1}", '"newton" takes dead loads proportional to the load factor: no '
+                               'curve or follower (use "relaxation")')
         else:
             for key in ("control", "control_nodes", "control_displacement", "arc_length", "max_load_factor",
                         "target_iterations", "max_iterations", "max_cutbacks", "increment_tolerance",
