@@ -376,8 +376,9 @@ def test_sheet_on_tilted_rectangle_slides_at_the_coulomb_limit(tmp_path):
 
 def test_plate_resting_on_cylinder_and_mesh_reaction_is_its_weight(tmp_path):
     """A plate laid under gravity on a fixed capped cylinder and a fixed cube mesh (through the
-    CLI): once it has settled the tools carry its weight (each tool's force and the support
-    reaction, the same), and the energy balance closes (printed)."""
+    CLI): the tools carry its weight (their forces are the support reaction), on average to
+    0.14 % over the last 20 ms (the contact damps its rigid motion, not its bending vibration,
+    which swings the instantaneous force by ~10 %), and the energy balance closes (printed)."""
     tools = {"roller": 'kind = "cylinder"\ncenter = [-0.06, 0, -0.021]\naxis = [0, 1, 0]\nradius = 0.02\n'
                        'length = 0.3\ndamping = 1.0',
              "block": 'kind = "mesh"\nfile = "cube.obj"\ncenter = [0.1, 0, -0.051]\ndamping = 1.0'}
@@ -394,9 +395,9 @@ def test_plate_resting_on_cylinder_and_mesh_reaction_is_its_weight(tmp_path):
     print(f"\nweight {weight:.5f} N; the tools carry it to {err:.2e} from 40 ms on (mean {mean / weight - 1:+.2e}); "
           f"roller {f['rollerforce_z'][-1]:.4f} N, block {f['blockforce_z'][-1]:.4f} N; "
           f"balance error {e['balance_error']:.2e} J of external work {e['external_work']:.2e} J")
-    assert np.allclose(f["support_z"][late], carried, rtol=1e-12, atol=0)
+    assert np.allclose(f["support_z"][late], carried, rtol=1e-9, atol=0)     # force.csv has 10 digits
     assert f["rollerforce_z"][-1] > 0.2 * weight and f["blockforce_z"][-1] > 0.2 * weight
-    assert err < 0.01 and abs(mean / weight - 1) < 0.003
+    assert err < 0.15 and abs(mean / weight - 1) < 2e-3
     assert abs(e["balance_error"]) < 0.01 * e["external_work"]
     tools_out = {t["name"]: t for t in summary["tools"]}
     assert tools_out["roller"]["motion"] == "fixed" and tools_out["roller"]["nodes_in_contact"] > 0
@@ -453,6 +454,12 @@ def test_plate_struck_by_sphere_momentum_and_energy(tmp_path):
     print(f"\nplate momentum {plate_p[2]:.6f}, body {body_p[2]:.6f}, initial {p0[2]:.6f}: error {p_err:.2e} of |p0| (lateral {np.linalg.norm(plate_p[:2]):.1e}); "
           f"KE0 {ke0:.4f} J, plate KE {plate_ke:.4f} J, internal {e['internal']:.4f} J, contact {e['contact']:.3e} J, "
           f"balance error {e['balance_error']:.3e} J ({e['balance_error'] / ke0:.2e} of KE0); peak force {peak:.1f} N")
+    # the same scene through the CLI: the striker's columns and summary entry
+    out, summary, f = run_cli(tmp_path, text, "strike")
+    striker = next(t for t in summary["tools"] if t["name"] == "striker")
+    assert striker["motion"] == "body" and striker["work"] > 0.0
+    assert summary["energies"]["balance_error"] == pytest.approx(e["balance_error"], rel=1e-6, abs=1e-12 * ke0)
+    assert float(np.abs(f["strikerforce_z"]).max()) == pytest.approx(peak, rel=1e-9)
     assert plate_p[2] < -0.5 * 10 * 0.6, "the plate was not struck"
     assert p_err < 1e-10
     assert abs(e["balance_error"]) < 1e-3 * ke0
