@@ -217,7 +217,6 @@ def test_signed_distance_and_normal_of_each_kind(tmp_path):
     scene = load_scene(write(tmp_path, scene_text(GEOMETRY_TOOLS, end_time=1e-4)))
     sim = Simulation(scene, tmp_path / "out", quiet=True)
     rng = np.random.default_rng(7)
-    forms = None
     names = list(sim.model.tools.names)
     centres = {"ball": (0.3, 0, 0), "roller": (-0.3, 0, 0), "board": (0, 0.3, 0), "floor": (0, -0.3, 0),
                "box": (0, 0, 0.3)}
@@ -383,7 +382,7 @@ def test_plate_resting_on_cylinder_and_mesh_reaction_is_its_weight(tmp_path):
                        'length = 0.3\ndamping = 1.0',
              "block": 'kind = "mesh"\nfile = "cube.obj"\ncenter = [0.1, 0, -0.051]\ndamping = 1.0'}
     extra = '[gravity]\nacceleration = [0, 0, -9.81]'
-    out, summary, f = run_cli(tmp_path, scene_text(tools, end_time=0.06, extra=extra, history=0.002), "rest")
+    _, summary, f = run_cli(tmp_path, scene_text(tools, end_time=0.06, extra=extra, history=0.002), "rest")
     weight = RHO * T * 0.2 * 0.2 * G
     late = f["time"] >= 0.04
     carried = f["rollerforce_z"][late] + f["blockforce_z"][late]
@@ -410,7 +409,7 @@ def test_tool_driven_by_a_velocity_curve_works_on_the_plate(tmp_path):
     tools = {"lift": 'kind = "plane"\ncenter = [0, 0, -0.0011]\nnormal = [0, 0, 1]\nvelocity = [0, 0, 1]\n'
                      'curve = "ramp"\ndamping = 0.5'}
     text = scene_text(tools, end_time=0.003, history=1e-4).replace("end = 1.0", "end = 0.001")
-    out, summary, f = run_cli(tmp_path, text, "lift")
+    out, summary, _ = run_cli(tmp_path, text, "lift")
     e = summary["energies"]
     lift = next(t for t in summary["tools"] if t["name"] == "lift")
     probes = np.genfromtxt(out / "energy.csv", delimiter=",", names=True)
@@ -455,7 +454,7 @@ def test_plate_struck_by_sphere_momentum_and_energy(tmp_path):
           f"KE0 {ke0:.4f} J, plate KE {plate_ke:.4f} J, internal {e['internal']:.4f} J, contact {e['contact']:.3e} J, "
           f"balance error {e['balance_error']:.3e} J ({e['balance_error'] / ke0:.2e} of KE0); peak force {peak:.1f} N")
     # the same scene through the CLI: the striker's columns and summary entry
-    out, summary, f = run_cli(tmp_path, text, "strike", "--hourglass-limit", "0")
+    _, summary, f = run_cli(tmp_path, text, "strike", "--hourglass-limit", "0")
     striker = next(t for t in summary["tools"] if t["name"] == "striker")
     assert striker["motion"] == "body" and striker["work"] > 0.0
     assert summary["energies"]["balance_error"] == pytest.approx(e["balance_error"], rel=1e-6, abs=1e-12 * ke0)
