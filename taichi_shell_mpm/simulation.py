@@ -318,21 +318,12 @@ class Simulation:
                           self.element_results())
 
     def _compile(self) -> None:
-        """Compile (or load from the offline cache) the step kernel before the clock of the
-        run starts.  The batched kernel compiles on a zero-step launch; the parallel one has
-        no such launch, so it takes one step and every field is put back as it was.
-        Newton statics (issue 19) never step: their own kernels are compiled by
-        solvers/newton.ShellEquations.compiled instead."""
+        """Compile (or load from the offline cache) the step kernels before the clock of the
+        run starts (Stepper.compile).  Newton statics (issue 19) never step: their own
+        kernels are compiled by solvers/newton.ShellEquations.compiled instead."""
         if self.scene.solve.kind == "static" and self.scene.solve.solver == "newton":
             return
-        if self.stepper.batched:
-            self.stepper.advance(0)
-        else:
-            saved = self.state.arrays()        # the scratch fields are rewritten before they are read
-            if self.stepper.contact is not None:
-                self.stepper.rebuild_contact()
-            self.stepper.advance_one()
-            self.state.restore(saved)
+        self.stepper.compile()
         ti.sync()
 
     def _compile_readers(self) -> None:
