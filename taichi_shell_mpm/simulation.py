@@ -29,7 +29,7 @@ from .solvers.stepper import Stepper
 from .stages.timestep import DT_UNSET, initial_dt
 from .state import (CANDIDATES_PER_NODE, STATUS_CONTACT_FULL, STATUS_DT_COLLAPSE, STATUS_ENERGY, STATUS_INVERTED,
                     STATUS_LEFT_GRID, STATUS_NONFINITE, STATUS_RETURN_FAILED, State)
-from . import energy
+from . import energy, frontend
 from .energy import ENERGY_COLUMNS, PART_COLUMNS, part_energies, part_names
 
 ARCHS = {"cpu": "cpu", "cuda": "cuda", "vulkan": "vulkan"}
@@ -108,6 +108,7 @@ def init_taichi(arch: str = "cpu", quiet: bool = False) -> str:
     reports the fallback)."""
     import contextlib
     import io
+    frontend.speed_up()
     level = ti.WARN if arch == "cpu" else ti.ERROR
     with contextlib.redirect_stdout(io.StringIO()) if quiet else contextlib.nullcontext():
         ti.init(arch=getattr(ti, ARCHS[arch]), default_fp=ti.f64, default_ip=ti.i32, offline_cache=True,
@@ -335,21 +336,12 @@ class Simulation:
                           self.element_results())
 
     def _compile(self) -> None:
-        """Compile (or load from the offline cache) the step kernel before the clock of the
-        run starts.  The batched kernel compiles on a zero-step launch; the parallel one has
-        no such launch, so it takes one step and every field is put back as it was.
-        Newton statics (issue 19) never step: their own kernels are compiled by
-        solvers/newton.ShellEquations.compiled instead."""
+        """Compile (or load from the offline cache) the step kernels before the clock of the
+        run starts (Stepper.compile).  Newton statics (issue 19) never step: their own
+        kernels are compiled by solvers/newton.ShellEquations.compiled instead."""
         if self.scene.solve.kind == "static" and self.scene.solve.solver == "newton":
             return
-        if self.stepper.batched:
-            self.stepper.advance(0)
-        else:
-            saved = self.state.arrays()        # the scratch fields are rewritten before they are read
-            if self.stepper.contact is not None:
-                self.stepper.rebuild_contact()
-            self.stepper.advance_one()
-            self.state.restore(saved)
+        self.stepper.compile()
         ti.sync()
 
     def _compile_readers(self) -> None:
@@ -357,6 +349,7 @@ class Simulation:
         before the run clock (reads only), not inside the first history record."""
         self.probe_values()
         self.energies()
+        part_energies(self.state, self.model)
         self.displacements()
         self.element_results()
         self.state.step.reaction[None].to_numpy()
