@@ -168,6 +168,7 @@ class Simulation:
         self.frames: FrameWriter | None = None
         self.total_steps = 0
         self.run_seconds = 0.0
+        self.run_cpu_seconds = 0.0          # the process's CPU time over the run (all threads)
         self.reporter = Progress(quiet, scene.solve.progress_every)
         self.warnings: list[str] = []
         self.hourglass_warned = False
@@ -486,6 +487,8 @@ class Simulation:
             "steps": self.total_steps, "compile_seconds": self.compile_seconds,
             "compile_cpu_seconds": self.compile_cpu_seconds, "run_seconds": self.run_seconds,
             "us_per_element_step": 1e6 * self.run_seconds / max(1, self.total_steps * len(self.model.elements)),
+            "run_cpu_seconds": self.run_cpu_seconds,
+            "cpu_us_per_element_step": 1e6 * self.run_cpu_seconds / max(1, self.total_steps * len(self.model.elements)),
             "energies": e, "parts": self.part_summary(),
             "mesh_warnings": list(self.mesh.warnings), "warnings": list(self.warnings),
         }
