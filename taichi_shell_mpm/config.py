@@ -30,6 +30,7 @@ class Features:
     kirchhoff_w_hourglass: bool  # stages/hourglass.py: w-mode rate less the Kirchhoff field's
     drilling_spring: bool       # drilling spring (stages/drilling.py); else the projection (method.md 2.3)
     warping_correction: bool    # BWC curvature of warped quads (stages/warping.py, method.md 3.8)
+    triangles: bool             # the mesh has triangles: the C0 triangle (stages/triangle.py)
     physical_rotary_inertia: bool   # the rotational limit in the element's step (stages/timestep.py)
     grid_rule: bool             # the paper's grid rule in dt (dt_rule = "both", mpm)
     grid_planes: bool           # symmetry planes on the grid (stages/grid.py)
@@ -39,6 +40,10 @@ class Features:
     contact: bool               # penalty self-contact (stages/contact.py)
     friction: bool              # contact friction
     launch: str = "batched"     # "batched" | "threads" | "gpu" (solvers/stepper.py)
+    loads: bool = False         # curve or follower loads, pressure, gravity, prescribed motion
+    #                             (stages/loads.py, stages/motion.py): one switch [choice: a
+    #                             configuration costs 25-60 s to compile, and a scene with any of
+    #                             them pays next to nothing for the others' empty loops]
 
     @property
     def serial(self) -> bool:
@@ -84,6 +89,7 @@ class Features:
             layered=bool(model.sections.layered.any()),
             kirchhoff_w_hourglass=el.w_hourglass == "kirchhoff", drilling_spring=el.drilling == "penalty",
             warping_correction=el.warping == "bwc",
+            triangles=bool((model.elements[:, 3] < 0).any()),
             physical_rotary_inertia=scene.solve.rotary_inertia == "physical",
             grid_rule=scene.solve.dt_rule == "both" and scene.method.kind == "mpm",
             grid_planes=model.grid is not None and bool(model.grid.planes),
@@ -91,4 +97,4 @@ class Features:
             moving_walls=any(w.body >= 0 for w in model.walls),
             contact=scene.contact is not None,
             friction=scene.contact is not None and scene.contact.friction > 0.0,
-            launch=launch)
+            launch=launch, loads=model.loading.loads)

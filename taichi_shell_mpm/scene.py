@@ -24,6 +24,8 @@ from typing import Any, Literal, Union
 
 Vec3 = tuple[float, float, float]
 DOFS = ("ux", "uy", "uz", "rx", "ry", "rz")
+MAX_CURVES = 64          # [curves.NAME] tables of a scene (state.loads tables)
+MAX_MOTIONS = 64         # [[motion]] entries of a scene
 
 
 class SceneError(Exception):
@@ -66,6 +68,11 @@ def _generated_elements(kind: str, v: dict) -> int | None:
     return count
 
 
+TriangleSplit = Union[Literal["none", "all"], tuple[Vec3, Vec3]]
+"""`triangles` of a generated mesh: "none", "all", or a box (min, max) of quad centroids:
+the quads it selects are cut into two triangles each (mesh.split_quads)."""
+
+
 @dataclass(frozen=True)
 class PlateMesh:
     """Flat rectangle in the x-y plane, nx x ny quads, normals +z."""
@@ -74,6 +81,7 @@ class PlateMesh:
     nx: int
     ny: int
     origin: Vec3 = (0.0, 0.0, 0.0)
+    triangles: TriangleSplit = "none"
     kind: Literal["plate"] = "plate"
 
 
@@ -90,6 +98,7 @@ class HemisphereMesh:
     n_around: int
     n_meridian: int
     quarter: bool = True
+    triangles: TriangleSplit = "none"
     kind: Literal["hemisphere"] = "hemisphere"
 
 
@@ -111,6 +120,7 @@ class TubeMesh:
     y-faces; corners untouched. 0 = no trigger."""
     trigger_start: float = 5.0
     trigger_length: float = 15.0
+    triangles: TriangleSplit = "none"
     kind: Literal["tube"] = "tube"
 
 
@@ -318,9 +328,74 @@ class Boundary:
 class Load:
     nodes: str
     force: Vec3 = (0.0, 0.0, 0.0)
-    """Total force, spread over the set (dead load, scaled by the load factor)."""
+    """Total force, spread over the set (scaled by the load factor, or by `curve`)."""
     moment: Vec3 = (0.0, 0.0, 0.0)
-    distribute: Literal["area", "equal"] = "area"
+    distribute: Literal["area", "equal", "length"] = "area"
+    """Shares of the set's nodes: tributary shell area, equal, or tributary length along the
+    element edges joining two nodes of the set (a consistent line load)."""
+    force_per_length: Vec3 = (0.0, 0.0, 0.0)
+    """A line load: force per unit length along the element edges joining two nodes of the set
+    (each node gets it times half the length of its edges: the consistent nodal loads)."""
+    moment_per_length: Vec3 = (0.0, 0.0, 0.0)
+    curve: str | None = None
+    """A [curves.NAME] the load follows (of time in a dynamic run, of the load factor in a
+    static one); None: the load factor (1 in a dynamic run)."""
+    follower: bool = False
+    """Force and moment turn with their node (its orientation quaternion)."""
+
+
+# ---------------------------------------------------------------- curves, motion, pressure, gravity
+CURVE_SHAPES = ("constant", "ramp", "smooth_step")
+
+
+@dataclass(frozen=True)
+class Curve:
+    """A time function f (curves.py): of the time in a dynamic run, of the load factor in a
+    static one."""
+    name: str
+    kind: Literal["points", "constant", "ramp", "smooth_step"]
+    points: tuple[tuple[float, float], ...] = ()
+    """points (also read from `file`): (t, f), t strictly increasing; linear between them, flat
+    beyond the ends."""
+    file: Path | None = None
+    start: float = 0.0
+    end: float = 1.0
+    """ramp: 0 up to start, linear to 1 at end, then 1; smooth_step: the same with the quintic
+    10 s^3 - 15 s^4 + 6 s^5 (zero slope and curvature at both ends)."""
+    scale: float = 1.0
+    """Every value times this."""
+
+
+MOTION_KINDS = ("displacement", "velocity", "acceleration")
+
+
+@dataclass(frozen=True)
+class Motion:
+    """Prescribed motion of DOFs of a node set (stages/motion.py): u, v or a = value x f."""
+    name: str
+    nodes: str
+    dofs: tuple[str, ...]
+    kind: Literal["displacement", "velocity", "acceleration"]
+    value: tuple[float, ...]
+    """One per DOF (a single number in the scene applies to every DOF)."""
+    curve: str | None = None
+    """None: the load factor (1 in a dynamic run; lambda in a static one)."""
+
+
+@dataclass(frozen=True)
+class Pressure:
+    """Follower pressure on elements: force p A n on each element along its current normal
+    (the corner order's), shared by its corners (stages/loads.py)."""
+    value: float
+    elements: str = "all"
+    curve: str | None = None
+
+
+@dataclass(frozen=True)
+class Gravity:
+    """Body force m g on every node (its physical mass)."""
+    acceleration: Vec3
+    curve: str | None = None
 
 
 @dataclass(frozen=True)
@@ -355,6 +430,10 @@ class Reference:
     compare: tuple[ReferenceColumn, ...]
     floor: float = 0.1
     """Relative-error floor: e_i = |sim-ref| / max(|ref_i|, floor*max|ref|)."""
+    along: Literal["load", "path"] = "load"
+    """"load": rows matched by load level; "path": each row (compared value, load) against the
+    simulated path, as a distance in the plane scaled by the table's largest values
+    (reference.py; a path with limit points, issue 19)."""
 
 
 @dataclass(frozen=True)
@@ -403,8 +482,10 @@ class Crush:
     """Name of the [[rigid_body]] whose motion is the crush (None = the first one)."""
     folds: bool = False
     """Count lobes and the fold half-wavelength on the flat faces of a prismatic tube along `axis`."""
-    mean_force_reference: tuple[float, ...] = ()
-    """Reference mean forces (e.g. closed-form estimates); the summary gives the ratio to each."""
+    mean_force_reference: tuple[float | str, ...] = ()
+    """Reference mean forces: numbers, or the names of closed-form estimates for a tube mesh
+    (CRUSH_FORMULAS, evaluated with the run's yield stress, thickness and tube size); the
+    summary gives the ratio to each."""
     half_wavelength_reference: float | None = None
     """Reference fold half-wavelength (e.g. Wierzbicki-Abramowicz); the summary gives the ratio."""
 
@@ -429,6 +510,32 @@ class Solve:
     keeps the physical masses.  The equilibrium does not depend on the masses."""
     progress_every: float = 2.0
     """Seconds of wall time between progress lines."""
+    solver: Literal["relaxation", "newton"] = "relaxation"
+    """Static solves: dynamic relaxation (solvers/static.py) or Newton-Raphson with path
+    following (solvers/newton.py, docs/newton.md; fem mode)."""
+    control: Literal["load", "displacement", "arc_length"] = "load"
+    """Newton: what the path is stepped in: the load factor, the mean displacement of a node
+    set's DOF (control_nodes, control_dof, control_displacement), or Crisfield's arc length."""
+    control_nodes: str | None = None
+    """Node set of the controlled (displacement) or monitored (arc length) DOF."""
+    control_dof: str = "uz"
+    control_displacement: float = 0.0
+    """Displacement control: the final mean value of the controlled DOF; arc length: stop
+    once the monitored DOF passes it (0: no such stop)."""
+    arc_length: float = 0.0
+    """Arc length of the first point (0: the linear displacement at load factor 1 / load_steps)."""
+    max_load_factor: float = 1.0
+    """Arc length: stop once |load factor| reaches it."""
+    target_iterations: int = 5
+    """Arc length: the iteration count the arc length is adapted to."""
+    max_iterations: int = 20
+    """Newton iterations of one point before it is cut back."""
+    max_cutbacks: int = 10
+    """Halvings of one increment before the run stops."""
+    increment_tolerance: float = 1e-3
+    """Newton: |last correction| / |increment| that ends a point (with tolerance and energy_tolerance)."""
+    energy_tolerance: float = 1e-6
+    """Newton: |correction . residual| of the last iteration over the first's."""
 
 
 @dataclass(frozen=True)
@@ -469,6 +576,10 @@ class Scene:
     parts: tuple[Part, ...] = ()
     """[[part]] entries; empty: one part over the mesh ([material] and [section], or the one
     named material and section, or an LS-DYNA deck's parts)."""
+    curves: dict[str, Curve] = field(default_factory=dict)
+    motions: tuple[Motion, ...] = ()
+    pressures: tuple[Pressure, ...] = ()
+    gravity: Gravity | None = None
 
     def nodeset(self, name: str) -> NodeSet:
         for s in self.nodesets:
@@ -774,6 +885,18 @@ def _window(value: Any) -> tuple[float, float]:
     raise _Invalid(f"expected [from, to] with 0 <= from < to, got {_show(value)}")
 
 
+CRUSH_FORMULAS = ("wierzbicki_abramowicz", "abramowicz_jones")
+"""Closed-form mean crush forces of a tube that [crush].mean_force_reference may name (crush.py)."""
+
+
+def _force_references(value: Any) -> tuple[float | str, ...]:
+    """A non-empty list of numbers > 0 and names of CRUSH_FORMULAS."""
+    if isinstance(value, list) and value and all((_is_number(x) and x > 0) or x in CRUSH_FORMULAS for x in value):
+        return tuple(x if isinstance(x, str) else float(x) for x in value)
+    raise _Invalid(f"expected a non-empty list of numbers > 0 and of {' / '.join(map(repr, CRUSH_FORMULAS))}, "
+                   f"got {_show(value)}")
+
+
 def _layered_table(data: Any) -> bool:
     """Whether the raw section table `data` is a layered section (has plies)."""
     return isinstance(data, dict) and "plies" in data
@@ -785,11 +908,40 @@ def _lone_layered_section(data: Any) -> bool:
     return isinstance(data, dict) and len(data) == 1 and _layered_table(next(iter(data.values())))
 
 
-def _positive_list(value: Any) -> tuple[float, ...]:
-    """A non-empty list of numbers > 0."""
-    if isinstance(value, list) and value and all(_is_number(x) and x > 0 for x in value):
+def _triangle_split(value: Any) -> TriangleSplit:
+    """"none", "all" or a box {min = [x, y, z], max = [x, y, z]} (min <= max)."""
+    if value in ("none", "all"):
+        return value
+    if isinstance(value, dict) and set(value) == {"min", "max"}:
+        lo, hi = _vec3(value["min"]), _vec3(value["max"])
+        if all(a <= b for a, b in zip(lo, hi)):
+            return lo, hi
+    raise _Invalid(f'expected "none", "all" or a box {{min = [x, y, z], max = [x, y, z]}} with min <= max, '
+                   f"got {_show(value)}")
+
+
+def _numbers(value: Any) -> tuple[float, ...]:
+    """A finite number or a non-empty list of them, as a tuple."""
+    if _is_number(value):
+        return (float(value),)
+    if isinstance(value, list) and value and all(map(_is_number, value)):
         return tuple(float(x) for x in value)
-    raise _Invalid(f"expected a non-empty list of numbers > 0, got {_show(value)}")
+    raise _Invalid(f"expected a finite number or a non-empty list of them, got {_show(value)}")
+
+
+def _time_curve_points(value: Any) -> tuple[tuple[float, float], ...]:
+    """A [curves.NAME] table: a non-empty list of [t, f] pairs of finite numbers, t strictly increasing."""
+    if not (isinstance(value, list) and value and all(isinstance(p, list) and len(p) == 2 and all(map(_is_number, p))
+                                                      for p in value)):
+        raise _Invalid(f"expected a non-empty list of [t, f] pairs of finite numbers, got {_show(value)}")
+    return _increasing(tuple((float(t), float(f)) for t, f in value))
+
+
+def _increasing(points: tuple[tuple[float, float], ...]) -> tuple[tuple[float, float], ...]:
+    for (t0, _), (t1, _) in zip(points, points[1:]):
+        if t1 <= t0:
+            raise _Invalid(f"expected strictly increasing t, got t = {t0:g} then {t1:g}")
+    return points
 
 
 def _times(value: Any) -> tuple[float, ...]:
@@ -832,7 +984,7 @@ def _hardening_curve(value: Any) -> tuple[tuple[float, float], ...]:
 # ================================================================ table layout
 _TABLES = ("scene", "mesh", "material", "section", "materials", "sections", "elementsets", "part", "element",
            "method", "nodesets", "boundary", "load", "initial", "probe", "reference", "solve", "output",
-           "rigid_body", "wall", "contact", "crush")
+           "rigid_body", "wall", "contact", "crush", "curves", "motion", "pressure", "gravity")
 _REQUIRED_TABLES = ("scene", "mesh", "solve")
 DECK_SUFFIXES = (".k", ".key", ".dyn", ".kw")      # file endings read as LS-DYNA keyword decks (dyna.py)
 _SELECTORS = ("all", "box", "plane", "nearest", "ids")
@@ -878,22 +1030,27 @@ _SOLVE = {"kind": _choice("static", "dynamic"), "load_steps": _int(1),
           "end_time": _non_negative, "dt_safety": _fraction,
           "dt_rule": _choice("both", "shell"), "rotary_inertia": _choice("scaled", "physical"),
           "relaxation": _choice("fire", "kinetic"), "mass_scaling": _choice("auto", "uniform_dt", "none"),
-          "progress_every": _non_negative}
+          "progress_every": _non_negative, "solver": _choice("relaxation", "newton"),
+          "control": _choice("load", "displacement", "arc_length"), "control_dof": _choice(*DOFS),
+          "control_displacement": _number(), "arc_length": _non_negative, "max_load_factor": _positive,
+          "target_iterations": _int(1), "max_iterations": _int(1), "max_cutbacks": _int(0),
+          "increment_tolerance": _number(0, 1, lo_open=True), "energy_tolerance": _number(0, 1, lo_open=True)}
 _OUTPUT = {"every_steps": _int(0), "times": _times, "load_steps": _bool, "history_interval": _non_negative}
 _PLAIN_TABLES: dict[str, tuple[type, dict[str, Validator]]] = {
     "scene": (SceneInfo, _INFO),
     "element": (ElementOptions, _ELEMENT), "output": (Output, _OUTPUT)}
 _MESHES: dict[str, tuple[type, dict[str, Validator]]] = {
     "plate": (PlateMesh, {"lx": _positive, "ly": _positive, "nx": _int(1), "ny": _int(1),
-                          "origin": _vec3}),
+                          "origin": _vec3, "triangles": _triangle_split}),
     "hemisphere": (HemisphereMesh, {"radius": _positive,
                                     "hole_deg": _number(0, 90, lo_open=True, hi_open=True),
                                     "n_around": _int(1), "n_meridian": _int(1),
-                                    "quarter": _bool}),
+                                    "quarter": _bool, "triangles": _triangle_split}),
     "tube": (TubeMesh, {"width": _positive, "depth": _positive, "corner_radius": _non_negative,
                         "length": _positive, "n_flat": _int(1), "n_corner": _int(0),
                         "n_length": _int(1), "trigger_amplitude": _non_negative,
-                        "trigger_start": _non_negative, "trigger_length": _positive}),
+                        "trigger_start": _non_negative, "trigger_length": _positive,
+                        "triangles": _triangle_split}),
     "file": (FileMesh, {"scale": _positive, "merge_nodes": _bool}),   # + "path", checked against the scene's folder
 }
 
@@ -914,6 +1071,8 @@ class _SceneParser:
         self.messages: list[str] = []
         sets = raw.get("nodesets")
         self.nodeset_names = sorted({"all", *(sets if isinstance(sets, dict) else ())})
+        curves = raw.get("curves")
+        self.curve_names = sorted(curves) if isinstance(curves, dict) else []
         self.recorded: dict[str, tuple[str, ...] | None] = {}
         """Probe name -> recorded components (None when those were invalid)."""
 
@@ -1028,6 +1187,14 @@ class _SceneParser:
             raise _Invalid(f"unknown node set {value!r}" + _hint(value, self.nodeset_names, "defined"))
         return value
 
+    def curve_name(self, value: Any) -> str:
+        """The name of a curve defined in [curves]."""
+        if not isinstance(value, str):
+            raise _Invalid(f"expected a curve name, got {_show(value)}")
+        if value not in self.curve_names:
+            raise _Invalid(f"no [curves.{value}]" + _hint(value, self.curve_names, "defined"))
+        return value
+
     def probe_component(self, value: Any) -> str:
         """'<probe>.<component>' naming a component that this probe records."""
         if not isinstance(value, str) or "." not in value:
@@ -1078,6 +1245,9 @@ class _SceneParser:
         method = self.part("method", self.method)
         nodesets = self.part("nodesets", self.nodesets)
         boundaries = self.array("boundary", self.boundary)
+        curves = self.named("curves", self.curve)
+        if len(curves) > MAX_CURVES:
+            self.error("[curves]", f"expected at most {MAX_CURVES} curves, got {len(curves)}")
         loads = self.array("load", self.load)
         initial = self.array("initial", self.initial)
         probes = self.array("probe", self.probe)            # before [reference], which refers to them
@@ -1096,6 +1266,16 @@ class _SceneParser:
                 if spec is not None and getattr(spec, "rate_law", "none") != "none":
                     self.error(f"{path}.rate_law", "a static solve has no physical time: a rate law needs "
                                                    "[solve].kind = \"dynamic\"")
+        motions = self.array("motion", lambda path, data: self.motion(path, data, solve, curves))
+        names = [m.name for m in motions if m is not None]
+        for i, name in enumerate(names):
+            if name in names[:i]:
+                self.error("[[motion]]", f"duplicate motion name {name!r}")
+        if len(motions) > MAX_MOTIONS:
+            self.error("[[motion]]", f"expected at most {MAX_MOTIONS} entries, got {len(motions)}")
+        pressures = self.array("pressure", lambda path, data: self.pressure(path, data, mesh, elementsets))
+        gravity = self.table_object("[gravity]", self.raw["gravity"], Gravity, {
+            "acceleration": _nonzero_vec3, "curve": self.curve_name}) if "gravity" in self.raw else None
         if self.messages:
             raise SceneError(self.messages, mesh=mesh)
         return Scene(source=self.source, info=info, mesh=mesh, material=material, section=section,
@@ -1103,7 +1283,8 @@ class _SceneParser:
                      nodesets=tuple(nodesets), boundaries=tuple(boundaries), loads=tuple(loads),
                      initial=tuple(initial), probes=tuple(probes), reference=reference,
                      rigid_bodies=tuple(bodies), walls=tuple(walls), contact=contact, crush=crush,
-                     materials=materials, sections=sections, elementsets=tuple(elementsets), parts=tuple(parts))
+                     materials=materials, sections=sections, elementsets=tuple(elementsets), parts=tuple(parts),
+                     curves=curves, motions=tuple(motions), pressures=tuple(pressures), gravity=gravity)
 
     def mesh(self, data: Any) -> MeshSpec | None:
         if not isinstance(data, dict):
@@ -1446,12 +1627,95 @@ class _SceneParser:
     def load(self, path: str, data: Any) -> Load | None:
         mark = len(self.messages)
         v = self.read(path, data, {"nodes": self.nodes, "force": _vec3, "moment": _vec3,
-                                   "distribute": _choice("area", "equal")}, Load)
+                                   "distribute": _choice("area", "equal", "length"), "curve": self.curve_name,
+                                   "follower": _bool, "force_per_length": _vec3, "moment_per_length": _vec3}, Load)
         if v is None:
             return None
-        if v.get("force") == (0, 0, 0) and v.get("moment") == (0, 0, 0):
+        total = [k for k in ("force", "moment") if k in data]
+        line = [k for k in ("force_per_length", "moment_per_length") if k in data]
+        if total and line:
+            self.error(path, f"give either force/moment (totals) or force_per_length/moment_per_length "
+                             f"(a line load), got {', '.join(total + line)}")
+        elif line:
+            if data.get("distribute", "length") != "length":
+                self.error(f"{path}.distribute", f'a line load is distributed by length, got "{data["distribute"]}"')
+            v["distribute"] = "length"
+            if v.get("force_per_length") == (0, 0, 0) and v.get("moment_per_length") == (0, 0, 0):
+                self.error(path, "force_per_length and moment_per_length are both zero")
+        elif v.get("force") == (0, 0, 0) and v.get("moment") == (0, 0, 0):
             self.error(path, "force and moment are both zero (give a non-zero force and/or moment)")
         return self.build(mark, Load, v)
+
+    def curve(self, path: str, data: Any) -> Curve | None:
+        mark = len(self.messages)
+        v = self.read(path, data, {"points": _time_curve_points, "file": self.file, "shape": _choice(*CURVE_SHAPES),
+                                   "start": _number(), "end": _number(), "scale": _number()})
+        if v is None:
+            return None
+        given = [key for key in ("points", "file", "shape") if key in data]
+        if len(given) != 1:
+            self.error(path, f"expected exactly one of points, file, shape, got {', '.join(given) or 'none'}")
+            return None
+        shape = v.get("shape")
+        for key in ("start", "end"):
+            if key in data and data.get("shape") not in ("ramp", "smooth_step"):
+                self.error(f"{path}.{key}", 'allowed only with shape = "ramp" or "smooth_step"')
+        if shape in ("ramp", "smooth_step"):
+            if "end" not in data:
+                self.error(f"{path}.end", f'missing required key for shape = "{shape}"')
+            elif "start" in v and "end" in v and v["start"] >= v["end"]:
+                self.error(path, f"expected start < end, got start = {v['start']:g}, end = {v['end']:g}")
+        values = {"name": path[len("[curves."):-1], "kind": shape or "points",
+                  **{k: v[k] for k in ("start", "end", "scale") if k in v}}
+        if "file" in v:
+            from .curves import CurveFileError, read_table
+            try:
+                values["points"] = _increasing(read_table(v["file"]))
+                values["file"] = v["file"]
+            except (CurveFileError, _Invalid) as exc:
+                self.error(f"{path}.file", str(exc))
+        elif "points" in v:
+            values["points"] = v["points"]
+        return self.build(mark, Curve, values)
+
+    def motion(self, path: str, data: Any, solve: Solve | None, curves: dict[str, Curve]) -> Motion | None:
+        mark = len(self.messages)
+        v = self.read(path, data, {"name": _identifier, "nodes": self.nodes, "dofs": _dofs(allow_all=True),
+                                   "kind": _choice(*MOTION_KINDS), "value": _numbers, "curve": self.curve_name},
+                      Motion)
+        if v is None:
+            return None
+        dofs, value, kind, curve = v.get("dofs"), v.get("value"), v.get("kind"), v.get("curve")
+        if dofs is not None and value is not None:
+            if len(value) == 1:
+                v["value"] = value * len(dofs)
+            elif len(value) != len(dofs):
+                self.error(f"{path}.value", f"expected one number or one per DOF ({len(dofs)}), got {len(value)}")
+        if solve is not None and kind is not None:
+            if solve.kind == "static" and kind != "displacement":
+                self.error(f"{path}.kind", f'a static solve prescribes displacements only, got "{kind}"')
+            elif solve.kind == "dynamic" and kind == "displacement":
+                if "curve" not in data:
+                    self.error(f"{path}.curve", "missing: a displacement in a dynamic run needs a curve "
+                                                "(a constant displacement would jump at t = 0)")
+                elif curve in curves:
+                    from .curves import evaluate
+                    start = evaluate(curves[curve], 0.0)
+                    if start != 0.0:
+                        self.error(f"{path}.curve", f"the displacement curve {curve!r} is {start:g} at t = 0, not 0 "
+                                                    "(the nodes would jump at t = 0)")
+        return self.build(mark, Motion, v)
+
+    def pressure(self, path: str, data: Any, mesh, elementsets) -> Pressure | None:
+        mark = len(self.messages)
+        v = self.read(path, data, {"elements": _nonempty, "value": _nonzero, "curve": self.curve_name}, Pressure)
+        if v is None:
+            return None
+        names = [s.name for s in elementsets]
+        if "elements" in v and v["elements"] != "all" and v["elements"] not in names and not isinstance(mesh, FileMesh):
+            self.error(f"{path}.elements", f"no [elementsets.{v['elements']}]"
+                       + _hint(v["elements"], names + ["all"], "defined"))
+        return self.build(mark, Pressure, v)
 
     def rigid_body(self, path: str, data: Any) -> RigidBody | None:
         return self.table_object(path, data, RigidBody, {
@@ -1473,7 +1737,7 @@ class _SceneParser:
     def crush(self, data: Any, solve: Solve | None) -> Crush | None:
         mark = len(self.messages)
         v = self.read("[crush]", data, {"axis": _nonzero_vec3, "window": _window, "body": _identifier,
-                                        "folds": _bool, "mean_force_reference": _positive_list,
+                                        "folds": _bool, "mean_force_reference": _force_references,
                                         "half_wavelength_reference": _positive}, Crush)
         if v is None:
             return None
@@ -1486,6 +1750,11 @@ class _SceneParser:
             self.error("[crush].body", f"no [[rigid_body]] named {v['body']!r}" + _hint(v["body"], bodies, "defined"))
         if solve is not None and solve.kind != "dynamic":
             self.error("[crush]", "crush post-processing needs [solve].kind = \"dynamic\"")
+        named = [x for x in v.get("mean_force_reference", ()) if isinstance(x, str)]
+        mesh = self.raw.get("mesh")
+        if named and not (isinstance(mesh, dict) and mesh.get("kind") == "tube"):
+            self.error("[crush].mean_force_reference", f"{named[0]!r} is a formula for a tube: it needs "
+                       "[mesh].kind = \"tube\" (its width and depth give the size C); give a number instead")
         return self.build(mark, Crush, v)
 
     def initial(self, path: str, data: Any) -> InitialVelocity | None:
@@ -1507,7 +1776,8 @@ class _SceneParser:
 
     def reference(self, data: Any) -> Reference | None:
         mark = len(self.messages)
-        v = self.read("[reference]", data, {"file": self.file, "load_column": _nonempty, "floor": _fraction},
+        v = self.read("[reference]", data, {"file": self.file, "load_column": _nonempty, "floor": _fraction,
+                                            "along": _choice("load", "path")},
                       Reference, extra=("compare",))
         if v is None:
             return None
@@ -1532,11 +1802,43 @@ class _SceneParser:
                 self.error("[reference].file", problem)
         return self.build(mark, Reference, {**v, "compare": tuple(compare)})
 
+    def newton_checks(self, v: dict, data: dict) -> None:
+        """[solve] keys of the Newton solver (issue 19) against the rest of the scene."""
+        raw = self.raw
+        if v.get("solver") == "newton":
+            method = raw.get("method", {})
+            element = raw.get("element", {})
+            if v.get("kind") == "dynamic":
+                self.error("[solve].solver", '"newton" solves static scenes (kind = "static")')
+            if isinstance(method, dict) and method.get("kind", "mpm") == "mpm":
+                self.error("[solve].solver", '"newton" runs in fem mode: set [method].kind = "fem" (mpm statics keep '
+                           '"relaxation"; why: docs/newton.md)')
+            if isinstance(element, dict) and element.get("drilling") == "projection":
+                self.error("[solve].solver", '"newton" needs the drilling spring ([element].drilling = "penalty"): the '
+                           "projection leaves the drilling rotation without stiffness")
+            for key in ("rigid_body", "wall", "contact"):
+                if key in raw:
+                    self.error("[solve].solver", f'"newton" does not handle [{key}] (use "relaxation")')
+        else:
+            for key in ("control", "control_nodes", "control_displacement", "arc_length", "max_load_factor",
+                        "target_iterations", "max_iterations", "max_cutbacks", "increment_tolerance",
+                        "energy_tolerance"):
+                if key in data:
+                    self.error(f"[solve].{key}", 'is a key of the Newton solver: set solver = "newton"')
+        control = v.get("control")
+        if control == "displacement":
+            for key in ("control_nodes", "control_displacement"):
+                if not data.get(key):
+                    self.error(f"[solve].{key}", 'missing (a non-zero value) for control = "displacement"')
+        if data.get("control_displacement") and not data.get("control_nodes"):
+            self.error("[solve].control_nodes", "missing: control_displacement needs the node set it applies to")
+
     def solve(self, data: Any) -> Solve | None:
         mark = len(self.messages)
-        v = self.read("[solve]", data, _SOLVE, Solve)
+        v = self.read("[solve]", data, {**_SOLVE, "control_nodes": self.nodes}, Solve)
         if v is None:
             return None
+        self.newton_checks(v, data)
         if v.get("kind") == "dynamic" and v.get("end_time") == 0:
             if "end_time" in data:
                 self.error("[solve].end_time", "expected a number > 0 for a dynamic solve, got 0")
@@ -1545,6 +1847,6 @@ class _SceneParser:
         if v.get("kind") == "dynamic" and v.get("mass_scaling") == "uniform_dt":
             self.error("[solve].mass_scaling", 'expected "auto" or "none" for a dynamic solve, got "uniform_dt" '
                        "(fictitious masses change the dynamics; they are for static solves)")
-        if v.get("kind") == "static" and not self.raw.get("load"):
-            self.error("[[load]]", "a static solve needs at least one [[load]]")
+        if v.get("kind") == "static" and not any(self.raw.get(k) for k in ("load", "motion", "pressure", "gravity")):
+            self.error("[[load]]", "a static solve needs at least one [[load]], [[motion]], [[pressure]] or [gravity]")
         return self.build(mark, Solve, v)

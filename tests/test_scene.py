@@ -307,7 +307,7 @@ BAD_VALUES = [  # (dotted path, value, expected message after "case.toml: ")
     ("load.0.nodes", "zz", "[[load]][0].nodes: unknown node set 'zz' "
                            "(defined: all, clamped, corner, everything, some, tip)"),
     ("load.0.force", [0, 0, "4"], "[[load]][0].force: expected 3 finite numbers [x, y, z], got [0, 0, '4']"),
-    ("load.1.distribute", "even", "[[load]][1].distribute: expected one of area, equal, got 'even'"),
+    ("load.1.distribute", "even", "[[load]][1].distribute: expected one of area, equal, length, got 'even'"),
     ("initial.1.center", [0, 0, math.inf], "[[initial]][1].center: expected 3 finite numbers [x, y, z], "
                                            "got [0, 0, inf]"),
     ("nodesets.some.ids", [], "[nodesets.some].ids: expected a non-empty list of node indices >= 0, got []"),
@@ -349,7 +349,7 @@ BAD_VALUES = [  # (dotted path, value, expected message after "case.toml: ")
     ("output.load_steps", 1, "[output].load_steps: expected true or false, got 1"),
     ("output.every_steps", -1, "[output].every_steps: expected an integer >= 0, got -1"),
     ("method.cel_size", 0.5, "[method].cel_size: unknown key (did you mean 'cell_size'?)"),
-    ("mesh.radius", 10, "[mesh].radius: unknown key (allowed: lx, ly, nx, ny, origin, kind)"),
+    ("mesh.radius", 10, "[mesh].radius: unknown key (allowed: lx, ly, nx, ny, origin, triangles, kind)"),
     ("nodesets.tip.bx", 1, "[nodesets.tip].bx: unknown key (did you mean 'box'?)"),
     ("methd", {}, "[methd]: unknown key (did you mean 'method'?)"),
     ("boundary", {"nodes": "tip"}, "[[boundary]]: expected an array of tables ([[boundary]] sections), "
@@ -383,7 +383,7 @@ MISSING = [  # (dotted path to delete, expected message after "case.toml: ")
                          "got none"),
     ("reference.compare", "[reference].compare: missing required key (add [[reference.compare]] tables)"),
     ("method.grid_max", "[method].grid_max: missing required key (grid_min and grid_max come together)"),
-    ("load", "[[load]]: a static solve needs at least one [[load]]"),
+    ("load", "[[load]]: a static solve needs at least one [[load]], [[motion]], [[pressure]] or [gravity]"),
 ]
 
 
@@ -619,7 +619,83 @@ def test_mutated_scenes_fail_cleanly(scene_dir, data):
         assert isinstance(scene, Scene)
 
 
-_FUZZ_BASES = [raw_of(text) for text in (FULL, TUBE_SCENE, HEMISPHERE_SCENE, FILE_MESH)]
+# Curves, prescribed motion, pressure, gravity, curve/follower/line loads (issue 18; runs in
+# tests/test_motion_loads.py).
+MOTION_SCENE = """
+[scene]
+name = "motion"
+units = "consistent"
+[mesh]
+kind = "plate"
+lx = 4.0
+ly = 1.0
+nx = 4
+ny = 1
+[material]
+E = 1000.0
+nu = 0.3
+density = 1.0
+[section]
+thickness = 0.1
+[elementsets.left]
+box = { min = [0, 0, 0], max = [2, 1, 0] }
+[nodesets.clamp]
+plane = { point = [0, 0, 0], normal = [1, 0, 0] }
+[nodesets.tip]
+plane = { point = [4, 0, 0], normal = [1, 0, 0] }
+[curves.table]
+points = [[0.0, 0.0], [0.5, 1.0], [1.0, 0.0]]
+scale = 2.0
+[curves.up]
+shape = "ramp"
+start = 0.1
+end = 0.4
+[curves.smooth]
+shape = "smooth_step"
+end = 0.5
+[curves.one]
+shape = "constant"
+[[boundary]]
+nodes = "clamp"
+fix = "all"
+[[motion]]
+name = "lift"
+nodes = "tip"
+dofs = ["uz", "ry"]
+kind = "displacement"
+value = [0.2, 0.1]
+curve = "smooth"
+[[motion]]
+name = "push"
+nodes = "tip"
+dofs = ["ux"]
+kind = "velocity"
+value = 1.0
+curve = "table"
+[[load]]
+nodes = "tip"
+force = [0.0, 1.0, 0.0]
+moment = [0.0, 0.0, 0.1]
+curve = "up"
+follower = true
+[[load]]
+nodes = "tip"
+force_per_length = [0.0, 0.0, 1.0]
+moment_per_length = [0.0, 0.1, 0.0]
+distribute = "length"
+[[pressure]]
+value = -0.5
+elements = "left"
+curve = "one"
+[gravity]
+acceleration = [0.0, 0.0, -9.81]
+curve = "up"
+[solve]
+kind = "dynamic"
+end_time = 1.0
+"""
+
+_FUZZ_BASES = [raw_of(text) for text in (FULL, TUBE_SCENE, HEMISPHERE_SCENE, FILE_MESH, MOTION_SCENE)]
 
 
 # ------------------------------------------------------------------ every key is documented
@@ -859,8 +935,8 @@ def test_every_scene_key_is_documented(scene_dir, monkeypatch):
         return read(self, path, data, spec, cls, required, extra)
 
     monkeypatch.setattr(scene_module._SceneParser, "read", recording)
-    scenes = [(text, scene_dir / "case.toml") for text in (FULL, TUBE_SCENE, HEMISPHERE_SCENE, PARTS_SCENE,
-                                                           LAWS_SCENE)]
+    scenes = [(text, scene_dir / "case.toml")
+              for text in (FULL, TUBE_SCENE, HEMISPHERE_SCENE, PARTS_SCENE, LAWS_SCENE, MOTION_SCENE)]
     scenes += [((ROOT / "scenes" / f"{n}.toml").read_text(), ROOT / "scenes" / f"{n}.toml")
                for n in ("cantilever", "hemisphere", "square_tube", "tube_rate_dependent")]
     for text, source in scenes:

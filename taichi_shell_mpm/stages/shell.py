@@ -6,7 +6,9 @@ control (:mod:`.hourglass`), the drilling spring (:mod:`.drilling`; or, with
 ``drilling = "projection"``, the nodal normals of the paper's drilling projection,
 method.md 2.3) and, with ``warping = "bwc"``, the Belytschko-Wong-Chiang warping
 correction (:mod:`.warping`, method.md 3.8).  The same pass accumulates the element
-energies (method.md 8) and the element time-step limit (section 5).
+energies (method.md 8) and the element time-step limit (section 5).  The triangles of a
+mixed mesh run the C0 triangle of :mod:`.triangle`, which shares this element's
+through-thickness stress update (:meth:`ShellElement.section_response`).
 """
 
 import taichi as ti
@@ -18,6 +20,7 @@ from .material import ConstitutiveUpdate
 from .drilling import DrillingSpring
 from .hourglass import Hourglass
 from .timestep import element_limit
+from .triangle import TriangleElement
 
 
 @ti.func
@@ -118,14 +121,15 @@ class ShellElement:
         self.drilling = DrillingSpring(state)
         self.acc = Accumulator(cfg.serial)
         self.loads = CornerLoads(state, cfg.serial, normals=not cfg.drilling_spring)
+        self.triangle = TriangleElement(self) if cfg.triangles else None
 
     @ti.func
-    def gather(self, c):
-        """Corner positions, grid velocities and angular velocities as 4x3 matrices."""
-        x = ti.Matrix.zero(ti.f64, 4, 3)
-        v = ti.Matrix.zero(ti.f64, 4, 3)
-        w = ti.Matrix.zero(ti.f64, 4, 3)
-        for a in ti.static(range(4)):
+    def gather(self, c, corners: ti.template()):
+        """Corner positions, grid velocities and angular velocities as corners x 3 matrices."""
+        x = ti.Matrix.zero(ti.f64, corners, 3)
+        v = ti.Matrix.zero(ti.f64, corners, 3)
+        w = ti.Matrix.zero(ti.f64, corners, 3)
+        for a in ti.static(range(corners)):
             for d in ti.static(range(3)):
                 x[a, d] = self.s.nodes.position[c[a]][d]
                 v[a, d] = self.s.nodes.grid_velocity[c[a]][d]
@@ -135,15 +139,22 @@ class ShellElement:
     @ti.func
     def element_pass(self):
         for e in range(self.s.elements.count[None]):
-            self.update(e)
+            if ti.static(self.cfg.triangles):       # a mesh with triangles: stages/triangle.py
+                if self.s.elements.corners[e][3] < 0:
+                    self.triangle.update(e)
+                else:
+                    self.update(e)
+            else:
+                self.update(e)
         self.loads.gather()
 
     @ti.func
     def section_response(self, e, t, kappa, dt, membrane_rate, curvature_rate, shear_rate):
         """Stress update at element e's through-thickness points and its resultants (paper eq
-        28-29, method.md 3.3-3.5) for the step's membrane, curvature and transverse shear rates.
-        Returns N, M' = -int z sigma (paper sign), Q, the stress power per unit volume
-        (mid-step stress, through-thickness mean x 2) and the plastic work likewise.
+        28-29, method.md 3.3-3.5) for the step's membrane, curvature and transverse shear rates;
+        the quad and the triangle (:mod:`.triangle`) share it.  Returns N, M' = -int z sigma
+        (paper sign), Q, the stress power per unit volume (mid-step stress, through-thickness
+        mean x 2) and the plastic work likewise.
         One material over the thickness: its points are unrolled (Features.points).  A layered
         section (docs/laminates.md): a run-time loop over its points, each with its ply's
         material [choice, measured on a 20x2 CFRP strip: unrolled, 16 points (8 plies) compiled
@@ -211,7 +222,7 @@ class ShellElement:
         kappa = self.s.sections.shear_factor[e]
         dt = self.s.step.dt[None]
         c = self.s.elements.corners[e]
-        x, v, w = self.gather(c)
+        x, v, w = self.gather(c, 4)
         # --- rates (method.md 3.2) on the mid-step geometry x^(n+1/2) = x^(n+1) - dt/2 v~
         # [choice]: frame, B and hourglass vectors of the mid-step make the strain increment
         # dt*d second-order accurate and exactly zero for a discrete rigid rotation
