@@ -745,7 +745,8 @@ def _hint(word: str, options: Sequence[str], label: str) -> str:
     """A did-you-mean for `word`, or else the list of `options` under `label`."""
     if not options:
         return f" (none {label})"
-    return _did_you_mean(word, options) or f" ({label}: {', '.join(options)})"
+    shown = [o if o.isprintable() else repr(o) for o in options]      # a mistyped name stays on one line
+    return _did_you_mean(word, options) or f" ({label}: {', '.join(shown)})"
 
 
 def _is_number(value: Any) -> bool:
@@ -1723,7 +1724,7 @@ class _SceneParser:
                 if "curve" not in data:
                     self.error(f"{path}.curve", "missing: a displacement in a dynamic run needs a curve "
                                                 "(a constant displacement would jump at t = 0)")
-                elif curve in curves:
+                elif curve in curves and not self.messages:     # an invalid curve (start >= end, ...) is reported already
                     from .curves import evaluate
                     start = evaluate(curves[curve], 0.0)
                     if start != 0.0:
