@@ -195,6 +195,14 @@ class ShellElement:
         return erode
 
     @ti.func
+    def quad_limit(self, e, x, area):
+        """The quad's stable step (stages/timestep.element_limit) with the longest diagonal of
+        its corners x."""
+        d13 = ti.Vector([x[2, 0] - x[0, 0], x[2, 1] - x[0, 1], x[2, 2] - x[0, 2]]).norm()
+        d24 = ti.Vector([x[3, 0] - x[1, 0], x[3, 1] - x[1, 1], x[3, 2] - x[1, 2]]).norm()
+        return element_limit(self.s, self.cfg, e, area, ti.max(d13, d24))
+
+    @ti.func
     def section_response(self, e, t, kappa, dt, membrane_rate, curvature_rate, shear_rate):
         """Stress update at element e's through-thickness points and its resultants (paper eq
         28-29, method.md 3.3-3.5) for the step's membrane, curvature and transverse shear rates;
@@ -340,14 +348,10 @@ class ShellElement:
             f += fd
             m += md
             drill_energy = dt * 0.5 * (drill_old + drill_new).dot(drill_rate)
-        # --- element time-step limit (method.md 5, stages/timestep.element_limit), with selective
-        # mass scaling (stages/masses.py); erosion (stages/masses.py): the element fails now and
-        # writes no loads
-        d13 = ti.Vector([x[2, 0] - x[0, 0], x[2, 1] - x[0, 1], x[2, 2] - x[0, 2]]).norm()
-        d24 = ti.Vector([x[3, 0] - x[1, 0], x[3, 1] - x[1, 1], x[3, 2] - x[1, 2]]).norm()
-        if self.step_limit(e, c, v, w, element_limit(self.s, self.cfg, e, area, ti.max(d13, d24)), 4):
-            f = ti.Matrix.zero(ti.f64, 4, 3)
-            m = ti.Matrix.zero(ti.f64, 4, 3)
+        if ti.static(self.cfg.erosion):              # erosion (stages/masses.py): decided before the
+            if self.step_limit(e, c, v, w, self.quad_limit(e, x, area), 4):    # scatter, as a failing
+                f = ti.Matrix.zero(ti.f64, 4, 3)                               # element writes no loads
+                m = ti.Matrix.zero(ti.f64, 4, 3)
         # --- to global (paper eq 37) and scatter
         fg = f @ rot
         mg = m @ rot
@@ -361,3 +365,8 @@ class ShellElement:
             element_power += fg[a, d] * v[a, d] + mg[a, d] * w[a, d]
         self.energy.element(e, dt * area_m * 0.5 * t * power, area_m * 0.5 * t * plastic_work,
                             dt * 0.5 * (q_old + q_new).dot(q_rate), drill_energy, -0.5 * dt * element_power)
+        # --- element time-step limit (method.md 5), with selective mass scaling (stages/masses.py)
+        # [choice: after the scatter without erosion, where it was before issue 18: Taichi's fast
+        # math schedules the kernel by the source order, and plain scenes keep their bits]
+        if ti.static(not self.cfg.erosion):
+            self.step_limit(e, c, v, w, self.quad_limit(e, x, area), 4)
