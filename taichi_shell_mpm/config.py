@@ -40,12 +40,19 @@ class Features:
     moving_walls: bool          # a wall moving with a rigid body
     contact: bool               # penalty self-contact (stages/contact.py)
     friction: bool              # contact friction
+    erosion: bool = False       # some material's elements fail (issue 18; stages/masses.py)
+    mass_scaling: bool = False  # selective mass scaling to [solve].target_dt (stages/masses.py)
     launch: str = "batched"     # "batched" | "threads" | "gpu" (solvers/stepper.py)
     loads: bool = False         # curve or follower loads, pressure, gravity, prescribed motion
     #                             (stages/loads.py, stages/motion.py): one switch [choice: a
     #                             configuration costs 25-60 s to compile, and a scene with any of
     #                             them pays next to nothing for the others' empty loops]
     tool_kinds: tuple[str, ...] = ()   # rigid tool kinds the scene uses (tools.TOOL_KINDS order; stages/tools.py)
+
+    @property
+    def mass_update(self) -> bool:
+        """The nodal masses change during the run (erosion, mass scaling): stages/masses.py."""
+        return self.erosion or self.mass_scaling
 
     @property
     def serial(self) -> bool:
@@ -105,4 +112,6 @@ class Features:
             contact=scene.contact is not None,
             friction=scene.contact is not None and scene.contact.friction > 0.0,
             tool_kinds=tuple(k for k in TOOL_KINDS if model.tools is not None and k in model.tools.kinds),
+            erosion=model.materials.erosion,
+            mass_scaling=scene.solve.kind == "dynamic" and scene.solve.mass_scaling == "selective",
             launch=launch, loads=model.loading.loads or (model.tools is not None and model.tools.prescribed))

@@ -181,6 +181,13 @@ class Material:
     """Time constant of the exponential filter of the rate (0 = unfiltered)."""
     rate_cutoff_frequency: float = 0.0
     """The filter as a cutoff frequency f_c: time constant 1 / (2 pi f_c)."""
+    failure_strain: float = 0.0
+    """Erosion (issue 18): an element fails once failure_points of its through-thickness points
+    reach this equivalent plastic strain (LS-DYNA FAIL; 0 = never)."""
+    failure_points: int = 1
+    """How many points must reach failure_strain (LS-DYNA NUMFIP > 0)."""
+    failure_min_dt: float = 0.0
+    """An element also fails once its stable step falls below this (LS-DYNA TDEL; 0 = never)."""
 
 
 @dataclass(frozen=True)
@@ -533,10 +540,17 @@ class Solve:
     relaxation: Literal["fire", "kinetic"] = "fire"
     """Static solves: dynamic relaxation by FIRE (velocity mixing towards the force) or plain
     kinetic damping (method.md 6.2)."""
-    mass_scaling: Literal["auto", "uniform_dt", "none"] = "auto"
+    mass_scaling: Literal["auto", "uniform_dt", "selective", "none"] = "auto"
     """Static solves: fictitious densities that give every element the same stable step
     (``uniform_dt``, the default of ``auto`` in statics); ``none`` (and ``auto`` in dynamics)
-    keeps the physical masses.  The equilibrium does not depend on the masses."""
+    keeps the physical masses.  The equilibrium does not depend on the masses.  Dynamic
+    solves: ``selective`` adds mass to the elements whose stable step is below target_dt
+    (LS-DYNA DT2MS < 0; stages/timestep.py)."""
+    target_dt: float = 0.0
+    """selective mass scaling: the step every element is given at least (after dt_safety)."""
+    added_mass_limit: float = 5.0
+    """selective mass scaling: the run stops once the added mass exceeds this percentage of
+    the shell's physical mass (0: no limit)."""
     progress_every: float = 2.0
     """Seconds of wall time between progress lines."""
     solver: Literal["relaxation", "newton"] = "relaxation"
@@ -1044,7 +1058,8 @@ _MATERIAL = {"E": _positive, "nu": _number(-1, 0.5, lo_open=True, hi_open=True),
              "b": _non_negative, "curve": _hardening_curve, "beyond_curve": _choice("flat", "extrapolate"),
              "rate_law": _choice("none", "cowper_symonds", "johnson_cook"), "C": _positive, "p": _positive,
              "c": _non_negative, "reference_rate": _positive, "rate_measure": _choice("total", "plastic"),
-             "rate_filter_time": _positive, "rate_cutoff_frequency": _positive}
+             "rate_filter_time": _positive, "rate_cutoff_frequency": _positive,
+             "failure_strain": _positive, "failure_points": _int(1, 10), "failure_min_dt": _positive}
 # The keys of each hardening and rate law: (required, optional); a key of another law is an error.
 _HARDENING_KEYS = {"linear": (("yield_stress",), ("hardening",)),
                    "swift": (("K", "n"), ("eps0", "yield_stress", "hardening")),
@@ -1074,7 +1089,9 @@ _SOLVE = {"kind": _choice("static", "dynamic"), "load_steps": _int(1),
           "tolerance": _number(0, 0.1, lo_open=True), "max_steps_per_load_step": _int(1),
           "end_time": _non_negative, "dt_safety": _fraction,
           "dt_rule": _choice("both", "shell"), "rotary_inertia": _choice("scaled", "physical"),
-          "relaxation": _choice("fire", "kinetic"), "mass_scaling": _choice("auto", "uniform_dt", "none"),
+          "relaxation": _choice("fire", "kinetic"),
+          "mass_scaling": _choice("auto", "uniform_dt", "selective", "none"), "target_dt": _positive,
+          "added_mass_limit": _non_negative,
           "progress_every": _non_negative, "solver": _choice("relaxation", "newton"),
           "control": _choice("load", "displacement", "arc_length"), "control_dof": _choice(*DOFS),
           "control_displacement": _number(), "arc_length": _non_negative, "max_load_factor": _positive,
@@ -1319,6 +1336,9 @@ class _SceneParser:
                 if spec is not None and getattr(spec, "rate_law", "none") != "none":
                     self.error(f"{path}.rate_law", "a static solve has no physical time: a rate law needs "
                                                    "[solve].kind = \"dynamic\"")
+                for key in ("failure_strain", "failure_min_dt"):
+                    if spec is not None and getattr(spec, key, 0.0) > 0.0:
+                        self.error(f"{path}.{key}", "erosion needs [solve].kind = \"dynamic\"")
         motions = self.array("motion", lambda path, data: self.motion(path, data, solve, curves))
         names = [m.name for m in motions if m is not None]
         for i, name in enumerate(names):
@@ -1414,6 +1434,11 @@ class _SceneParser:
             if "rate_filter_time" in data and "rate_cutoff_frequency" in data:
                 self.error(f"{path}.rate_cutoff_frequency", "give the rate filter either as rate_filter_time or "
                                                             "as rate_cutoff_frequency, not both")
+        if "failure_strain" in data and values.get("model") == "elastic":
+            self.error(f"{path}.failure_strain", "only for model = \"j2\" (the equivalent plastic strain); "
+                                                 "failure_min_dt erodes elements of any model")
+        if "failure_points" in data and "failure_strain" not in data:
+            self.error(f"{path}.failure_points", "only with failure_strain")
         return self.build(mark, Material, values)
 
     def law_keys(self, path: str, data: dict, key: str, law: str, table: dict) -> None:
@@ -1965,8 +1990,18 @@ class _SceneParser:
             else:
                 self.error("[solve].end_time", "missing required key (a dynamic solve needs end_time > 0)")
         if v.get("kind") == "dynamic" and v.get("mass_scaling") == "uniform_dt":
-            self.error("[solve].mass_scaling", 'expected "auto" or "none" for a dynamic solve, got "uniform_dt" '
-                       "(fictitious masses change the dynamics; they are for static solves)")
+            self.error("[solve].mass_scaling", 'expected "auto", "selective" or "none" for a dynamic solve, got '
+                       '"uniform_dt" (fictitious masses change the dynamics; they are for static solves)')
+        if v.get("kind") == "static" and v.get("mass_scaling") == "selective":
+            self.error("[solve].mass_scaling", 'expected "auto", "uniform_dt" or "none" for a static solve, got '
+                       '"selective" (selective mass scaling is for dynamic solves)')
+        selective = data.get("mass_scaling") == "selective" if isinstance(data, dict) else False
+        if selective and "target_dt" not in data:
+            self.error("[solve].target_dt", 'missing required key for mass_scaling = "selective"')
+        if isinstance(data, dict) and not selective:
+            for key in ("target_dt", "added_mass_limit"):
+                if key in data:
+                    self.error(f"[solve].{key}", 'only with mass_scaling = "selective"')
         if v.get("kind") == "static" and not any(self.raw.get(k) for k in ("load", "motion", "pressure", "gravity")):
             self.error("[[load]]", "a static solve needs at least one [[load]], [[motion]], [[pressure]] or [gravity]")
         return self.build(mark, Solve, v)

@@ -28,9 +28,9 @@ from .scene import Scene
 from .solvers.stepper import Stepper
 from .stages.timestep import DT_UNSET, initial_dt
 from .state import (CANDIDATES_PER_NODE, STATUS_CONTACT_FULL, STATUS_DT_COLLAPSE, STATUS_ENERGY, STATUS_INVERTED,
-                    STATUS_LEFT_GRID, STATUS_NONFINITE, STATUS_RETURN_FAILED, State)
+                    STATUS_LEFT_GRID, STATUS_MASS_ADDED, STATUS_NONFINITE, STATUS_RETURN_FAILED, State)
 from . import energy, frontend
-from .energy import ENERGY_COLUMNS, PART_COLUMNS, part_energies, part_names
+from .energy import ENERGY_COLUMNS, PART_COLUMNS, added_mass, eroded_elements, part_energies, part_names
 
 ARCHS = {"cpu": "cpu", "cuda": "cuda", "vulkan": "vulkan"}
 
@@ -63,6 +63,9 @@ FAILURES = {
                            "a strain increment far beyond yield in one step (an excessive load or velocity, "
                            "or a time step too large: [solve].dt_safety) or a material table that is not "
                            "physical"),
+    STATUS_MASS_ADDED: ("selective mass scaling added {added} of the shell's mass, above [solve].added_mass_limit",
+                        "the elements are distorted far below [solve].target_dt: lower target_dt, raise "
+                        "added_mass_limit, or refine the mesh where they collapse"),
     STATUS_ENERGY: ("the energy balance error reached {ratio} of the energy absorbed (energy was created)",
                     "an instability that creates energy (time step too large: [solve].dt_safety; contact "
                     "too stiff: [contact].stiffness) or a constraint that works on the shell; --energy-limit "
@@ -177,6 +180,7 @@ class Simulation:
         self.frames: FrameWriter | None = None
         self.total_steps = 0
         self.run_seconds = 0.0
+        self.run_cpu_seconds = 0.0          # the process's CPU time over the run (all threads)
         self.reporter = Progress(quiet, scene.solve.progress_every)
         self.warnings: list[str] = []
         self.hourglass_warned = False
@@ -274,6 +278,10 @@ class Simulation:
             used = np.arange(sections.points)[None, :] < sections.point_count[data.section][:, None]
             out["plastic_strain_max"] = np.where(used, ep, -np.inf).max(axis=1)
             out["plastic_strain_mean"] = np.sum(ep * w, axis=1) / w.sum(axis=1)
+        if self.cfg.erosion:
+            out["eroded"] = eroded_elements(self.state).astype(np.int32)
+        if self.cfg.mass_scaling:
+            out["added_mass"] = added_mass(self.state, self.model)
         return out
 
     # ------------------------------------------------------------------ recording
@@ -281,7 +289,7 @@ class Simulation:
         self.history.probe_rows.append([key] + self.probe_values())
         e = self.energies()
         self.history.energy_rows.append([key] + [e[k] for k in ENERGY_COLUMNS])
-        self.history.part_rows.append([key] + part_energies(self.state, self.model).ravel().tolist())
+        self.history.part_rows.append([key] + self.part_values().ravel().tolist())
         st, bd = self.state.step, self.state.bodies
         nb = len(self.model.rigid_bodies)
         self.history.force_rows.append([key] + st.reaction[None].to_numpy().tolist()
@@ -403,6 +411,10 @@ class Simulation:
                 code, index = STATUS_NONFINITE, int(np.argmax(bad))
             elif code != STATUS_NONFINITE:
                 inside_out, length = self.element_distortion(x)
+                if self.cfg.erosion:              # an eroded element may be anything (stages/masses.py)
+                    gone = eroded_elements(self.state)
+                    inside_out &= ~gone
+                    length = np.where(gone, np.inf, length)
                 if inside_out.any():
                     code, index = STATUS_INVERTED, int(np.argmax(inside_out))
                 elif code == STATUS_DT_COLLAPSE:
@@ -410,7 +422,9 @@ class Simulation:
         if code in FAILURES:
             what, cause = FAILURES[code]
             ratio = energy.balance_ratio(self.energies())
-            raise SimulationError(f"{what.format(index=index, ratio=f'{100 * ratio:.3g}%')} at {self.where()}: {cause}")
+            added = f"{100 * self.added_mass_fraction():.3g}%"
+            raise SimulationError(f"{what.format(index=index, ratio=f'{100 * ratio:.3g}%', added=added)} at "
+                                  f"{self.where()}: {cause}")
         self.check_hourglass()
         self.check_balance()
 
@@ -487,7 +501,7 @@ class Simulation:
                                  "support_impulse_z"] + [f"{b}.displacement" for b in names]
                    + [f"{b}.force" for b in names] + self.motion_columns() + self.tool_columns(),
                    self.history.force_rows),
-                  ("parts.csv", [key, "part", *PART_COLUMNS], self.part_table())]
+                  ("parts.csv", [key, "part", *PART_COLUMNS, "added_mass"], self.part_table())]
         failed = None
         for name, header, rows in tables:
             try:
@@ -497,10 +511,25 @@ class Simulation:
         if failed is not None:
             raise failed
 
+    def part_added_mass(self) -> np.ndarray:
+        """The mass selective mass scaling has added to each part so far (0 for rigid bodies)."""
+        out = np.zeros(len(self.model.parts) + len(self.model.rigid_bodies))
+        out[:len(self.model.parts)] = np.bincount(self.model.element.part, weights=added_mass(self.state, self.model),
+                                                  minlength=len(self.model.parts))
+        return out
+
+    def part_values(self) -> np.ndarray:
+        """(parts + bodies, PART_COLUMNS + added mass): one output point's rows of parts.csv."""
+        return np.concatenate([part_energies(self.state, self.model), self.part_added_mass()[:, None]], axis=1)
+
+    def added_mass_fraction(self) -> float:
+        """The added mass of selective mass scaling over the shell's physical mass."""
+        return float(added_mass(self.state, self.model).sum() / self.model.corner_mass.sum())
+
     def part_table(self) -> list[list]:
         """parts.csv rows (long format: one row per part and output point), from the history."""
         names = part_names(self.model)
-        width = len(PART_COLUMNS)
+        width = len(PART_COLUMNS) + 1
         return [[row[0], name, *row[1 + i * width:1 + (i + 1) * width]]
                 for row in self.history.part_rows for i, name in enumerate(names)]
 
@@ -511,11 +540,15 @@ class Simulation:
         element = self.model.element
         density = self.model.materials.rows[self.model.sections.point_material[element.section, 0], COL["density"]]
         mass = density * element.thickness * self.model.area0          # physical (not the statics' scaled) mass
+        added = self.part_added_mass()
+        gone = eroded_elements(self.state)
         out = []
         for i, p in enumerate(self.model.parts):
             t = element.thickness[p.elements]
             out.append({"name": p.name, "material": p.material, "section": p.section, "elements": int(len(p.elements)),
                         "thickness": [float(t.min()), float(t.max())], "mass": float(mass[p.elements].sum()),
+                        **({"eroded_elements": int(gone[p.elements].sum())} if self.cfg.erosion else {}),
+                        **({"added_mass": float(added[i])} if self.cfg.mass_scaling else {}),
                         "energies": {k: float(energies[i, j]) for j, k in enumerate(PART_COLUMNS)}})
         for i, b in enumerate(self.model.rigid_bodies):
             out.append({"name": f"rigid_body:{b.name}", "mass": b.added_mass,
@@ -542,6 +575,8 @@ class Simulation:
             "steps": self.total_steps, "compile_seconds": self.compile_seconds,
             "compile_cpu_seconds": self.compile_cpu_seconds, "run_seconds": self.run_seconds,
             "us_per_element_step": 1e6 * self.run_seconds / max(1, self.total_steps * len(self.model.elements)),
+            "run_cpu_seconds": self.run_cpu_seconds,
+            "cpu_us_per_element_step": 1e6 * self.run_cpu_seconds / max(1, self.total_steps * len(self.model.elements)),
             "energies": e, "parts": self.part_summary(),
             "mesh_warnings": list(self.mesh.warnings), "warnings": list(self.warnings),
         }
@@ -562,6 +597,14 @@ class Simulation:
                 {"name": name, "kind": tt.kinds[i], "motion": moves[int(tt.motion[i])],
                  "force": values[5 * i:5 * i + 3], "energy": values[5 * i + 3], "work": values[5 * i + 4],
                  "nodes_in_contact": int(contacts[i])} for i, name in enumerate(tt.names)]
+        if self.cfg.erosion:
+            summary["erosion"] = {"eroded_elements": int(eroded_elements(self.state).sum())}
+        if self.cfg.mass_scaling:
+            summary["mass_scaling"] = {
+                "target_dt": self.model.parameters.target_dt, "added_mass": float(added_mass(self.state, self.model).sum()),
+                "added_mass_percent": 100.0 * self.added_mass_fraction(),
+                "scaled_elements": int((added_mass(self.state, self.model) > 0.0).sum()),
+                "added_mass_limit_percent": self.scene.solve.added_mass_limit}
         if self.state.contact is not None:
             summary["contact"] = {"max_penetration_over_thickness": float(self.state.contact.max_penetration[None]),
                                   "pairs_last_step": int(self.state.contact.pairs[None])}

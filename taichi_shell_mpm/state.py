@@ -61,7 +61,7 @@ from .scene import MAX_CURVES, MAX_MOTIONS
 from .tools import MAX_TOOLS
 
 (STATUS_OK, STATUS_CONVERGED, STATUS_INVERTED, STATUS_LEFT_GRID, STATUS_NONFINITE, STATUS_DT_COLLAPSE,
- STATUS_CONTACT_FULL, STATUS_ENERGY, STATUS_RETURN_FAILED) = range(9)
+ STATUS_CONTACT_FULL, STATUS_ENERGY, STATUS_RETURN_FAILED, STATUS_MASS_ADDED) = range(10)
 CANDIDATES_PER_NODE = 64     # capacity of the contact candidate lists, on average per node
 
 CAPACITY_MIN = 16384         # the smallest size class of a per-entity field (4^7)
@@ -228,8 +228,17 @@ class State:
         gathered = fx.launch != "batched"
         g.entity("corner_loads", ti.Vector.field(10, f64), m, (4,), persistent=False,
                  used=gathered)
-        g.entity("node_slot_start", ti.field(i32), n + 1, used=gathered)
-        g.entity("node_slots", ti.field(i32), 4 * m, used=gathered)
+        g.entity("node_slot_start", ti.field(i32), n + 1, used=gathered or fx.mass_update)
+        g.entity("node_slots", ti.field(i32), 4 * m, used=gathered or fx.mass_update)
+        # erosion and selective mass scaling (issue 18; stages/masses.py): failed (1) or not;
+        # density factor f_e >= 1; the element's physical shares of its corners' masses and
+        # rotary inertias; kinetic energy its erosion took out of the nodes, and that its
+        # added mass was given (energy.py)
+        g.entity("eroded", ti.field(i32), m, used=fx.erosion)
+        g.entity("mass_factor", ti.field(f64), m, used=fx.mass_scaling)
+        g.entity("corner_mass", ti.Vector.field(4, f64), m, used=fx.mass_update)
+        g.entity("corner_inertia", ti.Vector.field(4, f64), m, used=fx.mass_update)
+        g.entity("mass_energy", ti.Vector.field(2, f64), m, used=fx.mass_update)
 
         # --- section and material data of each element, and the tables they index
         g = self.sections = Group("sections")
@@ -251,6 +260,8 @@ class State:
                 used=fx.oriented)
         g.table("material_kind", ti.field(i32), (MAX_MATERIALS,))              # index into Features.materials
         g.table("material", ti.field(f64), (MAX_MATERIALS, MATERIAL_PARAMETERS))   # parameters (stages/material.py)
+        g.table("failure", ti.Vector.field(3, f64), (MAX_MATERIALS,),          # erosion (materials.failure_row)
+                used=fx.erosion)
         # tabulated hardening curves, all materials' one after the other (a row holds its first
         # point and count): plastic strain and yield stress of each point
         curve_points = len(model.materials.curve_strain)
@@ -273,7 +284,8 @@ class State:
                             ("dt_safety", f64), ("length_ref", f64), ("mass_floor", f64), ("runaway_speed", f64),
                             ("flip_blend", f64), ("dilatational_speed", f64), ("curve_argument", f64),
                             ("motion_work", f64), ("constraint_sq", f64), ("tolerance_sq", f64),
-                            ("motion_ramp", f64)):
+                            ("motion_ramp", f64), ("eroded_kinetic", f64), ("mass_scaling_energy", f64),
+                            ("added_mass", f64), ("added_mass_cap", f64), ("target_dt", f64)):
             g.table(name, ti.field(dtype), ())
         # restart_factor: 0.5 on a central-difference restart from rest, else 1; velocity_keep:
         # 0 right after a kinetic-damping reset, else 1; fire_*: FIRE state and scratch
@@ -283,7 +295,10 @@ class State:
         # the step's run-time parameters; curve_argument: the curves' argument at the end of the
         # last step (time, or the load factor in a static run; stages/motion.py); motion_work: the
         # running total of energy.py; constraint_sq, tolerance_sq: a static run's prescribed-DOF
-        # forces (their norm^2) and tolerance^2, the residual's scale under displacement control
+        # forces (their norm^2) and tolerance^2, the residual's scale under displacement control;
+        # eroded_kinetic, mass_scaling_energy: running totals (energy.py); added_mass: by selective
+        # mass scaling since the start, added_mass_cap: its limit (0: none), target_dt: its step
+        # (stages/masses.py)
         g.table("reaction", ti.Vector.field(3, f64), ())           # force the supports exert on the shell
         g.table("reaction_impulse", ti.Vector.field(3, f64), ())   # its time integral since the start
 
@@ -519,10 +534,21 @@ class State:
         nm = len(mats.names)
         w(sec.material_kind, np.concatenate([mats.kind, np.zeros(MAX_MATERIALS - nm, np.int32)]))
         w(sec.material, np.concatenate([mats.rows, np.zeros((MAX_MATERIALS - nm, MATERIAL_PARAMETERS))]))
+        if self.features.erosion:
+            w(sec.failure, np.concatenate([mats.failure, np.zeros((MAX_MATERIALS - nm, 3))]))
         if "tabulated" in self.features.hardening:
             w(sec.curve_strain, mats.curve_strain)
             w(sec.curve_stress, mats.curve_stress)
-        if self.features.launch != "batched":
+        if self.features.mass_update:
+            w(el.corner_mass, model.corner_mass)
+            w(el.corner_inertia, model.corner_inertia)
+        if self.features.mass_scaling:
+            w(el.mass_factor, model.mass_factor)
+            p = model.parameters
+            st.target_dt[None] = p.target_dt
+            st.added_mass_cap[None] = p.added_mass_cap
+            st.added_mass[None] = float(np.dot(model.mass_factor - 1.0, model.corner_mass.sum(axis=1)))
+        if self.features.launch != "batched" or self.features.mass_update:
             flat = model.elements.ravel()
             slots = np.argsort(np.where(flat >= 0, flat, n), kind="stable")[:int((flat >= 0).sum())]
             w(el.node_slots, slots.astype(np.int32))

@@ -113,6 +113,7 @@ class Stepper:
         if ti.static(self.cfg.tools):
             self.tools.end()
         self.energy.guard(shell_kinetic)         # before a relaxation reset books the KE as damped
+        self.shell.masses.guard()
         self.s.step.reaction_impulse[None] += self.s.step.dt[None] * self.s.step.reaction[None]
         self.s.step.time[None] += self.s.step.dt[None]
         self.s.step.step[None] += 1
@@ -188,6 +189,8 @@ class Stepper:
         self.begin()
         self.velocity_update()
         self.shell.element_pass()
+        if ti.static(self.cfg.mass_update):     # erosion, mass scaling: the new nodal masses
+            self.shell.masses.node_masses()
         self.end()
 
     # ------------------------------------------------------------------ kernels

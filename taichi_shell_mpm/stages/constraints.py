@@ -53,6 +53,15 @@ class NodeUpdate:
         return (self.held(c) & FIXED_TRANSLATION) == FIXED_TRANSLATION or self.s.nodes.body[c] >= 0
 
     @ti.func
+    def is_idle(self, c):
+        """Prescribed, or without mass (every element around it eroded, stages/masses.py):
+        skipped by P2G/G2P and the explicit-FE update, it keeps a zero velocity."""
+        out = self.is_prescribed(c)
+        if ti.static(self.cfg.mass_update):
+            out = out or self.s.nodes.mass[c] <= 0.0
+        return out
+
+    @ti.func
     def drill_normal(self, c):
         """Unit nodal normal and whether the drilling projection applies (not at kinks; never
         with the drilling spring of stages/drilling.py, which keeps the drilling rotation)."""
@@ -159,6 +168,9 @@ class NodeUpdate:
             w = ti.Vector([0.0, 0.0, 0.0])
         if ti.static(self.cfg.loads):
             w = self.motion.prescribed(c, w, w_start, 3)
+        if ti.static(self.cfg.mass_update):
+            if self.s.nodes.inertia[c] <= 0.0:      # a node without mass (stages/masses.py)
+                w = ti.Vector([0.0, 0.0, 0.0])
         self.s.nodes.omega[c] = w
         self.rotate_orientation(c, dt * w)
         if not rigid:        # a slave's rotation is held and its translation is the body's (stages/bodies.py)
@@ -225,7 +237,7 @@ class NodeUpdate:
         """``fem`` mode: v~ += dt (f_ext - f_int)/m at the nodes (central difference)."""
         for c in range(self.s.nodes.count[None]):
             v = ti.Vector([0.0, 0.0, 0.0])
-            if not self.is_prescribed(c):
+            if not self.is_idle(c):
                 r = self.residual_force(c)
                 self.acc.total(self.s.step.residual_sq, r.norm_sqr())
                 v = self.s.step.velocity_keep[None] * self.s.nodes.grid_velocity[c] + self.velocity_gain(self.s.nodes.mass[c]) * r

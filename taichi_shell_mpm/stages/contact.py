@@ -3,7 +3,7 @@ with a [contact] table.
 
 Segments are the element faces split into triangles (1,2,3), (1,3,4) (a triangular element
 is one segment), both sides active, contact thickness t_c.  Excluded: elements touching the
-node's one-ring of nodes.  Each
+node's one-ring of nodes, and eroded elements and nodes without mass (stages/masses.py).  Each
 node takes its single closest penetrating segment [choice: no double counting where
 segments meet]; the force k g + c g' along the closest-point direction (so edges and
 vertices are handled too) goes to the node and, with the barycentric weights, back to the
@@ -286,8 +286,15 @@ class SelfContact:
         best_e = -1
         best_point = ti.Vector([0.0, 0.0, 0.0])
         best_w = ti.Vector([0.0, 0.0, 0.0, 0.0])
-        for i in range(self.s.contact.candidate_start[c], self.s.contact.candidate_start[c + 1]):
+        start, stop = self.s.contact.candidate_start[c], self.s.contact.candidate_start[c + 1]
+        if ti.static(self.cfg.mass_update):
+            if self.s.nodes.mass[c] <= 0.0:     # a node of eroded elements only (stages/masses.py)
+                stop = start
+        for i in range(start, stop):
             e = self.s.contact.candidate_elements[i]
+            if ti.static(self.cfg.erosion):     # an eroded element is no contact segment
+                if self.s.elements.eroded[e] != 0:
+                    continue
             corners = self.segment_corners(e)
             p0, p1 = self.s.nodes.position[corners[0]], self.s.nodes.position[corners[1]]
             p2, p3 = self.s.nodes.position[corners[2]], self.s.nodes.position[corners[3]]

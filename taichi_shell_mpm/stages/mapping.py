@@ -78,11 +78,11 @@ class Mapping:
 
     @ti.func
     def locate(self):
-        """The stencil base of every free node (node_cell, -1 for prescribed nodes); a node
-        outside the grid stops the run."""
+        """The stencil base of every free node (node_cell, -1 for prescribed nodes and nodes
+        without mass, NodeUpdate.is_idle); a node outside the grid stops the run."""
         for c in range(self.s.nodes.count[None]):
             cell = -1
-            if not self.nodes.is_prescribed(c):
+            if not self.nodes.is_idle(c):
                 base, _, inside = self.stencil(self.s.nodes.position[c])
                 if inside:
                     cell = self.flat(base)
