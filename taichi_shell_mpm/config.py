@@ -34,6 +34,7 @@ class Features:
     moving_walls: bool          # a wall moving with a rigid body
     contact: bool               # penalty self-contact (stages/contact.py)
     friction: bool              # contact friction
+    multi_field: bool = False   # a velocity field per shell layer at each grid node (stages/grid.py)
     launch: str = "batched"     # "batched" | "threads" | "gpu" (solvers/stepper.py)
 
     @property
@@ -57,6 +58,12 @@ class Features:
         return self.transfer == "flip" or self.static
 
     @property
+    def nodal_normals(self) -> bool:
+        """Whether the shell stage gathers the nodal normals (sum A e3, sum A): the drilling
+        projection and the multi-field grid's layer test use them."""
+        return not self.drilling_spring or self.multi_field
+
+    @property
     def plastic(self) -> bool:
         from .materials import PLASTIC
         return any(PLASTIC[k] for k in self.materials)
@@ -77,4 +84,6 @@ class Features:
             moving_walls=any(w.body >= 0 for w in model.walls),
             contact=scene.contact is not None,
             friction=scene.contact is not None and scene.contact.friction > 0.0,
+            multi_field=model.grid is not None and (scene.method.fields == "multi" or (
+                scene.method.fields == "auto" and scene.contact is not None)),
             launch=launch)

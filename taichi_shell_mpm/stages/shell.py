@@ -117,7 +117,7 @@ class ShellElement:
         self.hourglass = Hourglass(state, cfg.kirchhoff_w_hourglass)
         self.drilling = DrillingSpring(state)
         self.acc = Accumulator(cfg.serial)
-        self.loads = CornerLoads(state, cfg.serial, normals=not cfg.drilling_spring)
+        self.loads = CornerLoads(state, cfg.serial, normals=cfg.nodal_normals)
 
     @ti.func
     def gather(self, c):
