@@ -12,10 +12,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import materials
+from . import laminate, materials
+from .loading import Loading, assemble_loading
 from .mesh import Mesh
 from .nodesets import select_nodes
-from .quadrature import through_thickness_rule
 from .scene import DOFS, Scene, SceneError
 
 AXES = {"x": 0, "y": 1, "z": 2}
@@ -73,7 +73,7 @@ class WallSpec:
 class PartSpec:
     name: str
     elements: np.ndarray                    # element ids
-    material: str
+    material: str | None                    # None: a layered section (its plies name their materials)
     section: str
 
 
@@ -86,21 +86,28 @@ class ElementData:
     shear_factor: np.ndarray                # (m,) kappa
     wave_speed: np.ndarray                  # (m,) plane-stress c_e of its stiffest material (physical density)
     rotational_frequency: np.ndarray        # (m,) sqrt(12 kappa G / rho) / t with physical rotary inertia, else 0
+    # E, G below: the material's; a laminate's or an orthotropic material's effective isotropic
+    # moduli (laminate.Layup: membrane E, bending E, mean transverse G)
     hourglass_membrane: np.ndarray          # (m,) r E t / 8      (stages/hourglass.py: x A beta -> C3)
     hourglass_bending: np.ndarray           # (m,) r E t^3 / 192  (x A beta -> C1)
     hourglass_transverse: np.ndarray        # (m,) r kappa G t^3 / 12 (x beta -> C2)
     drilling_factor: np.ndarray             # (m,) alpha E t^3 / 48 (stages/drilling.py: x A beta -> k)
+    density: np.ndarray                     # (m,) mass per volume over the thickness (laminate.Layup)
+    rotary_density: np.ndarray              # (m,) 12 I / t^3, I = int rho z^2 dz (= density for one material)
+    material_axis: np.ndarray               # (m, 2) cos, sin of the angle from e1 to the section's material axis
 
 
 @dataclass(frozen=True)
 class SectionTable:
     """Through-thickness rules: point positions zeta in [-1, 1], weights (sum 2) and the
-    material of each point, per section (padded to the most points of any section)."""
+    material and ply angle of each point, per section (padded to the most points of any section)."""
     names: tuple[str, ...]
     point_count: np.ndarray                 # (ns,)
     zeta: np.ndarray                        # (ns, nk)
     weight: np.ndarray                      # (ns, nk)
     point_material: np.ndarray              # (ns, nk) material index
+    point_angle: np.ndarray                 # (ns, nk) ply angle from the material axis, radians
+    layered: np.ndarray                     # (ns,) bool: the points' materials come from plies
 
     @property
     def points(self) -> int:
@@ -110,12 +117,19 @@ class SectionTable:
 @dataclass(frozen=True)
 class MaterialTable:
     """One row of parameters per scene material (materials.py); ``kind`` indexes ``kinds``,
-    the material models the scene uses (registry order)."""
+    the material models the scene uses (registry order); ``hardening`` and ``rate_laws``, the
+    J2 flow-stress laws it uses; the tabulated hardening curves of all materials, one after
+    the other (each row holds its curve's first point and count)."""
     names: tuple[str, ...]
     kinds: tuple[str, ...]
     kind: np.ndarray                        # (nm,)
     rows: np.ndarray                        # (nm, MATERIAL_PARAMETERS)
     dilatational_speed: float               # the largest of the paper's grid-rule speeds
+    hardening: tuple[str, ...]              # materials.HARDENING_LAWS used (Features.hardening)
+    rate_laws: tuple[str, ...]              # materials.RATE_LAWS used (Features.rate_laws)
+    rate_filter: bool                       # some material filters its rate (Features.rate_filter)
+    curve_strain: np.ndarray                # (points,) plastic strain of each curve point
+    curve_stress: np.ndarray                # (points,) its yield stress
 
     @property
     def plastic(self) -> bool:
@@ -150,7 +164,7 @@ class Model:
     node_area: np.ndarray         # (n,) tributary area sum_e w_ea A_e
     node_thickness: np.ndarray    # (n,) the thickest adjacent element's thickness (walls keep half of it)
     fix_mask: np.ndarray          # (n,) int bits 0..5 = ux uy uz rx ry rz fixed
-    load_force: np.ndarray        # (n, 3) nodal force at load factor 1
+    load_force: np.ndarray        # (n, 3) nodal force at load factor 1 (plain loads; the rest: loading)
     load_moment: np.ndarray       # (n, 3)
     velocity0: np.ndarray         # (n, 3)
     omega0: np.ndarray            # (n, 3)
@@ -166,12 +180,12 @@ class Model:
     node_body: np.ndarray | None = None   # (n,) rigid body index of each node, -1 = none
     neighbor_start: np.ndarray | None = None   # CSR: nodes sharing an element with node c (incl. c)
     neighbor_nodes: np.ndarray | None = None
+    loading: Loading | None = None        # curve and follower loads, pressure, gravity, prescribed motion
 
 
-def cpdi2_weights(points: np.ndarray, elements: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Element areas and CPDI2 corner weights (method.md 2.1), in each element's projected
-    local frame (e3 from the diagonals). A parallelogram gives 1/4 each; a triangle (a
-    linear domain) 1/3 at each corner and 0 in the unused 4th column."""
+def element_frames(points: np.ndarray, elements: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """e1, e2, e3 (each (m, 3)) of every element's BT frame at `points` (method.md 3.1): e3
+    from the diagonals (a triangle: from edges 1-2 and 1-3), e1 along edge 1-2 projected."""
     quad = elements[:, 3] >= 0
     x = points[np.where(elements >= 0, elements, elements[:, :1])]     # (m, 4, 3), a triangle's 4th = 1st
     e3 = np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])
@@ -180,7 +194,16 @@ def cpdi2_weights(points: np.ndarray, elements: np.ndarray) -> tuple[np.ndarray,
     r21 = x[:, 1] - x[:, 0]
     e1 = r21 - np.sum(r21 * e3, axis=1)[:, None] * e3
     e1 /= np.linalg.norm(e1, axis=1)[:, None]
-    e2 = np.cross(e3, e1)
+    return e1, np.cross(e3, e1), e3
+
+
+def cpdi2_weights(points: np.ndarray, elements: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Element areas and CPDI2 corner weights (method.md 2.1), in each element's projected
+    local frame (e3 from the diagonals). A parallelogram gives 1/4 each; a triangle (a
+    linear domain) 1/3 at each corner and 0 in the unused 4th column."""
+    quad = elements[:, 3] >= 0
+    x = points[np.where(elements >= 0, elements, elements[:, :1])]     # (m, 4, 3), a triangle's 4th = 1st
+    e1, e2, e3 = element_frames(points, elements)
     centre = x.mean(axis=1)[:, None, :]
     lx = np.sum((x - centre) * e1[:, None, :], axis=2)
     ly = np.sum((x - centre) * e2[:, None, :], axis=2)
@@ -217,16 +240,46 @@ def _edge_lengths(points, elements) -> np.ndarray:
     return lengths[valid]
 
 
+def triangle_shear_gain(points: np.ndarray, elements: np.ndarray) -> np.ndarray:
+    """g per element (1 for a quad): how stiffly a triangle's edge transverse shear
+    (stages/triangle.py) ties its corner rotations, against the mean rotation of the quad's
+    shear.  The rotation part of the shear rate is sum_a P_a beta_a with
+    P_a = (1 / 2A) sum over the two edges k at corner a of (e3 x (m_k - centroid)) e_k^T;
+    g = 3 sigma_max^2 of [P_1 P_2 P_3] (the mean rotation, P_a = I/3, gives 1): 1.25 for an
+    equilateral triangle, 1.5 for a right isosceles one, growing without bound as a sliver
+    flattens.  The rotary inertia (assemble) and the time step (stages/timestep.triangle_limit)
+    scale with it."""
+    gain = np.ones(len(elements))
+    tri = np.flatnonzero(elements[:, 3] < 0)
+    if not len(tri):
+        return gain
+    x = points[elements[tri, :3]]                                   # (k, 3, 3)
+    normal = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])
+    twice_area = np.linalg.norm(normal, axis=1)
+    e3 = normal / twice_area[:, None]
+    centre = x.mean(axis=1)
+    p = np.zeros((len(tri), 3, 3, 3))                                # P_a, corner a
+    for k in range(3):
+        j = (k + 1) % 3
+        lever = np.cross(e3, 0.5 * (x[:, k] + x[:, j]) - centre)
+        term = lever[:, :, None] * (x[:, j] - x[:, k])[:, None, :]
+        p[:, k] += term
+        p[:, j] += term
+    p /= twice_area[:, None, None, None]
+    s = np.einsum("kaij,kalj->kil", p, p)
+    gain[tri] = 3.0 * np.linalg.eigvalsh(s)[:, -1]
+    return gain
+
+
 def element_length(points: np.ndarray, elements: np.ndarray, area: np.ndarray) -> np.ndarray:
     """L_e of the element rule (method.md 5): area / longest diagonal of a quad; for a
-    triangle area / longest edge x 2 (its altitude over the longest edge), the host twin of
-    stages/shell's element length."""
+    triangle 4A / sqrt(3 (l1^2 + l2^2 + l3^2)) = 2 / sqrt(3 beta) (stages/triangle.py); the
+    host twin of the element stages' lengths."""
     x = points[np.where(elements >= 0, elements, elements[:, :1])]
     quad = elements[:, 3] >= 0
     diag = np.maximum(np.linalg.norm(x[:, 2] - x[:, 0], axis=1), np.linalg.norm(x[:, 3] - x[:, 1], axis=1))
-    edge = np.max(np.stack([np.linalg.norm(x[:, 1] - x[:, 0], axis=1), np.linalg.norm(x[:, 2] - x[:, 1], axis=1),
-                            np.linalg.norm(x[:, 0] - x[:, 2], axis=1)]), axis=0)
-    return np.where(quad, area / diag, 2.0 * area / edge)
+    edges_sq = sum(np.sum((x[:, b] - x[:, a]) ** 2, axis=1) for a, b in ((0, 1), (1, 2), (2, 0)))
+    return np.where(quad, area / diag, 4.0 * area / np.sqrt(3.0 * edges_sq))
 
 
 def _grid_geometry(scene: Scene, points: np.ndarray, min_edge: float, planes_xyz, free_nodes: int) -> GridGeometry:
@@ -312,11 +365,13 @@ def _mesh_set(name: str, mesh: Mesh, where: str, extra: tuple = ()) -> np.ndarra
 
 
 def _deck_specs(deck, source: str):
-    """Scene materials and sections for an LS-DYNA deck's parts (dyna.Deck): *MAT_001 elastic,
-    *MAT_003 and *MAT_024 J2 with linear hardening H = E E_t / (E - E_t) from their tangent
-    modulus (a *MAT_024 curve: the straight line through its points, least squares, with a
-    warning until tabulated hardening exists), *SECTION_SHELL thickness T1, NIP Gauss points
-    (QR = 0; NIP = 0 means 2), QR = 1 (trapezoidal) as Lobatto with a note, SHRF."""
+    """Scene materials and sections for an LS-DYNA deck's parts (dyna.Deck): *MAT_001 elastic;
+    *MAT_003 and *MAT_024 J2: a *MAT_024 stress-strain curve (LCSS or EPS/ES) is the tabulated
+    hardening law, extrapolated beyond its last point as LS-DYNA does, else linear hardening
+    H = E E_t / (E - E_t) from the tangent modulus; their Cowper-Symonds C and P (*MAT_003 SRC,
+    SRP) the cowper_symonds rate law on the total strain rate (VP = 0, -1) or the plastic strain
+    rate (VP = 1); *SECTION_SHELL thickness T1, NIP Gauss points (QR = 0; NIP = 0 means 2),
+    QR = 1 (trapezoidal) as Lobatto with a note, SHRF."""
     from .scene import Material, Section
     materials, sections, notes = {}, {}, []
     for mid, card in deck.materials.items():
@@ -325,17 +380,24 @@ def _deck_specs(deck, source: str):
         if card.kind == "elastic":
             materials[f"mat_{mid}"] = Material(E=E, nu=nu, density=rho)
             continue
-        sigy, etan = v.get("sigy", 0.0), v.get("etan", 0.0)
+        where = f"{source}: {'*MAT_024' if card.kind == 'piecewise_linear' else '*MAT_003'} {mid}"
+        law = {"yield_stress": v.get("sigy", 0.0), "hardening": 0.0}
         if card.curve:
-            eps, sig = np.array(card.curve, dtype=float).T
-            slope, intercept = np.polyfit(eps, sig, 1) if len(eps) > 1 else (0.0, sig[0])
-            sigy, hardening = float(intercept), float(max(slope, 0.0))
-            notes.append(f"{source}: *MAT_024 {mid}: its stress-strain curve is taken as the straight line "
-                         f"sigma_y = {sigy:.4g} + {hardening:.4g} ebar (least squares over its {len(eps)} points)")
+            law = {"hardening_law": "tabulated", "curve": _deck_curve(card.curve, where, notes),
+                   "beyond_curve": "extrapolate" if len(card.curve) > 1 else "flat"}
         else:
-            hardening = E * etan / (E - etan) if 0.0 < etan < E else 0.0
-        materials[f"mat_{mid}"] = Material(E=E, nu=nu, density=rho, model="j2", yield_stress=sigy,
-                                           hardening=hardening)
+            etan = v.get("etan", 0.0)
+            law["hardening"] = E * etan / (E - etan) if 0.0 < etan < E else 0.0
+        C, P = (v.get("src", 0.0), v.get("srp", 0.0)) if card.kind == "plastic_kinematic" else \
+            (v.get("c", 0.0), v.get("p", 0.0))
+        if C > 0.0 and P > 0.0:
+            vp = int(v.get("vp", 0.0))
+            law.update(rate_law="cowper_symonds", C=C, p=P, rate_measure="plastic" if vp == 1 else "total")
+            if vp not in (0, -1, 1):
+                notes.append(f"{where}: VP = {vp} is read as VP = 0 (Cowper-Symonds on the total strain rate)")
+        if card.kind == "piecewise_linear" and int(v.get("lcsr", 0)) > 0:
+            notes.append(f"{where}: the strain-rate scaling curve LCSR {int(v['lcsr'])} is not read")
+        materials[f"mat_{mid}"] = Material(E=E, nu=nu, density=rho, model="j2", **law)
     for secid, card in deck.sections.items():
         points = int(card.nip) if card.nip > 0 else 2             # NIP = 0: LS-DYNA's default, 2
         rule = "gauss"
@@ -349,6 +411,33 @@ def _deck_specs(deck, source: str):
         sections[f"sec_{secid}"] = Section(thickness=card.thickness, points=points, rule=rule,
                                            shear_factor=min(card.shear_factor, 1.0))
     return materials, sections, notes
+
+
+def _deck_curve(curve, where: str, notes: list) -> tuple[tuple[float, float], ...]:
+    """A *MAT_024 stress-strain curve as a tabulated hardening curve (scene._curve_points):
+    starting at plastic strain 0 (its first stress there if it starts later), points that do
+    not advance in plastic strain dropped, a falling stress held at the highest before it
+    (softening is not supported), each change in a note."""
+    points = []
+    for eps, sig in curve:
+        if sig <= 0.0:
+            raise SceneError(f"{where}: the stress-strain curve has a yield stress <= 0 ({sig:g} at plastic "
+                             f"strain {eps:g})")
+        if points and eps <= points[-1][0]:
+            notes.append(f"{where}: curve point ({eps:g}, {sig:g}) does not advance in plastic strain: dropped")
+            continue
+        if points and sig < points[-1][1]:
+            notes.append(f"{where}: the curve falls at plastic strain {eps:g} ({points[-1][1]:g} -> {sig:g}): "
+                         f"held at {points[-1][1]:g} (softening is not supported)")
+            sig = points[-1][1]
+        points.append((float(eps), float(sig)))
+    if points[0][0] > 0.0:
+        notes.append(f"{where}: the curve starts at plastic strain {points[0][0]:g}: its first stress is taken "
+                     "from plastic strain 0")
+        points.insert(0, (0.0, points[0][1]))
+    elif points[0][0] < 0.0:
+        raise SceneError(f"{where}: the stress-strain curve starts at a negative plastic strain {points[0][0]:g}")
+    return tuple(points)
 
 
 def _part_data(scene: Scene, mesh: Mesh, points: np.ndarray, elements: np.ndarray):
@@ -365,7 +454,11 @@ def _part_data(scene: Scene, mesh: Mesh, points: np.ndarray, elements: np.ndarra
         return (PartSpec("all", np.arange(m), "material", "section"),), {"material": scene.material}, \
             {"section": scene.section}, thickness, notes
     if not scene.parts and mesh.deck is None:
-        (mname, mat), (sname, sec) = next(iter(materials.items())), next(iter(sections.items()))
+        (sname, sec), = sections.items()
+        if sec.layered:
+            used = {ply.material: materials[ply.material] for ply in sec.plies}
+            return (PartSpec("all", np.arange(m), None, sname),), used, {sname: sec}, thickness, notes
+        (mname, mat), = materials.items()
         return (PartSpec("all", np.arange(m), mname, sname),), {mname: mat}, {sname: sec}, thickness, notes
     if not scene.parts:                          # an LS-DYNA deck's parts
         deck_materials, deck_sections, notes = _deck_specs(mesh.deck, scene.source.name)
@@ -383,9 +476,14 @@ def _part_data(scene: Scene, mesh: Mesh, points: np.ndarray, elements: np.ndarra
     parts = []
     for i, part in enumerate(entries):
         path = f"[[part]][{i}]" if scene.parts else f"part {part.name}"
-        for key, table in (("material", materials), ("section", sections)):
-            if getattr(part, key) not in table:
-                errors.append(f"{scene.source.name}: {path}.{key}: no {key} named {getattr(part, key)!r}")
+        section = sections.get(part.section)
+        if section is None:
+            errors.append(f"{scene.source.name}: {path}.section: no section named {part.section!r}")
+        elif section.layered:
+            errors += [f"{scene.source.name}: section {part.section}.plies[{j}].material: no material named "
+                       f"{ply.material!r}" for j, ply in enumerate(section.plies) if ply.material not in materials]
+        elif part.material not in materials:
+            errors.append(f"{scene.source.name}: {path}.material: no material named {part.material!r}")
         try:
             ids = _element_selection(part.elements, scene, mesh, points, elements, path)
         except SceneError as exc:
@@ -397,15 +495,16 @@ def _part_data(scene: Scene, mesh: Mesh, points: np.ndarray, elements: np.ndarra
             errors.append(f"{scene.source.name}: {path} '{part.name}': {len(taken)} elements also in part '{other}' "
                           f"(e.g. {', '.join(map(str, taken[:5]))}): every element belongs to one part")
         owner[ids] = i
-        parts.append(PartSpec(part.name, ids, part.material, part.section))
+        parts.append(PartSpec(part.name, ids, None if section is not None and section.layered else part.material,
+                              part.section))
     orphans = np.flatnonzero(owner < 0)
     if len(orphans) and not errors:
         errors.append(f"{scene.source.name}: [[part]]: {len(orphans)} elements belong to no part "
                       f"(e.g. {', '.join(map(str, orphans[:5]))})")
     if errors:
         raise SceneError(errors)
-    used_m = {p.material for p in parts}
     used_s = {p.section for p in parts}
+    used_m = {p.material for p in parts} | {ply.material for name in used_s for ply in sections[name].plies}
     return tuple(parts), {k: v for k, v in materials.items() if k in used_m}, \
         {k: v for k, v in sections.items() if k in used_s}, thickness, notes
 
@@ -430,57 +529,94 @@ def _deck_element_thickness(deck, scene: Scene, notes: list) -> np.ndarray | Non
     return mean if np.isfinite(mean).any() else None
 
 
-def _tables(scene: Scene, parts, material_specs: dict, section_specs: dict, m: int,
+def _tables(scene: Scene, parts, material_specs: dict, section_specs: dict, frames,
             element_thickness: np.ndarray | None = None):
     """SectionTable, MaterialTable and ElementData of the parts.  A row of the section table
-    is a (section, material) pair of some part: its through-thickness rule and the material
-    of each point.  `element_thickness` (NaN: the section's) overrides the section's thickness
-    element by element (an LS-DYNA deck's *ELEMENT_SHELL_THICKNESS)."""
+    is a (section, material) pair of some part (a layered section's material is None): its
+    through-thickness points, and the material and ply angle of each (laminate.layup).
+    `frames` = (e1, e2) of every element (element_frames) for the material axes.
+    `element_thickness` (NaN: the section's) overrides the section's thickness element by
+    element (an LS-DYNA deck's *ELEMENT_SHELL_THICKNESS)."""
+    e1, e2 = frames
+    m = len(e1)
     material_names = tuple(material_specs)
-    kinds = tuple(k for k in materials.KINDS if any(spec.model == k for spec in material_specs.values()))
+    specs = [material_specs[n] for n in material_names]
+    kinds = tuple(k for k in materials.KINDS if any(spec.model == k for spec in specs))
+    hardening, rates = materials.hardening_laws(specs), materials.rate_laws(specs)
+    curves = [spec.curve if spec.model == "j2" and spec.hardening_law == "tabulated" else () for spec in specs]
+    starts = np.concatenate([[0], np.cumsum([len(c) for c in curves])]).astype(int)
+    points = np.array([point for c in curves for point in c]).reshape(-1, 2)
     material_table = MaterialTable(
         names=material_names, kinds=kinds,
-        kind=np.array([kinds.index(material_specs[n].model) for n in material_names], dtype=np.int32),
-        rows=np.array([materials.parameter_row(material_specs[n], materials.MATERIAL_PARAMETERS)
-                       for n in material_names]),
-        dilatational_speed=max(materials.dilatational_speed(spec) for spec in material_specs.values()))
+        kind=np.array([kinds.index(spec.model) for spec in specs], dtype=np.int32),
+        rows=np.array([materials.parameter_row(spec, materials.MATERIAL_PARAMETERS, hardening, rates, start)
+                       for spec, start in zip(specs, starts)]),
+        dilatational_speed=max(materials.dilatational_speed(spec) for spec in specs),
+        hardening=hardening, rate_laws=rates,
+        rate_filter=any(spec.model == "j2" and spec.rate_law != "none" and materials.rate_filter_time(spec) > 0
+                        for spec in specs),
+        curve_strain=points[:, 0].copy(), curve_stress=points[:, 1].copy())
     pairs = tuple(dict.fromkeys((p.section, p.material) for p in parts))
-    rules = [through_thickness_rule(section_specs[sec].rule, section_specs[sec].points) for sec, _ in pairs]
-    nk = max(len(z) for z, _ in rules)
-    zeta = np.zeros((len(rules), nk))
-    weight = np.zeros((len(rules), nk))
-    for i, (z, w) in enumerate(rules):
-        zeta[i, :len(z)], weight[i, :len(w)] = z, w
-    point_material = np.array([[material_names.index(mat)] * nk for _, mat in pairs], dtype=np.int32)
-    section_table = SectionTable(names=tuple(f"{sec}/{mat}" for sec, mat in pairs),
-                                 point_count=np.array([len(z) for z, _ in rules], np.int32),
-                                 zeta=zeta, weight=weight, point_material=point_material)
+    layups = [laminate.layup(section_specs[sec], material_specs, mat) for sec, mat in pairs]
+    nk = max(len(lay.zeta) for lay in layups)
+    zeta, weight, angle = (np.zeros((len(pairs), nk)) for _ in range(3))
+    point_material = np.zeros((len(pairs), nk), dtype=np.int32)
+    for i, lay in enumerate(layups):
+        n = len(lay.zeta)
+        zeta[i, :n], weight[i, :n], angle[i, :n] = lay.zeta, lay.weight, lay.point_angle
+        point_material[i] = [material_names.index(name) for name in lay.point_material] \
+            + [material_names.index(lay.point_material[0])] * (nk - n)
+    section_table = SectionTable(names=tuple(sec if mat is None else f"{sec}/{mat}" for sec, mat in pairs),
+                                 point_count=np.array([len(lay.zeta) for lay in layups], np.int32),
+                                 zeta=zeta, weight=weight, point_material=point_material, point_angle=angle,
+                                 layered=np.array([section_specs[sec].layered for sec, _ in pairs]))
     el = scene.element
     columns = {name: np.zeros(m) for name in ("thickness", "shear_factor", "wave_speed", "rotational_frequency",
                                               "hourglass_membrane", "hourglass_bending", "hourglass_transverse",
-                                              "drilling_factor")}
+                                              "drilling_factor", "density", "rotary_density")}
+    material_axis = np.tile([1.0, 0.0], (m, 1))
     part_of = np.zeros(m, dtype=np.int32)
     section_of = np.zeros(m, dtype=np.int32)
+    errors = []
     for i, part in enumerate(parts):
-        mat, sec = material_specs[part.material], section_specs[part.section]
+        sec = section_specs[part.section]
+        row = pairs.index((part.section, part.material))
+        lay = layups[row]
         ids = part.elements
         t = np.full(len(ids), sec.thickness)
         if element_thickness is not None:
             t = np.where(np.isfinite(element_thickness[ids]), element_thickness[ids], t)
-        kappa, G = sec.shear_factor, materials.shear_modulus(mat)
+        kappa = sec.shear_factor
         part_of[ids] = i
-        section_of[ids] = pairs.index((part.section, part.material))
+        section_of[ids] = row
         r = sec.hourglass if sec.hourglass is not None else el.hourglass
         alpha = sec.drilling_stiffness if sec.drilling_stiffness is not None else el.drilling_stiffness
-        values = {"thickness": t, "shear_factor": kappa, "wave_speed": materials.wave_speed(mat),
-                  "rotational_frequency": (np.sqrt(12.0 * kappa * G / mat.density) / t
+        # artificial stiffnesses of a laminate: the effective isotropic moduli of laminate.Layup
+        values = {"thickness": t, "shear_factor": kappa, "wave_speed": lay.wave_speed,
+                  "rotational_frequency": (np.sqrt(12.0 * kappa * lay.transverse_shear_max / lay.rotary_density) / t
                                            if scene.solve.rotary_inertia == "physical" else 0.0),
-                  "hourglass_membrane": r * mat.E * t / 8.0, "hourglass_bending": r * mat.E * t ** 3 / 192.0,
-                  "hourglass_transverse": r * kappa * G * t ** 3 / 12.0,
-                  "drilling_factor": alpha * mat.E * t ** 3 / 48.0 if el.drilling == "penalty" else 0.0}
+                  "hourglass_membrane": r * lay.membrane_modulus * t / 8.0,
+                  "hourglass_bending": r * lay.bending_modulus * t ** 3 / 192.0,
+                  "hourglass_transverse": r * kappa * lay.transverse_shear_modulus * t ** 3 / 12.0,
+                  "drilling_factor": alpha * lay.bending_modulus * t ** 3 / 48.0 if el.drilling == "penalty" else 0.0,
+                  "density": lay.density, "rotary_density": lay.rotary_density}
         for name, value in values.items():
             columns[name][ids] = value
-    return section_table, material_table, ElementData(part=part_of, section=section_of, **columns)
+        if lay.oriented and sec.reference_direction is not None:
+            axis, undefined = laminate.material_axis(e1[ids], e2[ids], sec.reference_direction)
+            material_axis[ids] = axis
+            bad = ids[undefined]
+            if len(bad):
+                where = "[section]" if scene.section is not None else f"[sections.{part.section}]"
+                errors.append(f"{scene.source.name}: {where}.reference_direction: "
+                              f"{list(sec.reference_direction)} is within {laminate.AXIS_TOLERANCE_DEG:g} degree of "
+                              f"the normal of element {int(bad[0])}"
+                              + (f" (and {len(bad) - 1} more)" if len(bad) > 1 else "")
+                              + ", where the material axis is undefined: choose a direction further from the normals")
+    if errors:
+        raise SceneError(errors)
+    return section_table, material_table, ElementData(part=part_of, section=section_of, material_axis=material_axis,
+                                                      **columns)
 
 
 def assemble(scene: Scene, mesh: Mesh) -> Model:
@@ -488,20 +624,29 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
     points, elements = mesh.points.astype(np.float64), mesh.elements.astype(np.int64)
     n, m = len(points), len(elements)
     parts, material_specs, section_specs, element_thickness, notes = _part_data(scene, mesh, points, elements)
-    sections, material_table, element = _tables(scene, parts, material_specs, section_specs, m, element_thickness)
+    sections, material_table, element = _tables(scene, parts, material_specs, section_specs,
+                                                element_frames(points, elements)[:2], element_thickness)
     area0, weight = cpdi2_weights(points, elements)
     edges = _edge_lengths(points, elements)
-    density = material_table.rows[sections.point_material[element.section, 0], materials.COL["density"]]
-    element_mass = density * element.thickness * area0
+    element_mass = element.density * element.thickness * area0
+    physical_mass = np.zeros(n)
+    np.add.at(physical_mass, np.where(elements >= 0, elements, 0), weight * element_mass[:, None])
     if scene.solve.kind == "static" and scene.solve.mass_scaling != "none":
         element_mass *= uniform_dt_mass_factor(points, elements, area0)
     node_mass = np.zeros(n)
     node_area = np.zeros(n)
     node_inertia = np.zeros(n)
+    inertia_arm = element.thickness ** 2 / 12.0 * (element.rotary_density / element.density)   # I / (rho t)
     if scene.solve.rotary_inertia == "scaled":
-        inertia_arm = np.maximum(element.thickness ** 2 / 12.0, area0 / 8.0)
-    else:
-        inertia_arm = element.thickness ** 2 / 12.0
+        # a triangle max(t^2/12, A/4) g [choice, measured]: g (triangle_shear_gain) brings its
+        # shear-rotation frequency, kappa G g / (rho arm), to that of an element whose shear
+        # takes the mean rotation, and A/4 keeps it below the membrane's: the largest
+        # omega dt / 2 of one triangle over 4000 random shapes (angles down to 0.1 deg, t from
+        # 1e-3 to 2 sqrt(A)) was 0.81 alpha (A/8 g: 0.97 alpha; A/4 without g: 1.35 alpha at
+        # smallest angles of 5-11 deg, 12 alpha below 5 deg; the quad's A/8 without g: the
+        # 20x2 cantilever cut into triangles did not relax at dt_safety 0.9); g = 1 for a quad
+        gain = triangle_shear_gain(points, elements)
+        inertia_arm = np.maximum(inertia_arm, area0 / np.where(elements[:, 3] < 0, 4.0, 8.0)) * gain
     corners = np.where(elements >= 0, elements, 0)       # a triangle's 4th weight is 0
     corner_mass = weight * element_mass[:, None]
     corner_inertia = weight * (element_mass * inertia_arm)[:, None]
@@ -535,19 +680,6 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
         bits = sum(1 << DOFS.index(d) for d in dofs)
         fix_mask[ids] |= bits
 
-    load_force = np.zeros((n, 3))
-    load_moment = np.zeros((n, 3))
-    for ld in scene.loads:
-        ids = nodes_of(ld.nodes)
-        share = node_area[ids] if ld.distribute == "area" else np.ones(len(ids))
-        share = share / share.sum()
-        load_force[ids] += share[:, None] * np.asarray(ld.force)[None, :]
-        load_moment[ids] += share[:, None] * np.asarray(ld.moment)[None, :]
-        fully_fixed = ids[(fix_mask[ids] & 0b111) == 0b111]
-        if len(fully_fixed) == len(ids) and np.any(ld.force):
-            raise SceneError(f"{scene.source.name}: [[load]] on '{ld.nodes}': every node of the set has all "
-                             "translations fixed, so the force would do nothing")
-
     velocity0 = np.zeros((n, 3))
     omega0 = np.zeros((n, 3))
     for ic in scene.initial:
@@ -570,6 +702,9 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
         d = np.asarray(rb.direction) / np.linalg.norm(rb.direction)
         bodies.append(RigidBodySpec(rb.name, ids, rb.mass, tuple(d), rb.mass + float(node_mass[ids].sum()),
                                     float(np.mean(velocity0[ids] @ d))))
+    load_force, load_moment, loading = assemble_loading(
+        scene, points, elements, node_area, physical_mass, fix_mask, node_body, nodes_of,
+        lambda name, path: _element_selection(name, scene, mesh, points, elements, path))
     names = [b.name for b in bodies]
     walls = tuple(WallSpec(tuple(w.point), tuple(np.asarray(w.normal) / np.linalg.norm(w.normal)),
                            names.index(w.moves_with) if w.moves_with else -1) for w in scene.walls)
@@ -595,6 +730,7 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
                  load_moment=load_moment, velocity0=velocity0, omega0=omega0,
                  grid=grid, probes=probes, min_edge=min_edge, mean_edge=float(edges.mean()),
                  max_edge=float(edges.max()), rigid_bodies=tuple(bodies), walls=walls, node_body=node_body,
+                 loading=loading,
                  **(node_neighbors(elements, n) if scene.contact else {}))
 
 

@@ -42,7 +42,7 @@ from .output import atomic_write
 from .scene import SceneError
 
 CHECKPOINT_NAME = "checkpoint.npz"
-FORMAT_VERSION = 3
+FORMAT_VERSION = 4
 stop_hook: Callable[[Any], bool] | None = None
 """Tests and embedding code: called with the Simulation at every batch boundary; returning
 True stops the run there exactly as a Ctrl-C does."""

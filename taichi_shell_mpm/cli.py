@@ -1,4 +1,4 @@
-"""Command line: ``python -m taichi_shell_mpm run|validate|render ...`` (thin: no physics here).
+"""Command line: ``python -m taichi_shell_mpm run|validate|render|bench|sweep ...`` (thin: no physics here).
 
 Exit codes: 0 success, 1 internal error (a bug: one line; set TAICHI_SHELL_MPM_TRACEBACK=1
 for the traceback), 2 scene/mesh/checkpoint error (user mistake, one line per problem,
@@ -104,6 +104,14 @@ def _parser() -> argparse.ArgumentParser:
     from .bench import add_arguments as bench_arguments
     bench_arguments(sub.add_parser("bench", help="speed against error: refinement study of the benchmark "
                                                  "scenes, results.csv, plots and BENCHMARKS.md"))
+    from .sweep import add_arguments as sweep_arguments
+    sweep_arguments(sub.add_parser("sweep", help="parameter study: a scene run for each combination of values, "
+                                                 "on a local or existing Dask cluster",
+                                   description="Run a scene for each case of a parameter study (--param, "
+                                               "--cases) on Dask; sweep.csv, sweep.md and plots in --out.",
+                                   epilog="docs/sweep.md.  Exit codes: 0 every case ok, 2 a mistake in the "
+                                          "options or the scene, 3 some case failed (recorded in sweep.csv), "
+                                          "130 interrupted."))
     return p
 
 
@@ -128,16 +136,15 @@ def setup_warnings(scene, model) -> list[str]:
     together with the grid, so a slit modelled by them stays closed), and self-contact on a
     grid as coarse as the elements (layers stick through the grid: the tube at h = l gave
     +28 % mean force)."""
-    import numpy as np
-
+    from .loading import load_shares
     from .nodesets import select_nodes
     lines = list(model.notes)
     fixed = (model.fix_mask & 0b111) == 0b111
     for i, ld in enumerate(scene.loads):
-        if not any(ld.force):
+        if not any(ld.force) and not any(ld.force_per_length):
             continue
         ids = select_nodes(scene.nodeset(ld.nodes), model.points)
-        share = model.node_area[ids] if ld.distribute == "area" else np.ones(len(ids))
+        share = load_shares(ld.distribute, ids, model.node_area, model.points, model.elements)
         lost = float(share[fixed[ids]].sum() / share.sum())
         if lost > 0.0:
             lines.append(f"{scene.source.name}: [[load]][{i}] on '{ld.nodes}': {int(fixed[ids].sum())} of "
@@ -188,7 +195,9 @@ def _validate(args) -> int:
     for w in (*mesh.warnings, *setup_warnings(scene, model), *([note] if note else [])):
         print(f"warning: {w}")
     grid = f", grid cells h={model.grid.h:g}" if model.grid else ""
-    print(f"{args.scene}: ok ({len(mesh.points)} nodes, {len(mesh.elements)} elements, {scene.method.kind}{grid})")
+    triangles = int(mesh.triangles.sum())
+    shapes = f" ({triangles} triangles)" if triangles else ""
+    print(f"{args.scene}: ok ({len(mesh.points)} nodes, {len(mesh.elements)} elements{shapes}, {scene.method.kind}{grid})")
     thickness = model.element.thickness
     for p in model.parts:
         t = thickness[p.elements]
@@ -317,6 +326,7 @@ def _run(args) -> int:
         os.environ.setdefault("ENABLE_TAICHI_HEADER_PRINT", "false")
     from .simulation import Simulation, SimulationError, init_taichi
     from .solvers.dynamic import run_dynamic
+    from .solvers.newton import ShellEquations, run_newton
     from .solvers.static import run_static
     sim = None
     control = RunControl(args.checkpoint_every, resume=ckpt.position if ckpt else None)
@@ -333,6 +343,9 @@ def _run(args) -> int:
             sim.hourglass_limit = args.hourglass_limit
         if args.energy_limit is not None:
             sim.energy_limit = args.energy_limit
+        newton = None
+        if scene.solve.kind == "static" and scene.solve.solver == "newton":
+            newton = ShellEquations.compiled(sim)
         for w in (*sim.mesh.warnings, *setup_warnings(scene, model)):
             print(f"warning: {w}")
         if ckpt is not None:
@@ -347,7 +360,12 @@ def _run(args) -> int:
                      f"{sim.cfg.method}, kernels ready in {time.perf_counter() - t0:.1f} s -> {sim.out_dir}"
                      + (f" (restarted at step {sim.state.step.step[None]})" if ckpt else ""))
         with control.catch_interrupts():
-            extra = run_static(sim, control) if scene.solve.kind == "static" else run_dynamic(sim, control)
+            if scene.solve.kind == "dynamic":
+                extra = run_dynamic(sim, control)
+            elif newton is not None:
+                extra = run_newton(sim, newton, control)
+            else:
+                extra = run_static(sim, control)
         summary = sim.write_results(extra)
     except (SceneError, CheckpointError) as exc:
         return _fail(EXIT_SCENE, exc.messages)
@@ -400,10 +418,15 @@ def _bench(args) -> int:
     return bench_main(args)
 
 
+def _sweep(args) -> int:
+    from .sweep import main as sweep_main
+    return sweep_main(args, run=main)      # each case calls main(["run", ...]) in its worker
+
+
 def main(argv=None) -> int:
     import numpy as np
     args = _parser().parse_args(argv)
-    command = {"validate": _validate, "render": _render, "bench": _bench}.get(args.command, _run)
+    command = {"validate": _validate, "render": _render, "bench": _bench, "sweep": _sweep}.get(args.command, _run)
     try:
         with np.errstate(all="ignore"):      # a diverging run overflows: reported as a failure, not warnings
             return command(args)

@@ -23,9 +23,14 @@ class Features:
     fire: bool                  # static: FIRE velocity mixing instead of plain kinetic damping
     points: int                 # through-thickness points: the most of any section
     materials: tuple[str, ...]  # material models the scene uses (materials.KINDS order)
+    hardening: tuple[str, ...]  # J2 hardening laws the scene uses (materials.HARDENING_LAWS order)
+    rate_laws: tuple[str, ...]  # J2 strain-rate laws the scene uses (materials.RATE_LAWS order)
+    rate_filter: bool           # some material filters its strain rate (state.points.strain_rate)
+    layered: bool               # a layered section: each point reads its own material (docs/laminates.md)
     kirchhoff_w_hourglass: bool  # stages/hourglass.py: w-mode rate less the Kirchhoff field's
     drilling_spring: bool       # drilling spring (stages/drilling.py); else the projection (method.md 2.3)
     warping_correction: bool    # BWC curvature of warped quads (stages/warping.py, method.md 3.8)
+    triangles: bool             # the mesh has triangles: the C0 triangle (stages/triangle.py)
     physical_rotary_inertia: bool   # the rotational limit in the element's step (stages/timestep.py)
     grid_rule: bool             # the paper's grid rule in dt (dt_rule = "both", mpm)
     grid_planes: bool           # symmetry planes on the grid (stages/grid.py)
@@ -36,6 +41,10 @@ class Features:
     friction: bool              # contact friction
     multi_field: bool = False   # a velocity field per shell layer at each grid node (stages/grid.py)
     launch: str = "batched"     # "batched" | "threads" | "gpu" (solvers/stepper.py)
+    loads: bool = False         # curve or follower loads, pressure, gravity, prescribed motion
+    #                             (stages/loads.py, stages/motion.py): one switch [choice: a
+    #                             configuration costs 25-60 s to compile, and a scene with any of
+    #                             them pays next to nothing for the others' empty loops]
 
     @property
     def serial(self) -> bool:
@@ -68,6 +77,13 @@ class Features:
         from .materials import PLASTIC
         return any(PLASTIC[k] for k in self.materials)
 
+    @property
+    def oriented(self) -> bool:
+        """A material with axes (orthotropic): the points read the element's material axis and
+        their ply angle."""
+        from .materials import ORIENTED
+        return any(ORIENTED[k] for k in self.materials)
+
     @staticmethod
     def from_scene(scene: Scene, model: Model, launch: str = "batched") -> "Features":
         el = scene.element
@@ -75,8 +91,12 @@ class Features:
             method=scene.method.kind, transfer=scene.method.transfer, static=scene.solve.kind == "static",
             fire=scene.solve.kind == "static" and scene.solve.relaxation == "fire",
             points=model.sections.points, materials=model.materials.kinds,
+            hardening=model.materials.hardening, rate_laws=model.materials.rate_laws,
+            rate_filter=model.materials.rate_filter,
+            layered=bool(model.sections.layered.any()),
             kirchhoff_w_hourglass=el.w_hourglass == "kirchhoff", drilling_spring=el.drilling == "penalty",
             warping_correction=el.warping == "bwc",
+            triangles=bool((model.elements[:, 3] < 0).any()),
             physical_rotary_inertia=scene.solve.rotary_inertia == "physical",
             grid_rule=scene.solve.dt_rule == "both" and scene.method.kind == "mpm",
             grid_planes=model.grid is not None and bool(model.grid.planes),
@@ -86,4 +106,4 @@ class Features:
             friction=scene.contact is not None and scene.contact.friction > 0.0,
             multi_field=model.grid is not None and (scene.method.fields == "multi" or (
                 scene.method.fields == "auto" and scene.contact is not None)),
-            launch=launch)
+            launch=launch, loads=model.loading.loads)

@@ -22,13 +22,28 @@ the crushing body moves) and the body ``[crush].body``:
 * energy balance error = |E_err| / (E_int + E_hg + E_drill + E_contact + E_wall), the
   energy the shell absorbed (the kinetic energy of the mass would hide errors), largest
   over the recorded history after the first 1/30 of the run.
-* the ratios to ``[crush].mean_force_reference`` and ``half_wavelength_reference``.
+* specific energy absorption SEA = absorbed energy / crushed mass, the crushed mass being
+  the shell's mass per unit length along e (its mass / its extent along e, a prismatic
+  tube) times the crush distance; the energy absorbed is that of the energy balance error
+  above, at the end of the run.
+* the ratios to ``[crush].mean_force_reference`` and ``half_wavelength_reference``.  A
+  reference may name a closed-form mean force of a tube mesh (MEAN_FORCE_FORMULAS),
+  evaluated with the run's yield stress sigma0 and thickness t (one value each over the
+  shell) and C = (width + depth) / 2; the SEA's reference of each is P_ref / (mass per unit
+  length), the SEA of a crush at the constant force P_ref.
 """
 from __future__ import annotations
 
 import numpy as np
 
 from .energy import ENERGY_COLUMNS
+from .materials import COL
+
+MEAN_FORCE_FORMULAS = {"wierzbicki_abramowicz": 38.12 / 4, "abramowicz_jones": 52.22 / 4}
+"""k of P_m = k sigma0 t^(5/3) C^(1/3) = 4k M0 (C/t)^(1/3), M0 = sigma0 t^2 / 4 (benchmarks.md
+3.2): Wierzbicki & Abramowicz (1983), superfolding element, symmetric mode, P_m = 38.12 M0
+(C/t)^(1/3); Abramowicz & Jones (1984), with the effective crushing distance 0.73 x 2H,
+52.22 M0 (C/t)^(1/3).  Rigid-perfectly plastic, no strain-rate terms."""
 
 def crush_work(time: np.ndarray, crush: np.ndarray, impulse: np.ndarray) -> np.ndarray:
     """Cumulative work of the crush force at each history row: sum over the intervals of the
@@ -113,6 +128,33 @@ def fold_geometry(points: np.ndarray, positions: np.ndarray, thickness: float,
             "half_wavelength": 0.5 * float(np.mean(spacings)) if spacings else None}
 
 
+def reference_forces(sim) -> list[float | None]:
+    """The values of ``[crush].mean_force_reference``: numbers as given, formulas evaluated
+    (None when the shell has more than one thickness or yield stress, or a layered part)."""
+    model, mesh = sim.model, sim.scene.mesh
+    thickness = model.element.thickness
+    index = {name: i for i, name in enumerate(model.materials.names)}
+    yield_stress = np.array([model.materials.rows[index[p.material], COL["yield_stress"]] if p.material in index
+                             else np.nan for p in model.parts])
+    out = []
+    for ref in sim.scene.crush.mean_force_reference:
+        if not isinstance(ref, str):
+            out.append(float(ref))
+        elif np.ptp(thickness) > 0 or not np.ptp(yield_stress) == 0 or not yield_stress[0] > 0:
+            out.append(None)
+        else:
+            size = 0.5 * (mesh.width + mesh.depth)
+            out.append(MEAN_FORCE_FORMULAS[ref] * float(yield_stress[0]) * float(thickness[0]) ** (5 / 3)
+                       * size ** (1 / 3))
+    return out
+
+
+def mass_per_length(sim, axis: np.ndarray) -> float:
+    """The shell's mass over its extent along `axis` (a prismatic tube's mass per unit length)."""
+    extent = float(np.ptp(sim.model.points @ axis))
+    return float(sim.model.corner_mass.sum()) / extent if extent > 0 else float("nan")
+
+
 def crush_summary(sim) -> dict:
     """The crush figures of a run with a [crush] table (see the module docstring)."""
     spec = sim.scene.crush
@@ -136,15 +178,24 @@ def crush_summary(sim) -> dict:
     balance = np.abs(e["balance_error"][late]) / absorbed[late] if late.any() else np.array([np.nan])
     final_internal = e["internal"][-1]
     s = sim.state
+    references = reference_forces(sim)
+    per_length = mass_per_length(sim, axis)
+    crushed_mass = per_length * float(crush[-1])
+    sea = float(absorbed[-1]) / crushed_mass if crushed_mass > 0 else None
     out = {
         "crush_distance": float(crush[-1]), "peak_support_force": float(np.abs(support).max()),
         "peak_ram_force": float(np.abs(body_force).max()),
         "mean_crush_force": mean, "mean_force_window": [spec.window[0], spec.window[0] + covered],
-        "mean_force_over_reference": [mean / r for r in spec.mean_force_reference],
+        "mean_force_reference": references,
+        "mean_force_over_reference": [mean / r if r else None for r in references],
         "energy_balance_error_max": float(balance.max()),
         "hourglass_over_internal": float(e["hourglass"][-1] / final_internal) if final_internal > 0 else None,
         "drilling_over_internal": float(e["drilling"][-1] / final_internal) if final_internal > 0 else None,
         "absorbed_energy": float(absorbed[-1]),
+        "crushed_mass": crushed_mass,
+        "specific_energy_absorption": sea,
+        "specific_energy_absorption_over_reference": [sea * per_length / r if (r and sea is not None) else None
+                                                      for r in references],
         "max_penetration_over_thickness": float(s.contact.max_penetration[None]) if s.contact is not None else None,
         "ram_velocity_final": float(s.bodies.velocity[b]),
     }

@@ -6,8 +6,11 @@ sum in a fixed order (the same bits on any number of threads and across a restar
 * per element (``element_energy``): internal (stress power, method.md 8), of which plastic
   work, hourglass and drilling-spring energy, booked by the shell stage (:meth:`EnergyLedger.element`);
 * per node (``node_energy``): work of the external loads, work done against the contact
-  forces, energy taken out by rigid walls (:meth:`EnergyLedger.node`);
-* per rigid body (``body_wall_energy``): the work of the walls moving with it on the body;
+  forces, energy taken out by rigid walls, work of the prescribed motions (their constraint
+  forces, stages/motion.py) (:meth:`EnergyLedger.node`; per prescribed DOF too,
+  :meth:`EnergyLedger.motion`, summed per motion on the host);
+* per rigid body (``bodies.wall_energy``, ``bodies.external_work``): the work of the walls
+  moving with it on the body, and of gravity on its added mass;
 * damped energy (0-d): kinetic energy removed by dynamic relaxation (batched launch only).
 
 The step keeps 0-d running totals of the same increments for its in-kernel decisions
@@ -40,7 +43,7 @@ motion; what remains is nonlinearity, plasticity's dissipation booking, the doub
 mapping's transfer loss and real errors.
 
 Balance.  E_err = KE + E_int + E_hg + E_drill + S + E_damped + E_wall + E_contact - KE_0 - W_ext
-(E_int includes the plastic work).  The guard (:meth:`EnergyLedger.guard`, checked every step
+- W_motion (E_int includes the plastic work; W_motion: the work of the prescribed motions).  The guard (:meth:`EnergyLedger.guard`, checked every step
 in the kernel of a dynamic run) stops a run once E_err (energy created) exceeds ``limit``
 times the energy the shell has absorbed, A = E_int + E_hg + E_drill + E_contact + E_wall +
 E_damped, or KINETIC_SHARE x the shell's own kinetic energy (the nodes', without rigid
@@ -62,9 +65,9 @@ from .stages.accumulate import Accumulator
 from .state import STATUS_ENERGY, STATUS_OK
 
 ENERGY_COLUMNS = ("kinetic", "internal", "hourglass", "external_work", "damped", "wall", "contact",
-                  "plastic_work", "drilling", "stagger", "balance_error")
+                  "plastic_work", "drilling", "stagger", "motion_work", "balance_error")
 ELEMENT_PARTS = ("internal", "plastic_work", "hourglass", "drilling", "stagger")   # element_energy components
-NODE_PARTS = ("external_work", "contact", "wall")                        # node_energy components
+NODE_PARTS = ("external_work", "contact", "wall", "motion_work")         # node_energy components
 
 BALANCE_STOP = 0.05          # default limit: |E_err| / absorbed (method.md 8: stop above 5 %)
 WARN_FRACTION = 0.2          # warn at 0.2 x the limit (1 % by default)
@@ -97,11 +100,13 @@ class EnergyLedger:
             self.acc.total(self.s.step.plastic_work, plastic)
 
     @ti.func
-    def node(self, c, external, contact, wall):
+    def node(self, c, external, contact, wall, motion):
         """Node c's increments of the step (stages/constraints.py): external work, work done
-        against the contact forces, energy taken out by walls."""
-        self.s.nodes.energy[c] += ti.Vector([external, contact, wall])
+        against the contact forces, energy taken out by walls, work of prescribed motion."""
+        self.s.nodes.energy[c] += ti.Vector([external, contact, wall, motion])
         self.acc.total(self.s.step.external_work, external)
+        if ti.static(self.cfg.loads):
+            self.acc.total(self.s.step.motion_work, motion)
         if ti.static(self.cfg.contact):
             self.acc.total(self.s.step.contact_energy, contact)
         if ti.static(self.cfg.walls):
@@ -113,6 +118,18 @@ class EnergyLedger:
         serial (end of step)."""
         self.s.bodies.wall_energy[b] += wall
         self.s.step.wall_energy[None] += wall
+
+    @ti.func
+    def motion(self, c, d, work):
+        """Work of the prescribed motion of DOF d of node c (stages/motion.py), kept per DOF
+        for the per-motion totals; the node's sum goes through :meth:`node`."""
+        self.s.nodes.motion_work[c, d] += work
+
+    @ti.func
+    def body_external(self, b, work):
+        """Work of gravity on rigid body b's added mass (stages/bodies.py); serial."""
+        self.s.bodies.external_work[b] += work
+        self.s.step.external_work[None] += work
 
     @ti.func
     def guard(self, shell_kinetic):
@@ -127,7 +144,7 @@ class EnergyLedger:
             absorbed = (self.s.step.internal_energy[None] + self.s.step.hourglass_energy[None] + self.s.step.drilling_energy[None]
                         + self.s.step.contact_energy[None] + self.s.step.wall_energy[None] + self.s.step.damped_energy[None])
             error = (self.s.step.kinetic[None] + absorbed + self.s.step.stagger_energy[None] - self.s.step.kinetic_initial[None]
-                     - self.s.step.external_work[None])
+                     - self.s.step.external_work[None] - self.s.step.motion_work[None])
             scale = ti.max(absorbed, KINETIC_SHARE * shell_kinetic)
             if not (error <= limit * scale) and scale > 0.0:      # also catches NaN
                 self.s.step.status[None] = STATUS_ENERGY
@@ -159,10 +176,12 @@ def totals(state, model, initial_kinetic: float) -> dict[str, float]:
     e.update({name: float(node[i]) for i, name in enumerate(NODE_PARTS)})
     if model.rigid_bodies:
         e["wall"] += float(state.read(state.bodies.wall_energy, len(model.rigid_bodies)).sum())
+        e["external_work"] += float(state.read(state.bodies.external_work, len(model.rigid_bodies)).sum())
     e["kinetic"] = kinetic_energy(state, model)
     e["kinetic_bodies"] = bodies_kinetic_energy(state, model)      # (not a column: the guard's scale)
     e["damped"] = float(state.step.damped_energy[None])
-    e["balance_error"] = (e["kinetic"] + absorbed(e) + e["stagger"] - initial_kinetic - e["external_work"])
+    e["balance_error"] = (e["kinetic"] + absorbed(e) + e["stagger"] - initial_kinetic - e["external_work"]
+                          - e["motion_work"])
     return e
 
 

@@ -1,12 +1,29 @@
 """Material models at the model level: each scene material becomes one row of the material
 table (state.sections.material) that the constitutive updates of stages/material.py read,
-plus the wave speeds the time step needs.  Pure numpy; the kinds' Taichi code is in
-:mod:`taichi_shell_mpm.stages.material`.
+plus the stiffnesses and wave speeds the section, the time step and the hourglass control
+need.  Pure numpy; the kinds' Taichi code is in :mod:`taichi_shell_mpm.stages.material`.
 
-Columns of a row (COLUMNS, the same for every kind; unused ones stay 0):
-E, nu, density, shear modulus G, the plane-stress stiffness c11 = E / (1 - nu^2),
-c12 = nu c11, c33 = G, yield stress, hardening modulus, and the eigenvalues of the
-plane-stress return, lambda1 = E / (3 (1 - nu)), lambda2 = 2 G, lambda_min.
+Columns of a row (COLUMNS, the same for every kind; unused ones stay 0; at most 32, as the
+kernels unroll the row):
+E, nu, density, the plane-stress stiffness c11 = E / (1 - nu^2), c12 = nu c11 and c33 = G
+(the shear modulus), the eigenvalues of the plane-stress return, lambda1 = E / (3 (1 - nu)),
+lambda2 = 2 G, lambda_min; then the J2 flow stress sigma_y(ebar) R(rate) (issue 18):
+
+- the hardening law sigma_y(ebar) (``hardening_law``: its index into Features.hardening) and
+  its parameters: yield stress (linear, Ludwik's A, Voce) and linear modulus H (the linear
+  law; the linear term of Swift, Ludwik and Voce),
+  Swift's K, eps0 and Swift's and Ludwik's exponent n, Ludwik's B and cap max_stress (0: none),
+  Voce's Q and b, the tabulated curve's first point and point count in the curve table
+  (state.sections.curve_strain / curve_stress) and whether it is extrapolated beyond its
+  last point (1) or flat (0);
+- the rate law R (``rate_law``: its index into Features.rate_laws, -1: none) and its
+  parameters: Cowper-Symonds C and p, Johnson-Cook c and the reference rate, the rate
+  measure (``rate_plastic`` 1: the equivalent plastic strain rate, 0: the effective total
+  strain rate) and the filter's time constant (0: unfiltered).
+
+An orthotropic material (docs/laminates.md) fills E = E1, nu = nu12, density, its
+plane-stress stiffness in its own axes c11 = Q11, c22 = Q22, c12 = Q12, c33 = Q66 = G12, and
+the transverse shear moduli shear_13 = G13, shear_23 = G23.
 """
 from __future__ import annotations
 
@@ -14,29 +31,94 @@ import math
 
 import numpy as np
 
-COLUMNS = ("E", "nu", "density", "shear_modulus", "c11", "c12", "c33", "yield_stress", "hardening",
-           "lambda1", "lambda2", "lambda_min")
+COLUMNS = ("E", "nu", "density", "c11", "c12", "c33", "yield_stress", "hardening",
+           "lambda1", "lambda2", "lambda_min",
+           "hardening_law", "K", "eps0", "n", "B", "max_stress", "Q", "b", "curve_start", "curve_points",
+           "curve_extrapolate",
+           "rate_law", "cowper_symonds_C", "cowper_symonds_p", "johnson_cook_c", "reference_rate", "rate_plastic",
+           "rate_filter_time", "c22", "shear_13", "shear_23")
 COL = {name: i for i, name in enumerate(COLUMNS)}
-MATERIAL_PARAMETERS = 16             # width of a row (state.sections.material)
-KINDS = ("elastic", "j2")            # every kind the solver has (stages/material.MODELS in this order)
-PLASTIC = {"elastic": False, "j2": True}
+MATERIAL_PARAMETERS = 32             # width of a row (state.sections.material; the kernels unroll it)
+KINDS = ("elastic", "j2", "orthotropic")    # every kind the solver has (stages/material.MODELS in this order)
+PLASTIC = {"elastic": False, "j2": True, "orthotropic": False}
+ORIENTED = {"elastic": False, "j2": False, "orthotropic": True}   # needs material axes (docs/laminates.md)
+HARDENING_LAWS = ("linear", "swift", "ludwik", "voce", "tabulated")   # stages/material.HARDENING in this order
+RATE_LAWS = ("cowper_symonds", "johnson_cook")                        # stages/material.RATE in this order
 
 
-def parameter_row(spec, width: int) -> np.ndarray:
-    """The material table row of a scene material (scene.Material)."""
+def hardening_laws(specs) -> tuple[str, ...]:
+    """The hardening laws of the J2 materials among `specs` (HARDENING_LAWS order): Features.hardening."""
+    used = {s.hardening_law for s in specs if s.model == "j2"}
+    return tuple(law for law in HARDENING_LAWS if law in used)
+
+
+def rate_laws(specs) -> tuple[str, ...]:
+    """The rate laws of the J2 materials among `specs` (RATE_LAWS order): Features.rate_laws."""
+    used = {s.rate_law for s in specs if s.model == "j2"}
+    return tuple(law for law in RATE_LAWS if law in used)
+
+
+def rate_filter_time(spec) -> float:
+    """The time constant tau of the material's rate filter (0: unfiltered): rate_filter_time,
+    or 1 / (2 pi f_c) of rate_cutoff_frequency."""
+    if spec.rate_cutoff_frequency > 0.0:
+        return 1.0 / (2.0 * math.pi * spec.rate_cutoff_frequency)
+    return spec.rate_filter_time
+
+
+def parameter_row(spec, width: int, hardening: tuple[str, ...] | None = None, rates: tuple[str, ...] | None = None,
+                  curve_start: int = 0) -> np.ndarray:
+    """The material table row of a scene material (scene.Material, scene.OrthotropicMaterial).
+    `hardening` and `rates` are the J2 laws the scene compiles (Features.hardening,
+    Features.rate_laws; default: this material's own); `curve_start`: the first point of its
+    tabulated curve in the curve table."""
     row = np.zeros(width)
-    E, nu = spec.E, spec.nu
-    G = E / (2.0 * (1.0 + nu))
-    c11 = E / (1.0 - nu * nu)
-    values = {"E": E, "nu": nu, "density": spec.density, "shear_modulus": G, "c11": c11, "c12": nu * c11,
-              "c33": G}
-    if spec.model == "j2":
-        lam1, lam2 = E / (3.0 * (1.0 - nu)), 2.0 * G
-        values.update(yield_stress=spec.yield_stress, hardening=spec.hardening, lambda1=lam1, lambda2=lam2,
-                      lambda_min=min(lam1, lam2))
+    if spec.model == "orthotropic":
+        q = plane_stress_stiffness(spec)
+        values = {"E": spec.E1, "nu": spec.nu12, "density": spec.density, "c11": q[0, 0], "c22": q[1, 1],
+                  "c12": q[0, 1], "c33": q[2, 2], "shear_13": spec.G13, "shear_23": spec.G23}
+    else:
+        E, nu = spec.E, spec.nu
+        G = E / (2.0 * (1.0 + nu))
+        c11 = E / (1.0 - nu * nu)
+        values = {"E": E, "nu": nu, "density": spec.density, "c11": c11, "c12": nu * c11, "c33": G}
+        if spec.model == "j2":
+            hardening = hardening_laws([spec]) if hardening is None else hardening
+            rates = rate_laws([spec]) if rates is None else rates
+            lam1, lam2 = E / (3.0 * (1.0 - nu)), 2.0 * G
+            values.update(yield_stress=spec.yield_stress, hardening=spec.hardening, lambda1=lam1, lambda2=lam2,
+                          lambda_min=min(lam1, lam2), hardening_law=hardening.index(spec.hardening_law),
+                          K=spec.K, eps0=spec.eps0, n=spec.n, B=spec.B, max_stress=spec.max_stress or 0.0, Q=spec.Q,
+                          b=spec.b, rate_law=rates.index(spec.rate_law) if spec.rate_law in rates else -1,
+                          cowper_symonds_C=spec.C, cowper_symonds_p=spec.p, johnson_cook_c=spec.c,
+                          reference_rate=spec.reference_rate, rate_plastic=float(spec.rate_measure == "plastic"),
+                          rate_filter_time=rate_filter_time(spec))
+            if spec.hardening_law == "tabulated":
+                values.update(curve_start=curve_start, curve_points=len(spec.curve),
+                              curve_extrapolate=float(spec.beyond_curve == "extrapolate"))
     for name, value in values.items():
         row[COL[name]] = value
     return row
+
+
+def plane_stress_stiffness(spec) -> np.ndarray:
+    """Q (3x3, Voigt xx, yy, xy with engineering shear) in the material's own axes: isotropic
+    E/(1 - nu^2) [[1, nu, 0], [nu, 1, 0], [0, 0, (1 - nu)/2]]; orthotropic
+    Q11 = E1/(1 - nu12 nu21), Q22 = E2/(1 - nu12 nu21), Q12 = nu12 Q22, Q66 = G12, nu21 = nu12 E2/E1."""
+    if spec.model == "orthotropic":
+        d = 1.0 - spec.nu12 * spec.nu12 * spec.E2 / spec.E1
+        q11, q22 = spec.E1 / d, spec.E2 / d
+        return np.array([[q11, spec.nu12 * q22, 0.0], [spec.nu12 * q22, q22, 0.0], [0.0, 0.0, spec.G12]])
+    c11 = spec.E / (1.0 - spec.nu ** 2)
+    return np.array([[c11, spec.nu * c11, 0.0], [spec.nu * c11, c11, 0.0], [0.0, 0.0, shear_modulus(spec)]])
+
+
+def transverse_shear_moduli(spec) -> tuple[float, float]:
+    """(G13, G23): the transverse shear moduli in the material's axes (isotropic: G, G)."""
+    if spec.model == "orthotropic":
+        return spec.G13, spec.G23
+    G = shear_modulus(spec)
+    return G, G
 
 
 def shear_modulus(spec) -> float:
@@ -44,12 +126,30 @@ def shear_modulus(spec) -> float:
 
 
 def wave_speed(spec) -> float:
-    """Plane-stress wave speed sqrt(E / (rho (1 - nu^2))) (the BT element rule, method.md 5)."""
-    return math.sqrt(spec.E / (spec.density * (1.0 - spec.nu ** 2)))
+    """Plane-stress wave speed sqrt(E / (rho (1 - nu^2))) (the BT element rule, method.md 5).
+    Orthotropic: the fastest in-plane wave, sqrt(max over directions n of the largest
+    eigenvalue of the acoustic tensor Q_ijkl n_j n_l / rho), sampled every 0.05 degrees
+    (Q11 / rho along the fibres for the usual fibre composites)."""
+    if spec.model != "orthotropic":
+        return math.sqrt(spec.E / (spec.density * (1.0 - spec.nu ** 2)))
+    q = plane_stress_stiffness(spec)
+    phi = np.linspace(0.0, np.pi, 3601)
+    c, s = np.cos(phi), np.sin(phi)
+    g11 = q[0, 0] * c * c + q[2, 2] * s * s
+    g22 = q[2, 2] * c * c + q[1, 1] * s * s
+    g12 = (q[0, 1] + q[2, 2]) * c * s
+    largest = 0.5 * (g11 + g22) + np.sqrt(0.25 * (g11 - g22) ** 2 + g12 * g12)
+    return math.sqrt(float(largest.max()) / spec.density)
 
 
 def dilatational_speed(spec) -> float:
-    """sqrt((K + 4G/3) / rho) of the paper's grid rule (eq 38-40)."""
+    """sqrt((K + 4G/3) / rho) of the paper's grid rule (eq 38-40).  Orthotropic [choice]:
+    1.2 x its in-plane wave speed, the isotropic ratio (1 - nu)/sqrt(1 - 2 nu) = 1.18 at
+    nu = 0.3 rounded up.  The scene gives no E3, nu23; with E3 = E2, nu13 = nu12, nu23 = 0.45
+    the 3-D P-wave modulus of the CFRP of docs/laminates.md along its fibres is 1.018 Q11,
+    so the factor is conservative there."""
+    if spec.model == "orthotropic":
+        return 1.2 * wave_speed(spec)
     G = shear_modulus(spec)
     K = spec.E / (3.0 * (1.0 - 2.0 * spec.nu))
     return math.sqrt((K + 4.0 * G / 3.0) / spec.density)

@@ -106,6 +106,10 @@ def build_mesh(spec: MeshSpec) -> Mesh:
     elif getattr(spec, "kind", None) in generators:
         points, elements = generators[spec.kind](spec)
         warnings, source = (), f"[mesh] {spec.kind}"
+        if spec.triangles != "none":
+            columns = {"plate": lambda: spec.nx, "hemisphere": lambda: spec.n_around,
+                       "tube": lambda: 4 * (spec.n_flat + spec.n_corner)}[spec.kind]()
+            elements = split_quads(points, elements, spec.triangles, columns)
     else:
         raise SceneError(f"[mesh]: unknown mesh kind {getattr(spec, 'kind', spec)!r}")
     warnings += check_mesh(points, elements, source, labels=labels)
@@ -142,6 +146,35 @@ def _grid_quads(n_rows: int, n_cols: int, wrap: bool) -> np.ndarray:
     q = np.stack([j * per_row + i, j * per_row + i1,
                   (j + 1) * per_row + i1, (j + 1) * per_row + i], axis=-1)
     return q.reshape(-1, 4)
+
+
+def split_quads(points: np.ndarray, quads: np.ndarray, select, columns: int) -> np.ndarray:
+    """The generated quads (row-major, `columns` per row) with those that `select` picks
+    ("all", or a box (min, max) of quad centroids) cut into two triangles each, in place (quad
+    e becomes two consecutive elements), along alternating diagonals in a checkerboard
+    [choice]: (1,2,3) + (1,3,4) where row + column is even, (1,2,4) + (2,3,4) where it is odd,
+    so that no direction of the mesh is favoured (all along one diagonal, a strip of right
+    triangles is stiffer in one sense of twist than the other).  A triangle's 4th id is -1;
+    corners stay counter-clockwise about the quad's normal."""
+    m = len(quads)
+    if select == "all":
+        chosen = np.ones(m, dtype=bool)
+    else:
+        centroid = points[quads].mean(axis=1)
+        lo, hi = np.asarray(select[0]), np.asarray(select[1])
+        chosen = np.all((centroid >= lo - 1e-12) & (centroid <= hi + 1e-12), axis=1)
+    e = np.arange(m)
+    even = (e // columns + e % columns) % 2 == 0
+    q = quads
+    first = np.where(even[:, None], q[:, [0, 1, 2]], q[:, [0, 1, 3]])
+    second = np.where(even[:, None], q[:, [0, 2, 3]], q[:, [1, 2, 3]])
+    size = 1 + chosen
+    start = np.cumsum(size) - size
+    out = np.full((int(size.sum()), 4), -1, dtype=q.dtype)
+    out[start[~chosen]] = q[~chosen]
+    out[start[chosen], :3] = first[chosen]
+    out[start[chosen] + 1, :3] = second[chosen]
+    return out
 
 
 def _plate(spec: PlateMesh) -> tuple[np.ndarray, np.ndarray]:

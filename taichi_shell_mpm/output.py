@@ -110,10 +110,11 @@ class FrameWriter:
 
     def write(self, key: float, points: np.ndarray, point_data: dict, cell_data: dict) -> Path:
         name = f"frame_{len(self.entries):05d}.vtu"
-        if self.triangles.any():     # a quad block and a triangle block; cell data split alike
-            q, t = ~self.triangles, self.triangles
-            cells = [("quad", self.elements[q]), ("triangle", self.elements[t][:, :3])]
-            data = {k: [v[q], v[t]] for k, v in cell_data.items()}
+        if self.triangles.any():     # a quad block (if any) and a triangle block; cell data split alike
+            blocks = [(kind, rows) for kind, rows in (("quad", ~self.triangles), ("triangle", self.triangles))
+                      if rows.any()]
+            cells = [(kind, self.elements[rows][:, :4 if kind == "quad" else 3]) for kind, rows in blocks]
+            data = {k: [v[rows] for _, rows in blocks] for k, v in cell_data.items()}
         else:
             cells, data = [("quad", self.elements)], {k: [v] for k, v in cell_data.items()}
         mesh = meshio.Mesh(points, cells, point_data=point_data, cell_data=data)

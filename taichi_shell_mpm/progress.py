@@ -160,10 +160,13 @@ def summary_rows(summary: dict) -> list[tuple[str, str]]:
     e = summary.get("energies") or {}
     for key, label in (("kinetic", "kinetic energy"), ("internal", "internal energy"),
                        ("hourglass", "hourglass energy"), ("drilling", "drilling energy"),
-                       ("external_work", "external work"),
+                       ("external_work", "external work"), ("motion_work", "motion work"),
                        ("damped", "damped energy"), ("balance_error", "balance error")):
-        if key in e and (key not in ("damped",) or e[key]):
+        if key in e and (key not in ("damped", "motion_work") or e[key]):
             rows.append((label, _num(e[key])))
+    for m in summary.get("motions", []):
+        reaction = ", ".join(f"{d} {_num(v)}" for d, v in m["reaction"].items())
+        rows.append((f"motion {m['name']}", f"reaction {reaction}; work {_num(m['work'])}"))
     parts = [p for p in summary.get("parts", []) if "material" in p]
     if len(parts) > 1:
         for p in parts:

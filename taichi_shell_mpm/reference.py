@@ -6,7 +6,16 @@ Relative error of row i: e_i = |sim_i - ref_i| / max(|ref_i|, floor * max_j |ref
 The table's rows are keyed by load level (its ``load_column``), which static runs record as
 the load factor of each converged load step; a dynamic run records times instead, so the
 comparison is skipped there (:func:`skip_reason`).
+
+A path with limit points (``[reference].along = "path"``, issue 19: the load factor goes up
+and down, so a load level is no key) is compared point by point in the plane of the compared
+value x and the load factor lam, each scaled by the table's largest magnitude X, Lam:
+e_i = the distance from the row (x_i / X, lam_i / Lam) to the simulated path, the polyline
+through the origin (the unloaded state) and the converged points in order
+(:func:`compare_along_path`).  A row whose x lies beyond the path's range was not reached
+(``missing_levels``).
 """
+
 from __future__ import annotations
 
 import csv
@@ -81,13 +90,63 @@ def skip_reason(ref: Reference, solve_kind: str) -> str | None:
     return None
 
 
+def _segment_distance(px: np.ndarray, py: np.ndarray, x: float, y: float) -> tuple[float, float, float]:
+    """Distance from (x, y) to the polyline (px, py) and the nearest point on it."""
+    ax, ay, bx, by = px[:-1], py[:-1], px[1:], py[1:]
+    dx, dy = bx - ax, by - ay
+    length = dx * dx + dy * dy
+    t = np.clip(np.where(length > 0, ((x - ax) * dx + (y - ay) * dy) / np.where(length > 0, length, 1.0), 0.0),
+                0.0, 1.0)
+    cx, cy = ax + t * dx, ay + t * dy
+    dist = np.hypot(cx - x, cy - y)
+    k = int(np.argmin(dist))
+    return float(dist[k]), float(cx[k]), float(cy[k])
+
+
+def compare_along_path(ref: Reference, header: list[str], data: np.ndarray, table: dict) -> dict:
+    """:func:`compare_with_reference` for ``along = "path"`` (module docstring): per column
+    the errors, ``simulated`` (the nearest point's x, None for a row not reached) and
+    ``path`` (the simulated x and load factors, for the plot)."""
+    levels = table[ref.load_column]
+    lam_scale = max(float(np.max(np.abs(levels))), 1e-300)
+    result = {"file": str(ref.file), "along": "path", "rows": len(levels), "load_levels": levels.tolist(),
+              "columns": {}}
+    reached = np.ones(len(levels), dtype=bool)
+    for comp in ref.compare:
+        x = data[:, header.index(comp.probe)] * comp.scale
+        xr = table[comp.column]
+        x_scale = max(float(np.max(np.abs(xr))), 1e-300)
+        px = np.concatenate([[0.0], x]) / x_scale
+        py = np.concatenate([[0.0], data[:, 0]]) / lam_scale
+        inside = (xr / x_scale >= px.min() - 1e-12) & (xr / x_scale <= px.max() + 1e-12) if len(x) else xr != xr
+        reached &= inside
+        errors, nearest = [], []
+        for xi, li, ok in zip(xr / x_scale, levels / lam_scale, inside):
+            if ok:
+                dist, cx, _ = _segment_distance(px, py, xi, li)
+                errors.append(dist)
+                nearest.append(cx * x_scale)
+            else:
+                nearest.append(None)
+        err = np.array(errors)
+        result["columns"][comp.column] = {
+            "probe": comp.probe, "mean_rel_error": float(err.mean()) if len(err) else None,
+            "max_rel_error": float(err.max()) if len(err) else None, "simulated": nearest,
+            "reference": xr.tolist(), "path": {"x": x.tolist(), "load_factor": data[:, 0].tolist()}}
+    result["matched"] = int(reached.sum())
+    result["missing_levels"] = [float(lv) for lv, ok in zip(levels, reached) if not ok]
+    return result
+
+
 def compare_with_reference(ref: Reference, header: list[str], rows: list[list[float]]) -> dict:
     """Per compared column: mean and max relative error over the reference rows, the rows'
     values side by side, and the reference rows that had no matching load level.  When no
     row matches (a run cut short before the first reference level), the errors are None and
-    ``matched`` is 0."""
+    ``matched`` is 0.  ``along = "path"``: :func:`compare_along_path`."""
     table = read_reference(ref)
     data = np.array(rows, dtype=float).reshape(len(rows), len(header))
+    if ref.along == "path":
+        return compare_along_path(ref, header, data, table)
     keys = data[:, 0]
     levels = table[ref.load_column]
     match = [int(np.argmin(np.abs(keys - lv))) if len(keys) and np.min(np.abs(keys - lv)) < 1e-9 * max(1, abs(lv))

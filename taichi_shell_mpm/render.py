@@ -678,8 +678,13 @@ def render_load_displacement(run: Run, pictures: Path) -> Path | None:
         chart = _chart(title, f"{name}  ({col.get('probe', '?')})", "load factor")
         _series(chart, refv, levels[:len(refv)], 0, "reference", line=True, markers=True,
                 color="#000000", style="--")
-        _series(chart, sim, levels[:len(sim)], 1, "simulated", line=True, markers=True,
-                color=PALETTE[1])
+        if "path" in col:           # along the path (limit points): the converged points in order
+            x = np.concatenate([[0.0], np.asarray(col["path"]["x"], dtype=float)])
+            lam = np.concatenate([[0.0], np.asarray(col["path"]["load_factor"], dtype=float)])
+            _series(chart, x, lam, 1, "simulated path", line=True, markers=True, color=PALETTE[1])
+        else:
+            _series(chart, sim, levels[:len(sim)], 1, "simulated", line=True, markers=True,
+                    color=PALETTE[1])
         charts.append(chart)
     p = _plotter(shape=(1, len(charts)), window_size=(640 * len(charts), 520))
     for j, chart in enumerate(charts):

@@ -24,6 +24,8 @@ from typing import Any, Literal, Union
 
 Vec3 = tuple[float, float, float]
 DOFS = ("ux", "uy", "uz", "rx", "ry", "rz")
+MAX_CURVES = 64          # [curves.NAME] tables of a scene (state.loads tables)
+MAX_MOTIONS = 64         # [[motion]] entries of a scene
 
 
 class SceneError(Exception):
@@ -66,6 +68,11 @@ def _generated_elements(kind: str, v: dict) -> int | None:
     return count
 
 
+TriangleSplit = Union[Literal["none", "all"], tuple[Vec3, Vec3]]
+"""`triangles` of a generated mesh: "none", "all", or a box (min, max) of quad centroids:
+the quads it selects are cut into two triangles each (mesh.split_quads)."""
+
+
 @dataclass(frozen=True)
 class PlateMesh:
     """Flat rectangle in the x-y plane, nx x ny quads, normals +z."""
@@ -74,6 +81,7 @@ class PlateMesh:
     nx: int
     ny: int
     origin: Vec3 = (0.0, 0.0, 0.0)
+    triangles: TriangleSplit = "none"
     kind: Literal["plate"] = "plate"
 
 
@@ -90,6 +98,7 @@ class HemisphereMesh:
     n_around: int
     n_meridian: int
     quarter: bool = True
+    triangles: TriangleSplit = "none"
     kind: Literal["hemisphere"] = "hemisphere"
 
 
@@ -111,6 +120,7 @@ class TubeMesh:
     y-faces; corners untouched. 0 = no trigger."""
     trigger_start: float = 5.0
     trigger_length: float = 15.0
+    triangles: TriangleSplit = "none"
     kind: Literal["tube"] = "tube"
 
 
@@ -137,22 +147,96 @@ class Material:
     model: Literal["elastic", "j2"] = "elastic"
     """elastic: linear, corotational; j2: von Mises plane-stress plasticity (method.md 3.4)."""
     yield_stress: float = 0.0
-    """Initial yield stress sigma_y0 (required, > 0, for model = "j2")."""
+    """Initial yield stress sigma_y0 (linear, ludwik: A, voce: sigma_0; required for these laws)."""
     hardening: float = 0.0
-    """Linear isotropic hardening modulus H (0 = perfectly plastic)."""
+    """Linear isotropic hardening modulus H (linear; the linear term of swift, ludwik, voce; 0 = none)."""
+    hardening_law: Literal["linear", "swift", "ludwik", "voce", "tabulated"] = "linear"
+    """sigma_y(ebar): linear sigma_y0 + H ebar; swift K (eps0 + ebar)^n + H ebar (eps0 given, or
+    (sigma_y0 / K)^(1/n) from yield_stress); ludwik sigma_y0 + B ebar^n + H ebar (capped at
+    max_stress); voce sigma_y0 + Q (1 - exp(-b ebar)) + H ebar; tabulated: `curve`."""
+    K: float = 0.0
+    eps0: float = 0.0
+    n: float = 0.0
+    B: float = 0.0
+    max_stress: float | None = None
+    Q: float = 0.0
+    b: float = 0.0
+    curve: tuple[tuple[float, float], ...] = ()
+    """tabulated: (ebar, sigma_y) points, ebar from 0 strictly increasing, sigma_y non-decreasing
+    (from `curve` or the CSV file `curve_file`); linear between points."""
+    curve_file: Path | None = None
+    beyond_curve: Literal["flat", "extrapolate"] = "flat"
+    """Beyond the last point: its stress, or the last segment's line."""
+    rate_law: Literal["none", "cowper_symonds", "johnson_cook"] = "none"
+    """Flow stress factor R(rate): cowper_symonds 1 + (rate/C)^(1/p); johnson_cook
+    1 + c ln(rate/reference_rate), not below 1."""
+    C: float = 0.0
+    p: float = 0.0
+    c: float = 0.0
+    reference_rate: float = 0.0
+    rate_measure: Literal["total", "plastic"] = "total"
+    """The rate: the effective total strain rate (LS-DYNA VP = 0) or the equivalent plastic
+    strain rate (VP = 1; solved in the return map)."""
+    rate_filter_time: float = 0.0
+    """Time constant of the exponential filter of the rate (0 = unfiltered)."""
+    rate_cutoff_frequency: float = 0.0
+    """The filter as a cutoff frequency f_c: time constant 1 / (2 pi f_c)."""
+
+
+@dataclass(frozen=True)
+class OrthotropicMaterial:
+    """Linear elastic, orthotropic in plane stress with its own transverse shear moduli
+    (docs/laminates.md): 1 = the fibre direction, 2 = across it in the shell's plane,
+    3 = the shell normal.  Its axes are the section's material axes turned by the ply angle."""
+    E1: float
+    E2: float
+    G12: float
+    G13: float
+    G23: float
+    nu12: float
+    """Major Poisson ratio (strain in 2 from stress in 1); nu21 = nu12 E2 / E1."""
+    density: float
+    model: Literal["orthotropic"] = "orthotropic"
+
+
+AnyMaterial = Union[Material, OrthotropicMaterial]
+
+
+@dataclass(frozen=True)
+class Ply:
+    """One layer of a layered section (docs/laminates.md)."""
+    material: str
+    """A [materials.NAME]."""
+    thickness: float
+    angle: float = 0.0
+    """Degrees from the section's material axis to the ply's 1-axis, counter-clockwise about
+    the element normal e3."""
 
 
 @dataclass(frozen=True)
 class Section:
     thickness: float
+    """Shell thickness; of a layered section the sum of its plies' thicknesses."""
     points: int = 3
-    """Number of through-thickness integration points."""
+    """Number of through-thickness integration points (layered: plies x points_per_ply)."""
     rule: Literal["lobatto", "gauss"] = "lobatto"
     shear_factor: float = 5.0 / 6.0
     hourglass: float | None = None
     """Hourglass coefficient r of this section's elements (None: [element].hourglass)."""
     drilling_stiffness: float | None = None
     """Drilling-spring alpha of this section's elements (None: [element].drilling_stiffness)."""
+    plies: tuple[Ply, ...] = ()
+    """Layered section: the plies from the bottom (-e3) to the top (+e3) surface, each with its
+    own material; empty: one material over the thickness (the part's)."""
+    points_per_ply: int = 2
+    """Layered: Gauss points through each ply (2 integrate a linear elastic ply exactly)."""
+    reference_direction: Vec3 | None = None
+    """The material axis (ply angle 0): this vector projected onto each element in the
+    reference configuration; None: the element's edge 1-2 (LS-DYNA's AOPT = 0)."""
+
+    @property
+    def layered(self) -> bool:
+        return bool(self.plies)
 
 
 @dataclass(frozen=True)
@@ -170,10 +254,11 @@ class ElementSet:
 
 @dataclass(frozen=True)
 class Part:
-    """A group of elements with one material and one section."""
+    """A group of elements with one section and, unless the section is layered (its plies
+    name their materials), one material."""
     name: str
-    material: str
     section: str
+    material: str | None = None
     elements: str = "all"
     """An [elementsets.NAME], a set of the mesh file (its name), or "all"."""
 
@@ -245,9 +330,74 @@ class Boundary:
 class Load:
     nodes: str
     force: Vec3 = (0.0, 0.0, 0.0)
-    """Total force, spread over the set (dead load, scaled by the load factor)."""
+    """Total force, spread over the set (scaled by the load factor, or by `curve`)."""
     moment: Vec3 = (0.0, 0.0, 0.0)
-    distribute: Literal["area", "equal"] = "area"
+    distribute: Literal["area", "equal", "length"] = "area"
+    """Shares of the set's nodes: tributary shell area, equal, or tributary length along the
+    element edges joining two nodes of the set (a consistent line load)."""
+    force_per_length: Vec3 = (0.0, 0.0, 0.0)
+    """A line load: force per unit length along the element edges joining two nodes of the set
+    (each node gets it times half the length of its edges: the consistent nodal loads)."""
+    moment_per_length: Vec3 = (0.0, 0.0, 0.0)
+    curve: str | None = None
+    """A [curves.NAME] the load follows (of time in a dynamic run, of the load factor in a
+    static one); None: the load factor (1 in a dynamic run)."""
+    follower: bool = False
+    """Force and moment turn with their node (its orientation quaternion)."""
+
+
+# ---------------------------------------------------------------- curves, motion, pressure, gravity
+CURVE_SHAPES = ("constant", "ramp", "smooth_step")
+
+
+@dataclass(frozen=True)
+class Curve:
+    """A time function f (curves.py): of the time in a dynamic run, of the load factor in a
+    static one."""
+    name: str
+    kind: Literal["points", "constant", "ramp", "smooth_step"]
+    points: tuple[tuple[float, float], ...] = ()
+    """points (also read from `file`): (t, f), t strictly increasing; linear between them, flat
+    beyond the ends."""
+    file: Path | None = None
+    start: float = 0.0
+    end: float = 1.0
+    """ramp: 0 up to start, linear to 1 at end, then 1; smooth_step: the same with the quintic
+    10 s^3 - 15 s^4 + 6 s^5 (zero slope and curvature at both ends)."""
+    scale: float = 1.0
+    """Every value times this."""
+
+
+MOTION_KINDS = ("displacement", "velocity", "acceleration")
+
+
+@dataclass(frozen=True)
+class Motion:
+    """Prescribed motion of DOFs of a node set (stages/motion.py): u, v or a = value x f."""
+    name: str
+    nodes: str
+    dofs: tuple[str, ...]
+    kind: Literal["displacement", "velocity", "acceleration"]
+    value: tuple[float, ...]
+    """One per DOF (a single number in the scene applies to every DOF)."""
+    curve: str | None = None
+    """None: the load factor (1 in a dynamic run; lambda in a static one)."""
+
+
+@dataclass(frozen=True)
+class Pressure:
+    """Follower pressure on elements: force p A n on each element along its current normal
+    (the corner order's), shared by its corners (stages/loads.py)."""
+    value: float
+    elements: str = "all"
+    curve: str | None = None
+
+
+@dataclass(frozen=True)
+class Gravity:
+    """Body force m g on every node (its physical mass)."""
+    acceleration: Vec3
+    curve: str | None = None
 
 
 @dataclass(frozen=True)
@@ -282,6 +432,10 @@ class Reference:
     compare: tuple[ReferenceColumn, ...]
     floor: float = 0.1
     """Relative-error floor: e_i = |sim-ref| / max(|ref_i|, floor*max|ref|)."""
+    along: Literal["load", "path"] = "load"
+    """"load": rows matched by load level; "path": each row (compared value, load) against the
+    simulated path, as a distance in the plane scaled by the table's largest values
+    (reference.py; a path with limit points, issue 19)."""
 
 
 @dataclass(frozen=True)
@@ -330,8 +484,10 @@ class Crush:
     """Name of the [[rigid_body]] whose motion is the crush (None = the first one)."""
     folds: bool = False
     """Count lobes and the fold half-wavelength on the flat faces of a prismatic tube along `axis`."""
-    mean_force_reference: tuple[float, ...] = ()
-    """Reference mean forces (e.g. closed-form estimates); the summary gives the ratio to each."""
+    mean_force_reference: tuple[float | str, ...] = ()
+    """Reference mean forces: numbers, or the names of closed-form estimates for a tube mesh
+    (CRUSH_FORMULAS, evaluated with the run's yield stress, thickness and tube size); the
+    summary gives the ratio to each."""
     half_wavelength_reference: float | None = None
     """Reference fold half-wavelength (e.g. Wierzbicki-Abramowicz); the summary gives the ratio."""
 
@@ -356,6 +512,32 @@ class Solve:
     keeps the physical masses.  The equilibrium does not depend on the masses."""
     progress_every: float = 2.0
     """Seconds of wall time between progress lines."""
+    solver: Literal["relaxation", "newton"] = "relaxation"
+    """Static solves: dynamic relaxation (solvers/static.py) or Newton-Raphson with path
+    following (solvers/newton.py, docs/newton.md; fem mode)."""
+    control: Literal["load", "displacement", "arc_length"] = "load"
+    """Newton: what the path is stepped in: the load factor, the mean displacement of a node
+    set's DOF (control_nodes, control_dof, control_displacement), or Crisfield's arc length."""
+    control_nodes: str | None = None
+    """Node set of the controlled (displacement) or monitored (arc length) DOF."""
+    control_dof: str = "uz"
+    control_displacement: float = 0.0
+    """Displacement control: the final mean value of the controlled DOF; arc length: stop
+    once the monitored DOF passes it (0: no such stop)."""
+    arc_length: float = 0.0
+    """Arc length of the first point (0: the linear displacement at load factor 1 / load_steps)."""
+    max_load_factor: float = 1.0
+    """Arc length: stop once |load factor| reaches it."""
+    target_iterations: int = 5
+    """Arc length: the iteration count the arc length is adapted to."""
+    max_iterations: int = 20
+    """Newton iterations of one point before it is cut back."""
+    max_cutbacks: int = 10
+    """Halvings of one increment before the run stops."""
+    increment_tolerance: float = 1e-3
+    """Newton: |last correction| / |increment| that ends a point (with tolerance and energy_tolerance)."""
+    energy_tolerance: float = 1e-6
+    """Newton: |correction . residual| of the last iteration over the first's."""
 
 
 @dataclass(frozen=True)
@@ -372,7 +554,7 @@ class Scene:
     source: Path
     info: SceneInfo
     mesh: MeshSpec
-    material: Material | None
+    material: AnyMaterial | None
     """The one material of a scene without [[part]] (None with [materials.NAME] / a deck)."""
     section: Section | None
     element: ElementOptions
@@ -389,13 +571,17 @@ class Scene:
     walls: tuple[Wall, ...] = ()
     contact: Contact | None = None
     crush: Crush | None = None
-    materials: dict[str, Material] = field(default_factory=dict)
+    materials: dict[str, AnyMaterial] = field(default_factory=dict)
     """Named materials ([materials.NAME]); with [[part]]."""
     sections: dict[str, Section] = field(default_factory=dict)
     elementsets: tuple[ElementSet, ...] = ()
     parts: tuple[Part, ...] = ()
     """[[part]] entries; empty: one part over the mesh ([material] and [section], or the one
     named material and section, or an LS-DYNA deck's parts)."""
+    curves: dict[str, Curve] = field(default_factory=dict)
+    motions: tuple[Motion, ...] = ()
+    pressures: tuple[Pressure, ...] = ()
+    gravity: Gravity | None = None
 
     def nodeset(self, name: str) -> NodeSet:
         for s in self.nodesets:
@@ -547,7 +733,8 @@ def _hint(word: str, options: Sequence[str], label: str) -> str:
     """A did-you-mean for `word`, or else the list of `options` under `label`."""
     if not options:
         return f" (none {label})"
-    return _did_you_mean(word, options) or f" ({label}: {', '.join(options)})"
+    shown = [o if o.isprintable() else repr(o) for o in options]      # a mistyped name stays on one line
+    return _did_you_mean(word, options) or f" ({label}: {', '.join(shown)})"
 
 
 def _is_number(value: Any) -> bool:
@@ -701,11 +888,63 @@ def _window(value: Any) -> tuple[float, float]:
     raise _Invalid(f"expected [from, to] with 0 <= from < to, got {_show(value)}")
 
 
-def _positive_list(value: Any) -> tuple[float, ...]:
-    """A non-empty list of numbers > 0."""
-    if isinstance(value, list) and value and all(_is_number(x) and x > 0 for x in value):
+CRUSH_FORMULAS = ("wierzbicki_abramowicz", "abramowicz_jones")
+"""Closed-form mean crush forces of a tube that [crush].mean_force_reference may name (crush.py)."""
+
+
+def _force_references(value: Any) -> tuple[float | str, ...]:
+    """A non-empty list of numbers > 0 and names of CRUSH_FORMULAS."""
+    if isinstance(value, list) and value and all((_is_number(x) and x > 0) or x in CRUSH_FORMULAS for x in value):
+        return tuple(x if isinstance(x, str) else float(x) for x in value)
+    raise _Invalid(f"expected a non-empty list of numbers > 0 and of {' / '.join(map(repr, CRUSH_FORMULAS))}, "
+                   f"got {_show(value)}")
+
+
+def _layered_table(data: Any) -> bool:
+    """Whether the raw section table `data` is a layered section (has plies)."""
+    return isinstance(data, dict) and "plies" in data
+
+
+def _lone_layered_section(data: Any) -> bool:
+    """Whether the raw [sections] `data` is one layered section (its plies name the materials:
+    no [[part]] needed)."""
+    return isinstance(data, dict) and len(data) == 1 and _layered_table(next(iter(data.values())))
+
+
+def _triangle_split(value: Any) -> TriangleSplit:
+    """"none", "all" or a box {min = [x, y, z], max = [x, y, z]} (min <= max)."""
+    if value in ("none", "all"):
+        return value
+    if isinstance(value, dict) and set(value) == {"min", "max"}:
+        lo, hi = _vec3(value["min"]), _vec3(value["max"])
+        if all(a <= b for a, b in zip(lo, hi)):
+            return lo, hi
+    raise _Invalid(f'expected "none", "all" or a box {{min = [x, y, z], max = [x, y, z]}} with min <= max, '
+                   f"got {_show(value)}")
+
+
+def _numbers(value: Any) -> tuple[float, ...]:
+    """A finite number or a non-empty list of them, as a tuple."""
+    if _is_number(value):
+        return (float(value),)
+    if isinstance(value, list) and value and all(map(_is_number, value)):
         return tuple(float(x) for x in value)
-    raise _Invalid(f"expected a non-empty list of numbers > 0, got {_show(value)}")
+    raise _Invalid(f"expected a finite number or a non-empty list of them, got {_show(value)}")
+
+
+def _time_curve_points(value: Any) -> tuple[tuple[float, float], ...]:
+    """A [curves.NAME] table: a non-empty list of [t, f] pairs of finite numbers, t strictly increasing."""
+    if not (isinstance(value, list) and value and all(isinstance(p, list) and len(p) == 2 and all(map(_is_number, p))
+                                                      for p in value)):
+        raise _Invalid(f"expected a non-empty list of [t, f] pairs of finite numbers, got {_show(value)}")
+    return _increasing(tuple((float(t), float(f)) for t, f in value))
+
+
+def _increasing(points: tuple[tuple[float, float], ...]) -> tuple[tuple[float, float], ...]:
+    for (t0, _), (t1, _) in zip(points, points[1:]):
+        if t1 <= t0:
+            raise _Invalid(f"expected strictly increasing t, got t = {t0:g} then {t1:g}")
+    return points
 
 
 def _times(value: Any) -> tuple[float, ...]:
@@ -717,21 +956,72 @@ def _times(value: Any) -> tuple[float, ...]:
     return tuple(float(t) for t in value)
 
 
+def _curve_points(points: Sequence[tuple[float, float]], where: Callable[[int], str]) -> tuple[tuple[float, float], ...]:
+    """A hardening curve's (plastic strain, yield stress) points, checked: from plastic strain 0,
+    strictly increasing, yield stress > 0 and non-decreasing (the return map brackets its root
+    with a flow stress that does not fall, method.md 3.4).  `where(i)` names point i in messages."""
+    if not points:
+        raise _Invalid("expected at least one [plastic strain, yield stress] point, got none")
+    if points[0][0] != 0.0:
+        raise _Invalid(f"{where(0)}: expected plastic strain 0 (the initial yield stress), got {points[0][0]:g}")
+    for i, (eps, sig) in enumerate(points):
+        if sig <= 0.0:
+            raise _Invalid(f"{where(i)}: expected a yield stress > 0, got {sig:g}")
+        if i and eps <= points[i - 1][0]:
+            raise _Invalid(f"{where(i)}: expected a plastic strain above the previous point's {points[i - 1][0]:g}, "
+                           f"got {eps:g}")
+        if i and sig < points[i - 1][1]:
+            raise _Invalid(f"{where(i)}: the yield stress falls ({points[i - 1][1]:g} -> {sig:g}): softening "
+                           "curves are not supported")
+    return tuple(points)
+
+
+def _hardening_curve(value: Any) -> tuple[tuple[float, float], ...]:
+    """A list of [plastic strain, yield stress] pairs (_curve_points)."""
+    if not (isinstance(value, list) and value and all(isinstance(row, list) and len(row) == 2
+                                                      and all(map(_is_number, row)) for row in value)):
+        raise _Invalid(f"expected a list of [plastic strain, yield stress] pairs, got {_show(value)}")
+    return _curve_points([(float(a), float(b)) for a, b in value], lambda i: f"point {i + 1}")
+
+
 # ================================================================ table layout
 _TABLES = ("scene", "mesh", "material", "section", "materials", "sections", "elementsets", "part", "element",
            "method", "nodesets", "boundary", "load", "initial", "probe", "reference", "solve", "output",
-           "rigid_body", "wall", "contact", "crush")
+           "rigid_body", "wall", "contact", "crush", "curves", "motion", "pressure", "gravity")
 _REQUIRED_TABLES = ("scene", "mesh", "solve")
 DECK_SUFFIXES = (".k", ".key", ".dyn", ".kw")      # file endings read as LS-DYNA keyword decks (dyna.py)
 _SELECTORS = ("all", "box", "plane", "nearest", "ids")
 
 _INFO = {"name": _file_name, "units": _nonempty, "description": _text}
+_MATERIAL_MODELS = ("elastic", "j2", "orthotropic")
 _MATERIAL = {"E": _positive, "nu": _number(-1, 0.5, lo_open=True, hi_open=True),
-             "density": _positive, "model": _choice("elastic", "j2"), "yield_stress": _positive,
-             "hardening": _non_negative}
+             "density": _positive, "model": _choice(*_MATERIAL_MODELS), "yield_stress": _positive,
+             "hardening": _non_negative,
+             "hardening_law": _choice("linear", "swift", "ludwik", "voce", "tabulated"), "K": _positive,
+             "eps0": _positive, "n": _positive, "B": _non_negative, "max_stress": _positive, "Q": _non_negative,
+             "b": _non_negative, "curve": _hardening_curve, "beyond_curve": _choice("flat", "extrapolate"),
+             "rate_law": _choice("none", "cowper_symonds", "johnson_cook"), "C": _positive, "p": _positive,
+             "c": _non_negative, "reference_rate": _positive, "rate_measure": _choice("total", "plastic"),
+             "rate_filter_time": _positive, "rate_cutoff_frequency": _positive}
+# The keys of each hardening and rate law: (required, optional); a key of another law is an error.
+_HARDENING_KEYS = {"linear": (("yield_stress",), ("hardening",)),
+                   "swift": (("K", "n"), ("eps0", "yield_stress", "hardening")),
+                   "ludwik": (("yield_stress", "B", "n"), ("max_stress", "hardening")),
+                   "voce": (("yield_stress", "Q", "b"), ("hardening",)),
+                   "tabulated": ((), ("curve", "curve_file", "beyond_curve"))}
+_RATE_KEYS = {"none": ((), ()), "cowper_symonds": (("C", "p"), ("rate_measure", "rate_filter_time",
+                                                                  "rate_cutoff_frequency")),
+              "johnson_cook": (("c", "reference_rate"), ("rate_measure", "rate_filter_time",
+                                                          "rate_cutoff_frequency"))}
+_ORTHOTROPIC = {"E1": _positive, "E2": _positive, "G12": _positive, "G13": _positive, "G23": _positive,
+                "nu12": _number(), "density": _positive, "model": _choice(*_MATERIAL_MODELS)}
 _SECTION = {"thickness": _positive, "points": _int(1, 10),
             "rule": _choice("lobatto", "gauss"), "shear_factor": _fraction, "hourglass": _unit_interval,
-            "drilling_stiffness": _positive}
+            "drilling_stiffness": _positive, "reference_direction": _nonzero_vec3}
+_LAYERED_ONLY = {"points_per_ply": _int(1, 5)}
+_SINGLE_ONLY = ("thickness", "points", "rule")        # a layered section derives them from its plies
+MAX_PLIES = 64
+_PLY = {"material": _nonempty, "thickness": _positive, "angle": _number(-360, 360)}
 _ELEMENT = {"hourglass": _unit_interval, "w_hourglass": _choice("kirchhoff", "bt"),
             "drilling": _choice("projection", "penalty"), "drilling_stiffness": _positive,
             "warping": _choice("none", "bwc")}
@@ -743,22 +1033,27 @@ _SOLVE = {"kind": _choice("static", "dynamic"), "load_steps": _int(1),
           "end_time": _non_negative, "dt_safety": _fraction,
           "dt_rule": _choice("both", "shell"), "rotary_inertia": _choice("scaled", "physical"),
           "relaxation": _choice("fire", "kinetic"), "mass_scaling": _choice("auto", "uniform_dt", "none"),
-          "progress_every": _non_negative}
+          "progress_every": _non_negative, "solver": _choice("relaxation", "newton"),
+          "control": _choice("load", "displacement", "arc_length"), "control_dof": _choice(*DOFS),
+          "control_displacement": _number(), "arc_length": _non_negative, "max_load_factor": _positive,
+          "target_iterations": _int(1), "max_iterations": _int(1), "max_cutbacks": _int(0),
+          "increment_tolerance": _number(0, 1, lo_open=True), "energy_tolerance": _number(0, 1, lo_open=True)}
 _OUTPUT = {"every_steps": _int(0), "times": _times, "load_steps": _bool, "history_interval": _non_negative}
 _PLAIN_TABLES: dict[str, tuple[type, dict[str, Validator]]] = {
-    "scene": (SceneInfo, _INFO), "material": (Material, _MATERIAL),
+    "scene": (SceneInfo, _INFO),
     "element": (ElementOptions, _ELEMENT), "output": (Output, _OUTPUT)}
 _MESHES: dict[str, tuple[type, dict[str, Validator]]] = {
     "plate": (PlateMesh, {"lx": _positive, "ly": _positive, "nx": _int(1), "ny": _int(1),
-                          "origin": _vec3}),
+                          "origin": _vec3, "triangles": _triangle_split}),
     "hemisphere": (HemisphereMesh, {"radius": _positive,
                                     "hole_deg": _number(0, 90, lo_open=True, hi_open=True),
                                     "n_around": _int(1), "n_meridian": _int(1),
-                                    "quarter": _bool}),
+                                    "quarter": _bool, "triangles": _triangle_split}),
     "tube": (TubeMesh, {"width": _positive, "depth": _positive, "corner_radius": _non_negative,
                         "length": _positive, "n_flat": _int(1), "n_corner": _int(0),
                         "n_length": _int(1), "trigger_amplitude": _non_negative,
-                        "trigger_start": _non_negative, "trigger_length": _positive}),
+                        "trigger_start": _non_negative, "trigger_length": _positive,
+                        "triangles": _triangle_split}),
     "file": (FileMesh, {"scale": _positive, "merge_nodes": _bool}),   # + "path", checked against the scene's folder
 }
 
@@ -779,6 +1074,8 @@ class _SceneParser:
         self.messages: list[str] = []
         sets = raw.get("nodesets")
         self.nodeset_names = sorted({"all", *(sets if isinstance(sets, dict) else ())})
+        curves = raw.get("curves")
+        self.curve_names = sorted(curves) if isinstance(curves, dict) else []
         self.recorded: dict[str, tuple[str, ...] | None] = {}
         """Probe name -> recorded components (None when those were invalid)."""
 
@@ -893,6 +1190,14 @@ class _SceneParser:
             raise _Invalid(f"unknown node set {value!r}" + _hint(value, self.nodeset_names, "defined"))
         return value
 
+    def curve_name(self, value: Any) -> str:
+        """The name of a curve defined in [curves]."""
+        if not isinstance(value, str):
+            raise _Invalid(f"expected a curve name, got {_show(value)}")
+        if value not in self.curve_names:
+            raise _Invalid(f"no [curves.{value}]" + _hint(value, self.curve_names, "defined"))
+        return value
+
     def probe_component(self, value: Any) -> str:
         """'<probe>.<component>' naming a component that this probe records."""
         if not isinstance(value, str) or "." not in value:
@@ -943,6 +1248,9 @@ class _SceneParser:
         method = self.part("method", self.method)
         nodesets = self.part("nodesets", self.nodesets)
         boundaries = self.array("boundary", self.boundary)
+        curves = self.named("curves", self.curve)
+        if len(curves) > MAX_CURVES:
+            self.error("[curves]", f"expected at most {MAX_CURVES} curves, got {len(curves)}")
         loads = self.array("load", self.load)
         initial = self.array("initial", self.initial)
         probes = self.array("probe", self.probe)            # before [reference], which refers to them
@@ -955,6 +1263,22 @@ class _SceneParser:
             "thickness": _positive, "stiffness": _number(0, 1, lo_open=True), "friction": _non_negative,
             "damping": _unit_interval}) if "contact" in self.raw else None
         crush = self.crush(self.raw["crush"], solve) if "crush" in self.raw else None
+        if solve is not None and solve.kind == "static":
+            named = [("[material]", material), *((f"[materials.{_key(k)}]", m) for k, m in materials.items())]
+            for path, spec in named:
+                if spec is not None and getattr(spec, "rate_law", "none") != "none":
+                    self.error(f"{path}.rate_law", "a static solve has no physical time: a rate law needs "
+                                                   "[solve].kind = \"dynamic\"")
+        motions = self.array("motion", lambda path, data: self.motion(path, data, solve, curves))
+        names = [m.name for m in motions if m is not None]
+        for i, name in enumerate(names):
+            if name in names[:i]:
+                self.error("[[motion]]", f"duplicate motion name {name!r}")
+        if len(motions) > MAX_MOTIONS:
+            self.error("[[motion]]", f"expected at most {MAX_MOTIONS} entries, got {len(motions)}")
+        pressures = self.array("pressure", lambda path, data: self.pressure(path, data, mesh, elementsets))
+        gravity = self.table_object("[gravity]", self.raw["gravity"], Gravity, {
+            "acceleration": _nonzero_vec3, "curve": self.curve_name}) if "gravity" in self.raw else None
         if self.messages:
             raise SceneError(self.messages, mesh=mesh)
         return Scene(source=self.source, info=info, mesh=mesh, material=material, section=section,
@@ -962,7 +1286,8 @@ class _SceneParser:
                      nodesets=tuple(nodesets), boundaries=tuple(boundaries), loads=tuple(loads),
                      initial=tuple(initial), probes=tuple(probes), reference=reference,
                      rigid_bodies=tuple(bodies), walls=tuple(walls), contact=contact, crush=crush,
-                     materials=materials, sections=sections, elementsets=tuple(elementsets), parts=tuple(parts))
+                     materials=materials, sections=sections, elementsets=tuple(elementsets), parts=tuple(parts),
+                     curves=curves, motions=tuple(motions), pressures=tuple(pressures), gravity=gravity)
 
     def mesh(self, data: Any) -> MeshSpec | None:
         if not isinstance(data, dict):
@@ -995,21 +1320,131 @@ class _SceneParser:
                 self.error("[mesh].n_corner", "expected an integer >= 1 when corner_radius > 0, got 0")
         return self.build(mark, cls, v)
 
-    def material_table(self, path: str, data: Any) -> Material | None:
-        material = self.table_object(path, data, Material, _MATERIAL)
-        if material is not None and material.model == "j2" and material.yield_stress <= 0:
-            self.error(f"{path}.yield_stress", "missing required key for model = \"j2\"")
+    def material_table(self, path: str, data: Any) -> AnyMaterial | None:
+        """[material] or [materials.NAME]: an orthotropic material, or its keys, then those of
+        its hardening and rate laws (each law takes its own keys: a key of another law is an
+        error)."""
+        if isinstance(data, dict) and data.get("model") == "orthotropic":
+            material = self.table_object(path, data, OrthotropicMaterial, _ORTHOTROPIC)
+            if material is not None and material.nu12 ** 2 >= material.E1 / material.E2:
+                self.error(f"{path}.nu12", f"expected |nu12| < sqrt(E1/E2) = {math.sqrt(material.E1 / material.E2):g} "
+                                           f"(a positive definite plane-stress stiffness), got {material.nu12:g}")
+                return None
+            return material
+        mark = len(self.messages)
+        values = self.read(path, data, {**_MATERIAL, "curve_file": self.curve_file}, Material)
+        if values is None:
             return None
-        return material
+        plasticity = {k for table in (_HARDENING_KEYS, _RATE_KEYS) for keys in table.values() for group in keys
+                      for k in group} | {"hardening_law", "rate_law"}
+        if values.get("model") == "elastic":
+            for key in data:
+                if key in plasticity - {"yield_stress", "hardening"}:
+                    self.error(f"{path}.{_key(key)}", "only for model = \"j2\"")
+        elif "model" in values:
+            for key, table in (("hardening_law", _HARDENING_KEYS), ("rate_law", _RATE_KEYS)):
+                if key in values:
+                    self.law_keys(path, data, key, values[key], table)
+            if values.get("hardening_law") == "swift":
+                if ("eps0" in data) == ("yield_stress" in data):
+                    self.error(f"{path}.eps0", "expected exactly one of eps0 and yield_stress for hardening_law = "
+                                               "\"swift\" (yield_stress sets eps0 = (yield_stress / K)^(1/n))")
+                elif all(k in data and k in values for k in ("yield_stress", "K", "n")):
+                    values["eps0"] = (values["yield_stress"] / values["K"]) ** (1.0 / values["n"])
+            if values.get("hardening_law") == "tabulated" and ("curve" in data) == ("curve_file" in data):
+                self.error(f"{path}.curve", "expected exactly one of curve and curve_file for "
+                                            "hardening_law = \"tabulated\"")
+            if "curve_file" in data and "curve_file" in values:
+                values["curve_file"], values["curve"] = values["curve_file"]
+            if values.get("beyond_curve") == "extrapolate" and 0 < len(values.get("curve", ())) < 2:
+                self.error(f"{path}.beyond_curve", "\"extrapolate\" needs a curve of at least two points")
+            cap, sy = values.get("max_stress"), values.get("yield_stress")
+            if "max_stress" in data and "yield_stress" in data and cap is not None and sy is not None and cap <= sy:
+                self.error(f"{path}.max_stress", f"expected a number above yield_stress = {sy:g}, got {cap:g}")
+            if "rate_filter_time" in data and "rate_cutoff_frequency" in data:
+                self.error(f"{path}.rate_cutoff_frequency", "give the rate filter either as rate_filter_time or "
+                                                            "as rate_cutoff_frequency, not both")
+        return self.build(mark, Material, values)
+
+    def law_keys(self, path: str, data: dict, key: str, law: str, table: dict) -> None:
+        """Report the keys of `table`'s other laws given with `key` = `law`, and its missing ones."""
+        required, optional = table[law]
+        own = (*required, *optional)
+        for name in data:
+            if any(name in group for keys in table.values() for group in keys) and name not in own:
+                self.error(f"{path}.{_key(name)}", f"not used by {key} = \"{law}\""
+                           + (f" (its keys: {', '.join(own)})" if own else ""))
+        for name in required:
+            if name not in data:
+                self.error(f"{path}.{name}", "missing required key for model = \"j2\"" if key not in data else
+                           f"missing required key for {key} = \"{law}\"")
+
+    def curve_file(self, value: Any) -> tuple[Path, tuple[tuple[float, float], ...]]:
+        """A CSV file of (plastic strain, yield stress) rows, relative to the scene file (an
+        optional header row; blank lines and lines starting with '#' are skipped): its path
+        and points (_curve_points)."""
+        path = self.file(value)
+        try:
+            with path.open(newline="", encoding="utf-8-sig") as f:
+                rows = [(i, row) for i, row in enumerate(csv.reader(f), 1)
+                        if row and "".join(row).strip() and not row[0].lstrip().startswith("#")]
+        except (OSError, UnicodeDecodeError, csv.Error) as exc:
+            raise _Invalid(f"cannot read {path.name} ({_one_line(exc)})")
+
+        def number(text: str) -> float | None:
+            try:
+                x = float(text)
+            except ValueError:
+                return None
+            return x if math.isfinite(x) else None
+        if rows and any(number(cell) is None for cell in rows[0][1]):
+            rows = rows[1:]                           # the header
+        points, lines = [], []
+        for line, row in rows:
+            cells = [number(cell) for cell in row]
+            if len(cells) != 2 or None in cells:
+                raise _Invalid(f"{path.name} line {line}: expected two numbers (plastic strain, yield stress), "
+                               f"got {_show(','.join(row))}")
+            points.append((cells[0], cells[1]))
+            lines.append(line)
+        return path, _curve_points(points, lambda i: f"{path.name} line {lines[i]}")
 
     def section(self, data: Any, path: str = "[section]") -> Section | None:
+        """A section: one material over the thickness (`thickness`, `points`, `rule`), or
+        layered (`plies`, `points_per_ply`; docs/laminates.md)."""
         mark = len(self.messages)
-        v = self.read(path, data, _SECTION, Section)
-        if v is None:
+        if not _layered_table(data):
+            v = self.read(path, data, _SECTION, Section, extra=tuple(_LAYERED_ONLY))
+            if v is None:
+                return None
+            for key in _LAYERED_ONLY:
+                if key in data:
+                    self.error(f"{path}.{key}", "only for a layered section (with plies)")
+            if v.get("rule") == "lobatto" and v.get("points") == 1:
+                self.error(f"{path}.points", "expected an integer in [2, 10] for rule = lobatto, got 1")
+            return self.build(mark, Section, v)
+        spec = {key: check for key, check in _SECTION.items() if key not in _SINGLE_ONLY}
+        v = self.read(path, data, {**spec, **_LAYERED_ONLY}, extra=("plies", *_SINGLE_ONLY))
+        defaults = {f.name: f.default for f in fields(Section) if f.default is not MISSING}
+        for key in _SINGLE_ONLY:
+            if key in data:
+                self.error(f"{path}.{key}", "a layered section takes it from its plies (thickness: their sum; "
+                                            "points: points_per_ply Gauss points in each): leave it out")
+        plies = self.plies(f"{path}.plies", data["plies"])
+        if plies is None:
             return None
-        if v.get("rule") == "lobatto" and v.get("points") == 1:
-            self.error(f"{path}.points", "expected an integer in [2, 10] for rule = lobatto, got 1")
+        v = {**defaults, **v, "plies": plies, "thickness": math.fsum(p.thickness for p in plies), "rule": "gauss"}
+        v["points"] = len(plies) * v["points_per_ply"]
         return self.build(mark, Section, v)
+
+    def plies(self, path: str, value: Any) -> tuple[Ply, ...] | None:
+        """The `plies` array of a layered section: tables {material, thickness, angle}, bottom to top."""
+        if not (isinstance(value, list) and 0 < len(value) <= MAX_PLIES):
+            self.error(path, f"expected an array of 1 to {MAX_PLIES} ply tables "
+                             f"{{material = \"NAME\", thickness = t, angle = degrees}}, got {_show(value)}")
+            return None
+        plies = [self.table_object(f"{path}[{i}]", item, Ply, _PLY) for i, item in enumerate(value)]
+        return tuple(plies) if all(p is not None for p in plies) else None
 
     def named(self, key: str, reader) -> dict:
         """The [key.NAME] tables read by reader(path, data), by name (invalid ones left out)."""
@@ -1035,11 +1470,11 @@ class _SceneParser:
         deck = isinstance(mesh, FileMesh) and mesh.path.suffix.lower() in DECK_SUFFIXES
         legacy = [k for k in ("material", "section") if k in raw]
         named = [k for k in ("materials", "sections", "part") if k in raw]
-        material = self.plain("material") if "material" in raw else None
-        if material is not None and material.model == "j2" and material.yield_stress <= 0:
-            self.error("[material].yield_stress", "missing required key for model = \"j2\"")
-            material = None
+        material = self.material_table("[material]", raw["material"]) if "material" in raw else None
         section = self.section(raw["section"]) if "section" in raw else None
+        if section is not None and section.layered:
+            self.error("[section].plies", "a layered section is a [sections.NAME] table: its plies name "
+                                          "[materials.NAME] tables")
         materials = self.named("materials", self.material_table)
         sections = self.named("sections", lambda path, data: self.section(data, path))
         elementsets = [self.elementset(name, value) for name, value in
@@ -1058,9 +1493,16 @@ class _SceneParser:
                 if key not in raw:
                     self.error(f"[{key}]", "missing required table")
         elif "part" not in raw and not deck and ("materials" in raw or "sections" in raw) \
-                and (len(raw.get("materials", {})) != 1 or len(raw.get("sections", {})) != 1):
+                and (len(raw.get("materials", {})) != 1 or len(raw.get("sections", {})) != 1) \
+                and not _lone_layered_section(raw.get("sections")):
             self.error("[[part]]", "missing: with several [materials.NAME] or [sections.NAME], [[part]] entries "
                                    "say which elements get which")
+        defined = list(raw["materials"]) if isinstance(raw.get("materials"), dict) else []   # valid or not
+        for name, sec in sections.items():        # the plies' materials (a deck's are checked in assembly.py)
+            for i, ply in enumerate(sec.plies):
+                if ply.material not in defined and not deck:
+                    self.error(f"[sections.{_key(name)}].plies[{i}].material", f"no [materials.{ply.material}]"
+                               + _hint(ply.material, defined, "defined"))
         if "part" in raw:
             names = [p.name for p in parts if p is not None]
             for i, name in enumerate(names):
@@ -1075,8 +1517,15 @@ class _SceneParser:
                     continue
                 for key, table, label in (("material", materials, "materials"), ("section", sections, "sections")):
                     value = getattr(part, key)
-                    if table and value not in table and not deck:
+                    if value is not None and table and value not in table and not deck:
                         self.error(f"[[part]][{i}].{key}", f"no [{label}.{value}]" + _hint(value, list(table), "defined"))
+                section_of = sections.get(part.section)
+                if section_of is not None and section_of.layered and part.material is not None:
+                    self.error(f"[[part]][{i}].material", f"section {part.section!r} is layered (its plies name "
+                                                          "their materials): leave material out")
+                elif section_of is not None and not section_of.layered and part.material is None:
+                    self.error(f"[[part]][{i}].material", f"missing required key (section {part.section!r} "
+                                                          "is not layered)")
                 if part.elements in set_names or part.elements == "all":
                     continue
                 if not isinstance(mesh, FileMesh):
@@ -1181,12 +1630,95 @@ class _SceneParser:
     def load(self, path: str, data: Any) -> Load | None:
         mark = len(self.messages)
         v = self.read(path, data, {"nodes": self.nodes, "force": _vec3, "moment": _vec3,
-                                   "distribute": _choice("area", "equal")}, Load)
+                                   "distribute": _choice("area", "equal", "length"), "curve": self.curve_name,
+                                   "follower": _bool, "force_per_length": _vec3, "moment_per_length": _vec3}, Load)
         if v is None:
             return None
-        if v.get("force") == (0, 0, 0) and v.get("moment") == (0, 0, 0):
+        total = [k for k in ("force", "moment") if k in data]
+        line = [k for k in ("force_per_length", "moment_per_length") if k in data]
+        if total and line:
+            self.error(path, f"give either force/moment (totals) or force_per_length/moment_per_length "
+                             f"(a line load), got {', '.join(total + line)}")
+        elif line:
+            if data.get("distribute", "length") != "length":
+                self.error(f"{path}.distribute", f'a line load is distributed by length, got "{data["distribute"]}"')
+            v["distribute"] = "length"
+            if v.get("force_per_length") == (0, 0, 0) and v.get("moment_per_length") == (0, 0, 0):
+                self.error(path, "force_per_length and moment_per_length are both zero")
+        elif v.get("force") == (0, 0, 0) and v.get("moment") == (0, 0, 0):
             self.error(path, "force and moment are both zero (give a non-zero force and/or moment)")
         return self.build(mark, Load, v)
+
+    def curve(self, path: str, data: Any) -> Curve | None:
+        mark = len(self.messages)
+        v = self.read(path, data, {"points": _time_curve_points, "file": self.file, "shape": _choice(*CURVE_SHAPES),
+                                   "start": _number(), "end": _number(), "scale": _number()})
+        if v is None:
+            return None
+        given = [key for key in ("points", "file", "shape") if key in data]
+        if len(given) != 1:
+            self.error(path, f"expected exactly one of points, file, shape, got {', '.join(given) or 'none'}")
+            return None
+        shape = v.get("shape")
+        for key in ("start", "end"):
+            if key in data and data.get("shape") not in ("ramp", "smooth_step"):
+                self.error(f"{path}.{key}", 'allowed only with shape = "ramp" or "smooth_step"')
+        if shape in ("ramp", "smooth_step"):
+            if "end" not in data:
+                self.error(f"{path}.end", f'missing required key for shape = "{shape}"')
+            elif "start" in v and "end" in v and v["start"] >= v["end"]:
+                self.error(path, f"expected start < end, got start = {v['start']:g}, end = {v['end']:g}")
+        values = {"name": path[len("[curves."):-1], "kind": shape or "points",
+                  **{k: v[k] for k in ("start", "end", "scale") if k in v}}
+        if "file" in v:
+            from .curves import CurveFileError, read_table
+            try:
+                values["points"] = _increasing(read_table(v["file"]))
+                values["file"] = v["file"]
+            except (CurveFileError, _Invalid) as exc:
+                self.error(f"{path}.file", str(exc))
+        elif "points" in v:
+            values["points"] = v["points"]
+        return self.build(mark, Curve, values)
+
+    def motion(self, path: str, data: Any, solve: Solve | None, curves: dict[str, Curve]) -> Motion | None:
+        mark = len(self.messages)
+        v = self.read(path, data, {"name": _identifier, "nodes": self.nodes, "dofs": _dofs(allow_all=True),
+                                   "kind": _choice(*MOTION_KINDS), "value": _numbers, "curve": self.curve_name},
+                      Motion)
+        if v is None:
+            return None
+        dofs, value, kind, curve = v.get("dofs"), v.get("value"), v.get("kind"), v.get("curve")
+        if dofs is not None and value is not None:
+            if len(value) == 1:
+                v["value"] = value * len(dofs)
+            elif len(value) != len(dofs):
+                self.error(f"{path}.value", f"expected one number or one per DOF ({len(dofs)}), got {len(value)}")
+        if solve is not None and kind is not None:
+            if solve.kind == "static" and kind != "displacement":
+                self.error(f"{path}.kind", f'a static solve prescribes displacements only, got "{kind}"')
+            elif solve.kind == "dynamic" and kind == "displacement":
+                if "curve" not in data:
+                    self.error(f"{path}.curve", "missing: a displacement in a dynamic run needs a curve "
+                                                "(a constant displacement would jump at t = 0)")
+                elif curve in curves and not self.messages:     # an invalid curve (start >= end, ...) is reported already
+                    from .curves import evaluate
+                    start = evaluate(curves[curve], 0.0)
+                    if start != 0.0:
+                        self.error(f"{path}.curve", f"the displacement curve {curve!r} is {start:g} at t = 0, not 0 "
+                                                    "(the nodes would jump at t = 0)")
+        return self.build(mark, Motion, v)
+
+    def pressure(self, path: str, data: Any, mesh, elementsets) -> Pressure | None:
+        mark = len(self.messages)
+        v = self.read(path, data, {"elements": _nonempty, "value": _nonzero, "curve": self.curve_name}, Pressure)
+        if v is None:
+            return None
+        names = [s.name for s in elementsets]
+        if "elements" in v and v["elements"] != "all" and v["elements"] not in names and not isinstance(mesh, FileMesh):
+            self.error(f"{path}.elements", f"no [elementsets.{v['elements']}]"
+                       + _hint(v["elements"], names + ["all"], "defined"))
+        return self.build(mark, Pressure, v)
 
     def rigid_body(self, path: str, data: Any) -> RigidBody | None:
         return self.table_object(path, data, RigidBody, {
@@ -1208,7 +1740,7 @@ class _SceneParser:
     def crush(self, data: Any, solve: Solve | None) -> Crush | None:
         mark = len(self.messages)
         v = self.read("[crush]", data, {"axis": _nonzero_vec3, "window": _window, "body": _identifier,
-                                        "folds": _bool, "mean_force_reference": _positive_list,
+                                        "folds": _bool, "mean_force_reference": _force_references,
                                         "half_wavelength_reference": _positive}, Crush)
         if v is None:
             return None
@@ -1221,6 +1753,11 @@ class _SceneParser:
             self.error("[crush].body", f"no [[rigid_body]] named {v['body']!r}" + _hint(v["body"], bodies, "defined"))
         if solve is not None and solve.kind != "dynamic":
             self.error("[crush]", "crush post-processing needs [solve].kind = \"dynamic\"")
+        named = [x for x in v.get("mean_force_reference", ()) if isinstance(x, str)]
+        mesh = self.raw.get("mesh")
+        if named and not (isinstance(mesh, dict) and mesh.get("kind") == "tube"):
+            self.error("[crush].mean_force_reference", f"{named[0]!r} is a formula for a tube: it needs "
+                       "[mesh].kind = \"tube\" (its width and depth give the size C); give a number instead")
         return self.build(mark, Crush, v)
 
     def initial(self, path: str, data: Any) -> InitialVelocity | None:
@@ -1242,7 +1779,8 @@ class _SceneParser:
 
     def reference(self, data: Any) -> Reference | None:
         mark = len(self.messages)
-        v = self.read("[reference]", data, {"file": self.file, "load_column": _nonempty, "floor": _fraction},
+        v = self.read("[reference]", data, {"file": self.file, "load_column": _nonempty, "floor": _fraction,
+                                            "along": _choice("load", "path")},
                       Reference, extra=("compare",))
         if v is None:
             return None
@@ -1267,11 +1805,43 @@ class _SceneParser:
                 self.error("[reference].file", problem)
         return self.build(mark, Reference, {**v, "compare": tuple(compare)})
 
+    def newton_checks(self, v: dict, data: dict) -> None:
+        """[solve] keys of the Newton solver (issue 19) against the rest of the scene."""
+        raw = self.raw
+        if v.get("solver") == "newton":
+            method = raw.get("method", {})
+            element = raw.get("element", {})
+            if v.get("kind") == "dynamic":
+                self.error("[solve].solver", '"newton" solves static scenes (kind = "static")')
+            if isinstance(method, dict) and method.get("kind", "mpm") == "mpm":
+                self.error("[solve].solver", '"newton" runs in fem mode: set [method].kind = "fem" (mpm statics keep '
+                           '"relaxation"; why: docs/newton.md)')
+            if isinstance(element, dict) and element.get("drilling") == "projection":
+                self.error("[solve].solver", '"newton" needs the drilling spring ([element].drilling = "penalty"): the '
+                           "projection leaves the drilling rotation without stiffness")
+            for key in ("rigid_body", "wall", "contact"):
+                if key in raw:
+                    self.error("[solve].solver", f'"newton" does not handle [{key}] (use "relaxation")')
+        else:
+            for key in ("control", "control_nodes", "control_displacement", "arc_length", "max_load_factor",
+                        "target_iterations", "max_iterations", "max_cutbacks", "increment_tolerance",
+                        "energy_tolerance"):
+                if key in data:
+                    self.error(f"[solve].{key}", 'is a key of the Newton solver: set solver = "newton"')
+        control = v.get("control")
+        if control == "displacement":
+            for key in ("control_nodes", "control_displacement"):
+                if not data.get(key):
+                    self.error(f"[solve].{key}", 'missing (a non-zero value) for control = "displacement"')
+        if data.get("control_displacement") and not data.get("control_nodes"):
+            self.error("[solve].control_nodes", "missing: control_displacement needs the node set it applies to")
+
     def solve(self, data: Any) -> Solve | None:
         mark = len(self.messages)
-        v = self.read("[solve]", data, _SOLVE, Solve)
+        v = self.read("[solve]", data, {**_SOLVE, "control_nodes": self.nodes}, Solve)
         if v is None:
             return None
+        self.newton_checks(v, data)
         if v.get("kind") == "dynamic" and v.get("end_time") == 0:
             if "end_time" in data:
                 self.error("[solve].end_time", "expected a number > 0 for a dynamic solve, got 0")
@@ -1280,6 +1850,6 @@ class _SceneParser:
         if v.get("kind") == "dynamic" and v.get("mass_scaling") == "uniform_dt":
             self.error("[solve].mass_scaling", 'expected "auto" or "none" for a dynamic solve, got "uniform_dt" '
                        "(fictitious masses change the dynamics; they are for static solves)")
-        if v.get("kind") == "static" and not self.raw.get("load"):
-            self.error("[[load]]", "a static solve needs at least one [[load]]")
+        if v.get("kind") == "static" and not any(self.raw.get(k) for k in ("load", "motion", "pressure", "gravity")):
+            self.error("[[load]]", "a static solve needs at least one [[load]], [[motion]], [[pressure]] or [gravity]")
         return self.build(mark, Solve, v)

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import taichi as ti
 
-from .assembly import Model, assemble
+from .assembly import Model, assemble, element_length
 from .config import Features
 from .materials import COL
 from .mesh import Mesh, build_mesh
@@ -24,7 +24,7 @@ from .crush import crush_summary
 from .output import FrameWriter, OutputError, write_csv, write_json
 from .progress import Progress
 from .reference import reference_summary
-from .scene import Scene, SceneError
+from .scene import Scene
 from .solvers.stepper import Stepper
 from .stages.timestep import DT_UNSET, initial_dt
 from .state import (CANDIDATES_PER_NODE, MAX_FIELDS, STATUS_CONTACT_FULL, STATUS_DT_COLLAPSE, STATUS_ENERGY, STATUS_INVERTED,
@@ -86,9 +86,20 @@ def choose_launch(arch: str, n_elements: int, static: bool) -> str:
         return FORCE_LAUNCH
     if arch != "cpu":
         return "gpu"
-    if static or (os.cpu_count() or 1) < 2 or n_elements < THREADS_MIN_ELEMENTS:
+    if static or cpu_threads() < 2 or n_elements < THREADS_MIN_ELEMENTS:
         return "batched"
     return "threads"
+
+
+def cpu_threads() -> int:
+    """CPU threads of a run: $TAICHI_SHELL_MPM_THREADS when set (a sweep's local cluster sets
+    cores / workers in each worker, so that the cases running at once do not share cores),
+    else every core."""
+    text = os.environ.get("TAICHI_SHELL_MPM_THREADS", "")
+    try:
+        return max(1, int(text))
+    except ValueError:
+        return os.cpu_count() or 1
 
 
 def init_taichi(arch: str = "cpu", quiet: bool = False) -> str:
@@ -101,7 +112,7 @@ def init_taichi(arch: str = "cpu", quiet: bool = False) -> str:
     level = ti.WARN if arch == "cpu" else ti.ERROR
     with contextlib.redirect_stdout(io.StringIO()) if quiet else contextlib.nullcontext():
         ti.init(arch=getattr(ti, ARCHS[arch]), default_fp=ti.f64, default_ip=ti.i32, offline_cache=True,
-                offline_cache_file_path=kernel_cache_dir(), log_level=level)
+                offline_cache_file_path=kernel_cache_dir(), log_level=level, cpu_max_num_threads=cpu_threads())
     if level != ti.WARN:
         ti.set_logging_level(ti.WARN)
     used = ti.lang.impl.current_cfg().arch
@@ -145,21 +156,21 @@ class Simulation:
         self.out_dir = Path(out_dir) if out_dir is not None else Path("outputs") / scene.info.name
         self.mesh: Mesh = mesh if mesh is not None else build_mesh(scene.mesh)
         self.model: Model = model if model is not None else assemble(scene, self.mesh)
-        if self.model.elements.size and (self.model.elements[:, 3] < 0).any():
-            raise SceneError(f"{scene.source.name}: [mesh]: the mesh has {int((self.model.elements[:, 3] < 0).sum())} "
-                             "triangles; this build does not run triangular shells yet")
         launch = choose_launch(arch, len(self.model.elements), scene.solve.kind == "static")
         self.cfg = Features.from_scene(scene, self.model, launch)
         self.state = State(self.model, self.cfg)
         self.state.load(self.model)
         self.stepper = Stepper(self.state, self.cfg, self.model)
         self._initial_geometry()
-        t0 = time.perf_counter()
+        t0, cpu0 = time.perf_counter(), time.process_time()
         self._compile()
         self.initial_kinetic = self.kinetic_energy()
         self.energy_limit = energy.BALANCE_STOP
         self._compile_readers()
         self.compile_seconds = time.perf_counter() - t0
+        # CPU seconds of the process (all threads): what the build costs whatever else the
+        # machine runs, the figure to compare across sittings (benchmarks/compile_once.py)
+        self.compile_cpu_seconds = time.process_time() - cpu0
         key = "load_factor" if scene.solve.kind == "static" else "time"
         header = [key] + [f"{p.name}.{c}" for p in self.model.probes for c in p.components]
         self.history = History(probe_header=header)
@@ -182,12 +193,14 @@ class Simulation:
         pts, elements = self.model.points, self.model.elements
         w = self.model.omega0
         if self.cfg.nodal_normals:
-            x = pts[elements]
+            # a triangle's corner 4 read as its corner 1: (x3 - x1) x (x1 - x2) = (x2 - x1) x (x3 - x1)
+            x = pts[np.where(elements >= 0, elements, elements[:, :1])]
             element_normal = 0.5 * np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])     # A e3
             normal = np.zeros_like(pts)
             area = np.zeros(len(pts))
-            np.add.at(normal, elements, np.repeat(element_normal[:, None, :], 4, axis=1))
-            np.add.at(area, elements, np.repeat(np.linalg.norm(element_normal, axis=1)[:, None], 4, axis=1))
+            corner = elements >= 0
+            np.add.at(normal, elements[corner], np.repeat(element_normal[:, None, :], 4, axis=1)[corner])
+            np.add.at(area, elements[corner], np.repeat(np.linalg.norm(element_normal, axis=1)[:, None], 4, axis=1)[corner])
             self.state.put("nodes.normal_sum", normal)
             self.state.put("nodes.area_sum", area)
         if not self.cfg.drilling_spring:
@@ -274,9 +287,29 @@ class Simulation:
         nb = len(self.model.rigid_bodies)
         self.history.force_rows.append([key] + st.reaction[None].to_numpy().tolist()
                                        + st.reaction_impulse[None].to_numpy().tolist()
-                                       + [bd.displacement[i] for i in range(nb)] + [bd.force[i] for i in range(nb)])
+                                       + [bd.displacement[i] for i in range(nb)] + [bd.force[i] for i in range(nb)]
+                                       + self.motion_values())
         if frame:
             self.write_frame(key)
+
+    def motion_values(self) -> list[float]:
+        """force.csv's motion columns (:meth:`motion_columns`): each motion's reaction on each
+        of its DOFs (this step's, summed over its nodes) and its work so far."""
+        motions = self.model.loading.motions
+        if not motions:
+            return []
+        reaction = self.state.fetch("nodes.motion_reaction")
+        work = self.state.fetch("nodes.motion_work")
+        from .scene import DOFS
+        out = []
+        for m in motions:
+            dofs = [DOFS.index(d) for d in m.dofs]
+            out += [float(reaction[m.nodes, d].sum()) for d in dofs] + [float(work[m.nodes][:, dofs].sum())]
+        return out
+
+    def motion_columns(self) -> list[str]:
+        return [f"{m.name}.{c}" for m in self.model.loading.motions for c in
+                [f"reaction_{d}" for d in m.dofs] + ["work"]]
 
     def write_frame(self, key: float) -> None:
         if self.frames is None:
@@ -289,7 +322,11 @@ class Simulation:
     def _compile(self) -> None:
         """Compile (or load from the offline cache) the step kernel before the clock of the
         run starts.  The batched kernel compiles on a zero-step launch; the parallel one has
-        no such launch, so it takes one step and every field is put back as it was."""
+        no such launch, so it takes one step and every field is put back as it was.
+        Newton statics (issue 19) never step: their own kernels are compiled by
+        solvers/newton.ShellEquations.compiled instead."""
+        if self.scene.solve.kind == "static" and self.scene.solve.solver == "newton":
+            return
         if self.stepper.batched:
             self.stepper.advance(0)
         else:
@@ -312,6 +349,7 @@ class Simulation:
         self.state.fetch("nodes.grid_velocity")
         for i in range(len(self.model.rigid_bodies)):
             _ = self.state.bodies.displacement[i], self.state.bodies.force[i]
+        self.motion_values()
         self.where()
         ti.sync()
 
@@ -322,14 +360,23 @@ class Simulation:
 
     def element_distortion(self, positions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Per element of the configuration `positions`: inside out (two or more corner angles
-        >= 180 deg about the diagonals' normal: a bow-tie, stages/shell.tangled) and
-        L_e = area / longest diagonal."""
-        x = positions[self.model.elements]
-        normal = np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])
+        >= 180 deg about the diagonals' normal: a bow-tie, stages/shell.tangled) and the
+        element length L_e of the step rule (assembly.element_length).  A triangle's corners
+        cannot fold in its own frame: one configuration shows it inside out only when it has
+        collapsed to zero area (the element stage flags one whose normal reversed within a
+        step, stages/triangle.py)."""
+        elements = self.model.elements
+        x = positions[np.where(elements >= 0, elements, elements[:, :1])]     # a triangle's 4th = its 1st
+        normal = np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])                 # triangle: (x2-x1) x (x3-x1)
         corner = np.cross(np.roll(x, -1, axis=1) - x, np.roll(x, 1, axis=1) - x)
         inside_out = (np.einsum("mai,mi->ma", corner, normal) <= 0.0).sum(axis=1) >= 2
+        area = 0.5 * np.linalg.norm(normal, axis=1)
+        triangle = elements[:, 3] < 0
+        if triangle.any():
+            inside_out = np.where(triangle, area <= 0.0, inside_out)
+            return inside_out, element_length(positions, elements, area)
         longest = np.maximum(np.linalg.norm(x[:, 2] - x[:, 0], axis=1), np.linalg.norm(x[:, 3] - x[:, 1], axis=1))
-        return inside_out, 0.5 * np.linalg.norm(normal, axis=1) / np.maximum(longest, 1e-300)
+        return inside_out, area / np.maximum(longest, 1e-300)
 
     def check_status(self) -> None:
         """Raise SimulationError for a failure flagged in-kernel or found here between batches
@@ -429,7 +476,7 @@ class Simulation:
                   ("energy.csv", [key, *ENERGY_COLUMNS], self.history.energy_rows),
                   ("force.csv", [key, "support_x", "support_y", "support_z", "support_impulse_x", "support_impulse_y",
                                  "support_impulse_z"] + [f"{b}.displacement" for b in names]
-                   + [f"{b}.force" for b in names], self.history.force_rows),
+                   + [f"{b}.force" for b in names] + self.motion_columns(), self.history.force_rows),
                   ("parts.csv", [key, "part", *PART_COLUMNS], self.part_table())]
         failed = None
         for name, header, rows in tables:
@@ -495,7 +542,8 @@ class Simulation:
             "elements": len(self.model.elements), "nodes": len(self.model.points), "arch": self.arch,
             **({"arch_requested": self.arch_requested} if self.arch_requested else {}),
             "launch": self.cfg.launch,
-            "steps": self.total_steps, "compile_seconds": self.compile_seconds, "run_seconds": self.run_seconds,
+            "steps": self.total_steps, "compile_seconds": self.compile_seconds,
+            "compile_cpu_seconds": self.compile_cpu_seconds, "run_seconds": self.run_seconds,
             "us_per_element_step": 1e6 * self.run_seconds / max(1, self.total_steps * len(self.model.elements)),
             "energies": e, "parts": self.part_summary(),
             "mesh_warnings": list(self.mesh.warnings), "warnings": list(self.warnings),
@@ -504,6 +552,13 @@ class Simulation:
             summary.update(extra)
         if self.state.grid is not None:
             summary["grid"] = self.grid_summary()
+        if self.model.loading.motions:
+            values = self.motion_values()
+            columns = self.motion_columns()
+            summary["motions"] = [
+                {"name": m.name, "kind": self.scene.motions[k].kind, "dofs": list(m.dofs), "nodes": int(len(m.nodes)),
+                 "reaction": {d: values[columns.index(f"{m.name}.reaction_{d}")] for d in m.dofs},
+                 "work": values[columns.index(f"{m.name}.work")]} for k, m in enumerate(self.model.loading.motions)]
         if self.state.contact is not None:
             summary["contact"] = {"max_penetration_over_thickness": float(self.state.contact.max_penetration[None]),
                                   "pairs_last_step": int(self.state.contact.pairs[None])}

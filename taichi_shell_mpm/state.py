@@ -6,12 +6,15 @@
 ``elements``   element topology and state: corners, hourglass and drilling resultants,
                energy accumulators, the parallel launches' corner-load slots
 ``sections``   per-element section and material data (thickness, shear factor, hourglass
-               and drilling factors, wave speed, material and section ids) and the tables they
-               index (through-thickness rules per section, parameters per material)
-``points``     through-thickness point state: stress, equivalent plastic strain
+               and drilling factors, wave speed, section id, material axis) and the tables
+               they index (through-thickness points per section with each point's material
+               and ply angle, parameters per material, the tabulated hardening curves)
+``points``     through-thickness point state: stress, equivalent plastic strain, filtered
+               strain rate
 ``grid``       the background grid (mpm) and its geometry
 ``contact``    self-contact: forces, candidate lists, side memory, spatial hash
 ``bodies``     rigid bodies and walls
+``loads``      time curves, curve and follower loads, pressure, gravity, prescribed motions
 ``step``       the scalars of the step: dt, time, load factor, relaxation, energies, status,
                and the run-time parameters of the step (safety factor, reference length ...)
 =============  ============================================================================
@@ -52,7 +55,9 @@ from types import SimpleNamespace
 import numpy as np
 import taichi as ti
 
+from .curves import COLUMNS as CURVE_COLUMNS
 from .materials import MATERIAL_PARAMETERS
+from .scene import MAX_CURVES, MAX_MOTIONS
 
 (STATUS_OK, STATUS_CONVERGED, STATUS_INVERTED, STATUS_LEFT_GRID, STATUS_NONFINITE, STATUS_DT_COLLAPSE,
  STATUS_CONTACT_FULL, STATUS_ENERGY, STATUS_RETURN_FAILED) = range(9)
@@ -190,7 +195,7 @@ class State:
         g.entity("thickness", ti.field(f64), n)        # the thickest adjacent element's
         g.entity("fix_mask", ti.field(i32), n)         # bits ux uy uz rx ry rz
         g.entity("body", ti.field(i32), n)             # rigid body of the node, -1 = none
-        g.entity("energy", ti.Vector.field(3, f64), n)  # external work, contact, wall (energy.py)
+        g.entity("energy", ti.Vector.field(4, f64), n)  # external work, contact, wall, motion (energy.py)
         g.entity("affine", ti.Matrix.field(3, 3, f64), n,   # C_c (method.md 2.2)
                  used=fx.transfer == "apic" and fx.method == "mpm")
         # sum_e A_e e3 and sum_e A_e: the nodal normal of the drilling projection (method.md 2.3)
@@ -198,6 +203,19 @@ class State:
         g.entity("normal_sum", ti.Vector.field(3, f64), n, used=fx.nodal_normals)
         g.entity("area_sum", ti.field(f64), n, used=fx.nodal_normals)
         g.entity("part", ti.field(i32), n, used=fx.multi_field)      # the lowest part of its elements
+        # prescribed motion (stages/motion.py): DOF bits ux .. rz a [[motion]] prescribes, and the
+        # motion of each DOF (-1: none)
+        g.entity("motion_mask", ti.field(i32), n, used=fx.loads)
+        g.entity("motion", ti.Vector.field(6, i32), n, used=fx.loads)
+        # the reaction on each prescribed DOF (this step's) and its work since the start; summed
+        # per motion on the host, in node order (simulation.motion_values)
+        g.entity("motion_reaction", ti.field(f64), n, (6,), used=fx.loads)
+        g.entity("motion_work", ti.field(f64), n, (6,), used=fx.loads)
+        # loads beyond the plain ones (stages/loads.py): physical mass (gravity), this step's
+        # pressure force, CSR node -> curve/follower load entries
+        g.entity("physical_mass", ti.field(f64), n, used=fx.loads)
+        g.entity("pressure_force", ti.Vector.field(3, f64), n, persistent=False, used=fx.loads, host=False)
+        g.entity("load_start", ti.field(i32), n + 1, used=fx.loads)
 
         # --- elements (= material points): topology and element-level state
         g = self.elements = Group("elements")
@@ -227,12 +245,22 @@ class State:
         # hourglass_*: r E t / 8, r E t^3 / 192, r kappa G t^3 / 12 (stages/hourglass.py);
         # drilling_factor: alpha E t^3 / 48 (stages/drilling.py)
         g.entity("section", ti.field(i32), m)
+        # cos, sin of the angle from e1 to the section's material axis (docs/laminates.md)
+        g.entity("material_axis", ti.Vector.field(2, f64), m, used=fx.oriented)
         g.table("point_count", ti.field(i32), (MAX_SECTIONS,))                 # points of each section's rule
         g.table("zeta", ti.field(f64), (MAX_SECTIONS, nk))                      # point positions, -1..1
         g.table("weight", ti.field(f64), (MAX_SECTIONS, nk))                    # and weights (sum 2)
         g.table("point_material", ti.field(i32), (MAX_SECTIONS, nk))            # material of each point
+        g.table("ply_axis", ti.Vector.field(2, f64), (MAX_SECTIONS, nk),       # cos, sin of its ply angle
+                used=fx.oriented)
         g.table("material_kind", ti.field(i32), (MAX_MATERIALS,))              # index into Features.materials
         g.table("material", ti.field(f64), (MAX_MATERIALS, MATERIAL_PARAMETERS))   # parameters (stages/material.py)
+        # tabulated hardening curves, all materials' one after the other (a row holds its first
+        # point and count): plastic strain and yield stress of each point
+        curve_points = len(model.materials.curve_strain)
+        tabulated = "tabulated" in fx.hardening
+        g.entity("curve_strain", ti.field(f64), curve_points, used=tabulated)
+        g.entity("curve_stress", ti.field(f64), curve_points, used=tabulated)
 
         # --- the scalars of the step and its run-time parameters
         g = self.step = Group("step")
@@ -247,14 +275,19 @@ class State:
                             ("stagger_energy", f64), ("contact_energy", f64), ("wall_energy", f64),
                             ("residual_sq", f64), ("max_speed", f64), ("status", i32), ("status_index", i32),
                             ("dt_safety", f64), ("length_ref", f64), ("mass_floor", f64), ("runaway_speed", f64),
-                            ("flip_blend", f64), ("dilatational_speed", f64)):
+                            ("flip_blend", f64), ("dilatational_speed", f64), ("curve_argument", f64),
+                            ("motion_work", f64), ("constraint_sq", f64), ("tolerance_sq", f64),
+                            ("motion_ramp", f64)):
             g.table(name, ti.field(dtype), ())
         # restart_factor: 0.5 on a central-difference restart from rest, else 1; velocity_keep:
         # 0 right after a kinetic-damping reset, else 1; fire_*: FIRE state and scratch
         # (solvers/stepper.py); time_limit: advance() stops there exactly; kinetic...:
         # the 0-d running totals of energy.py; dt_safety, length_ref (the rotational residual's
         # L_ref), mass_floor (grid nodes below it are massless), runaway_speed, flip_blend:
-        # the step's run-time parameters
+        # the step's run-time parameters; curve_argument: the curves' argument at the end of the
+        # last step (time, or the load factor in a static run; stages/motion.py); motion_work: the
+        # running total of energy.py; constraint_sq, tolerance_sq: a static run's prescribed-DOF
+        # forces (their norm^2) and tolerance^2, the residual's scale under displacement control
         g.table("reaction", ti.Vector.field(3, f64), ())           # force the supports exert on the shell
         g.table("reaction_impulse", ti.Vector.field(3, f64), ())   # its time integral since the start
 
@@ -264,11 +297,11 @@ class State:
         g.table("count", ti.field(i32), ())
         g.table("wall_count", ti.field(i32), ())
         for name in ("velocity", "velocity_start", "displacement", "force", "impulse", "wall_energy",
-                     "total_mass", "added_mass"):
+                     "total_mass", "added_mass", "external_work"):
             g.table(name, ti.field(f64), (MAX_BODIES,), nb)
         # velocity, displacement: along the direction; velocity_start: V^(n-1/2) of the step;
         # force: from the slave nodes; impulse: of the walls this step; wall_energy: work of
-        # the walls moving with it, on it
+        # the walls moving with it, on it; external_work: of gravity on its added mass
         g.table("direction", ti.Vector.field(3, f64), (MAX_BODIES,), nb)
         g.table("first_slave", ti.field(i32), (MAX_BODIES,), nb)
         g.table("slave_count", ti.field(i32), (MAX_BODIES,), nb)
@@ -279,6 +312,53 @@ class State:
         # each node's impulse on each wall-carrying body, summed in node order (threads, stages/bodies.py)
         g.entity("node_wall_impulse", ti.field(f64), n, (MAX_BODIES,),
                  used=fx.launch == "threads" and fx.moving_walls)
+
+        # --- time curves, loads beyond the plain nodal ones, prescribed motion (stages/loads.py,
+        # stages/motion.py; loading.py)
+        g = self.loads = Group("loads")
+        ld = model.loading
+        on = fx.loads
+        g.table("curve_count", ti.field(i32), ())
+        for name, dtype in (("curve_kind", i32), ("curve_first", i32), ("curve_rows", i32)):
+            g.table(name, ti.field(dtype), (MAX_CURVES,), len(ld.curves.kind), used=on)
+        g.table("curve_parameter", ti.Vector.field(3, f64), (MAX_CURVES,), len(ld.curves.kind), used=on)  # start, end, scale
+        g.table("curve_origin", ti.Vector.field(2, f64), (MAX_CURVES,), len(ld.curves.kind), used=on)     # I(0), J(0)
+        g.table("curve_value", ti.field(f64), (MAX_CURVES,), len(ld.curves.kind), persistent=False,
+                used=on)                                           # this step's f at the loads' argument
+        g.entity("curve_table", ti.Vector.field(CURVE_COLUMNS, f64), len(ld.curves.rows), used=on)   # curves.py rows
+        ne = len(ld.entry_curve)
+        g.table("entry_count", ti.field(i32), ())
+        for name, dtype in (("entry_node", i32), ("entry_curve", i32), ("entry_neighbor", i32)):
+            g.entity(name, ti.field(dtype), ne, used=on)
+        g.entity("entry_frame", ti.Matrix.field(3, 3, f64), ne, used=on)     # a follower's reference frame (rows)
+        g.entity("entry_force", ti.Vector.field(3, f64), ne, used=on)        # at load factor 1, reference axes
+        g.entity("entry_moment", ti.Vector.field(3, f64), ne, used=on)
+        # this step's: scaled by the curve and turned (followers) at the start of the step
+        g.entity("entry_force_now", ti.Vector.field(3, f64), ne, persistent=False, used=on, host=False)
+        g.entity("entry_moment_now", ti.Vector.field(3, f64), ne, persistent=False, used=on, host=False)
+        npr = len(ld.pressure_element)
+        g.table("pressure_count", ti.field(i32), ())
+        g.table("pressure_node_count", ti.field(i32), ())
+        g.entity("pressure_element", ti.field(i32), npr, used=on)
+        g.entity("pressure_value", ti.field(f64), npr, used=on)
+        g.entity("pressure_curve", ti.field(i32), npr, used=on)
+        g.entity("pressure_corner_force", ti.Vector.field(3, f64), npr, (4,), persistent=False, used=on, host=False)
+        g.entity("pressure_nodes", ti.field(i32), len(ld.pressure_nodes), used=on)
+        g.entity("pressure_node_start", ti.field(i32), len(ld.pressure_nodes) + 1, used=on)
+        g.entity("pressure_node_slots", ti.field(i32), len(ld.pressure_node_slots), used=on)
+        g.table("gravity", ti.Vector.field(3, f64), (), used=on)          # g
+        g.table("gravity_curve", ti.field(i32), (), used=on)
+        g.table("gravity_now", ti.Vector.field(3, f64), (), persistent=False, used=on)   # this step's
+        nm = len(ld.motions)
+        g.table("motion_count", ti.field(i32), ())
+        for name, dtype in (("motion_kind", i32), ("motion_curve", i32)):
+            g.table(name, ti.field(dtype), (MAX_MOTIONS,), nm, used=on)
+        g.table("motion_value", ti.Vector.field(6, f64), (MAX_MOTIONS,), nm, used=on)   # per DOF ux .. rz
+        # this step's displacement level f(s^(n+1)) and rate (stages/motion.py); the acceleration
+        # curves' mean velocity of the last step
+        g.table("motion_level", ti.field(f64), (MAX_MOTIONS,), nm, persistent=False, used=on)
+        g.table("motion_rate", ti.field(f64), (MAX_MOTIONS,), nm, persistent=False, used=on)
+        g.table("motion_mean", ti.field(f64), (MAX_MOTIONS,), nm, used=on)
 
         # --- self-contact (method.md 7.3), used only when the scene asks for it
         g = contact = Group("contact")
@@ -323,6 +403,8 @@ class State:
         g.entity("stress", ti.Vector.field(5, f64), m, (nk,))   # local (sxx, syy, sxy, txz, tyz)
         g.entity("plastic_strain", ti.field(f64), m, (nk,),    # equivalent plastic strain
                  used=fx.plastic)
+        g.entity("strain_rate", ti.field(f64), m, (nk,),       # the filtered strain rate of the rate law
+                 used=fx.rate_filter)
 
         # --- background grid (mpm): hashed, unbounded (stages/grid.py).  Only the grid nodes of
         # the shell nodes' stencils exist: a hash table maps a grid node's integer coordinates
@@ -382,7 +464,8 @@ class State:
             g.force = ti.Vector.field(3, f64)
             placed.append(g.force)
         g._builder.dense(ti.i, slots * (MAX_FIELDS if multi else 1)).place(*placed)
-        for group in (self.nodes, self.elements, self.sections, self.step, self.bodies, contact, self.points, grid):
+        for group in (self.nodes, self.elements, self.sections, self.step, self.bodies, self.loads, contact,
+                      self.points, grid):
             group.finalize()
     
     # ------------------------------------------------------------ the model's data
@@ -414,10 +497,17 @@ class State:
         w(sec.zeta, np.concatenate([tables.zeta, pad]))
         w(sec.weight, np.concatenate([tables.weight, pad]))
         w(sec.point_material, np.concatenate([tables.point_material, pad.astype(np.int32)]))
+        if self.features.oriented:
+            w(sec.material_axis, data.material_axis)
+            angle = np.concatenate([tables.point_angle, pad])
+            w(sec.ply_axis, np.stack([np.cos(angle), np.sin(angle)], axis=-1))
         mats = model.materials
         nm = len(mats.names)
         w(sec.material_kind, np.concatenate([mats.kind, np.zeros(MAX_MATERIALS - nm, np.int32)]))
         w(sec.material, np.concatenate([mats.rows, np.zeros((MAX_MATERIALS - nm, MATERIAL_PARAMETERS))]))
+        if "tabulated" in self.features.hardening:
+            w(sec.curve_strain, mats.curve_strain)
+            w(sec.curve_stress, mats.curve_stress)
         if self.features.launch != "batched":
             flat = model.elements.ravel()
             slots = np.argsort(np.where(flat >= 0, flat, n), kind="stable")[:int((flat >= 0).sum())]
@@ -435,6 +525,7 @@ class State:
             w(bd.slave_nodes, np.concatenate([b.nodes for b in model.rigid_bodies]).astype(np.int32))
         for i, wall in enumerate(model.walls):
             bd.wall_point[i], bd.wall_normal[i], bd.wall_body[i] = wall.point, wall.normal, wall.body
+        self._load_loading(model.loading)
         # the step's run-time parameters
         p = model.parameters
         c_max = float(data.wave_speed.max())
@@ -475,12 +566,39 @@ class State:
                 w(nd.part, part.astype(np.int32))
             st.dilatational_speed[None] = model.materials.dilatational_speed
 
+    def _load_loading(self, ld) -> None:
+        """The tables of loading.Loading (curves, load entries, pressure, gravity, motions)."""
+        w, fx, L, nd = self.write, self.features, self.loads, self.nodes
+        if fx.loads:
+            cv = ld.curves
+            L.curve_count[None] = len(cv.kind)
+            for name, array in (("curve_kind", cv.kind), ("curve_first", cv.first), ("curve_rows", cv.count),
+                                ("curve_parameter", cv.parameter), ("curve_origin", cv.origin),
+                                ("curve_table", cv.rows)):
+                w(getattr(L, name), array)
+            w(nd.physical_mass, ld.physical_mass)
+            w(nd.load_start, ld.entry_start)
+            L.entry_count[None] = len(ld.entry_curve)
+            for name in ("entry_node", "entry_curve", "entry_neighbor", "entry_frame", "entry_force", "entry_moment",
+                         "pressure_element",
+                         "pressure_value", "pressure_curve", "pressure_nodes", "pressure_node_start",
+                         "pressure_node_slots"):
+                w(getattr(L, name), getattr(ld, name))
+            L.pressure_count[None], L.pressure_node_count[None] = len(ld.pressure_element), len(ld.pressure_nodes)
+            L.gravity[None], L.gravity_curve[None] = ld.gravity.tolist(), ld.gravity_curve
+            w(nd.motion_mask, ld.motion_mask)
+            w(nd.motion, ld.node_motion)
+            L.motion_count[None] = len(ld.motions)
+            w(L.motion_kind, np.array([m.kind for m in ld.motions], np.int32))
+            w(L.motion_curve, np.array([m.curve for m in ld.motions], np.int32))
+            w(L.motion_value, np.array([m.value for m in ld.motions]))
+
     # ------------------------------------------------------------ host access
     def groups(self) -> dict[str, Group]:
         return {name: g for name, g in (("nodes", self.nodes), ("elements", self.elements),
                                         ("sections", self.sections), ("points", self.points),
-                                        ("step", self.step), ("bodies", self.bodies), ("contact", self.contact),
-                                        ("grid", self.grid)) if g is not None}
+                                        ("step", self.step), ("bodies", self.bodies), ("loads", self.loads),
+                                        ("contact", self.contact), ("grid", self.grid)) if g is not None}
 
     @staticmethod
     def read(field, size: int) -> np.ndarray:

@@ -174,19 +174,27 @@ kind = "fem"
 [solve]
 kind = "dynamic"
 end_time = 1.0
+{solve}
 """
 
 
 def element_simulation(tmp_path: Path, corners, *, E: float, nu: float, t: float, material: str = "",
-                       section: str = "", element: str = "", quads=None) -> Simulation:
+                       section: str = "", element: str = "", solve: str = "", quads=None,
+                       triangles=None) -> Simulation:
     """A Simulation of the single quad `corners` (4x3, explicit FE) for driving the element stage
-    (S7) alone; `material`, `section` and `element` are extra TOML lines of those tables
+    (S7) alone; `material`, `section`, `element` and `solve` are extra TOML lines of those tables
     (:func:`unwarmed_simulation`: the full step is not compiled).  With `quads` (m x 4 node
-    ids), `corners` are the nodes of a patch of m quads instead."""
-    quads = np.array([[0, 1, 2, 3]]) if quads is None else np.asarray(quads)
-    meshio.write(tmp_path / "element.vtu", meshio.Mesh(np.asarray(corners, dtype=float), [("quad", quads)]))
+    ids) and/or `triangles` (k x 3), `corners` are the nodes of a patch of those elements
+    instead (elements numbered quads first)."""
+    cells = []
+    if quads is not None or triangles is None:
+        cells.append(("quad", np.array([[0, 1, 2, 3]]) if quads is None else np.asarray(quads)))
+    if triangles is not None:
+        cells.append(("triangle", np.asarray(triangles)))
+    meshio.write(tmp_path / "element.vtu", meshio.Mesh(np.asarray(corners, dtype=float), cells))
     scene = load_scene(write_scene(tmp_path, ELEMENT.format(E=E, nu=nu, t=t, material=material,
-                                                            section=section, element=element)))
+                                                            section=section, element=element,
+                                                            solve=solve)))
     return unwarmed_simulation(scene, tmp_path)
 
 
@@ -207,12 +215,15 @@ def element_stage(sim: Simulation, end, velocity, omega, dt: float, steps: int =
         if path in s.arrays_index():
             s.put(path, np.zeros_like(s.fetch(path)))
     s.step.dt[None] = dt
+    run = sim.__dict__.get("_element_stage_kernel")
+    if run is None:             # one kernel per simulation: a test calling this often compiles it once
 
-    @ti.kernel
-    def run():
-        for _ in range(1):          # the outermost loop is the parallel one: keep the element loop serial
-            sim.stepper.shell.element_pass()
+        @ti.kernel
+        def run():
+            for _ in range(1):          # the outermost loop is the parallel one: keep the element loop serial
+                sim.stepper.shell.element_pass()
 
+        sim._element_stage_kernel = run
     for _ in range(steps):
         run()
     return (s.fetch("points.stress"), s.fetch("nodes.force_int"), s.fetch("nodes.moment_int"),

@@ -47,6 +47,20 @@ def test_reduced_crush(tmp_path):
     assert c["lobes"] >= 2
     assert abs(c["mean_crush_force"] - REDUCED_MEAN_FORCE) <= 0.15 * REDUCED_MEAN_FORCE
     assert abs(c["half_wavelength"] - REDUCED_HALF_WAVELENGTH) <= 0.15 * REDUCED_HALF_WAVELENGTH
+    # the scene's closed-form references at t = 1 mm, sigma0 = 0.2 GPa, C = 60 mm (benchmarks.md 3.2)
+    assert np.allclose(c["mean_force_reference"], [7.46, 10.22], atol=0.005)
+    # crushed mass: rho t x the perimeter of the meshed section (4 flats of 50 mm, each 90-degree
+    # fillet of r = 5 mm as 2 chords of 2 r sin(pi/8)) x the crush distance.  Measured +2.2e-4: the
+    # trigger's bumps add that much area (mean |grad w|^2 / 2 over the bumps, estimated 2.4e-4)
+    perimeter = 4 * 50.0 + 8 * 2 * 5.0 * np.sin(np.pi / 8)
+    crushed = 7.85e-6 * 1.0 * perimeter * c["crush_distance"]
+    print(f"SEA {c['specific_energy_absorption']:.1f} J/kg, crushed mass {c['crushed_mass']:.5f} kg (rho t perimeter "
+          f"x crush {crushed:.5f} kg, {c['crushed_mass'] / crushed - 1:+.2e}), SEA / reference "
+          f"{c['specific_energy_absorption_over_reference']}")
+    assert c["crushed_mass"] == pytest.approx(crushed, rel=3.3e-4)
+    assert c["specific_energy_absorption"] == pytest.approx(c["absorbed_energy"] / c["crushed_mass"], rel=1e-12)
+    for ratio, force in zip(c["specific_energy_absorption_over_reference"], c["mean_force_reference"]):
+        assert ratio == pytest.approx(c["absorbed_energy"] / c["crush_distance"] / force, rel=1e-9)
 
 
 def test_fold_geometry_reads_lobes_and_half_wavelength():
@@ -126,3 +140,18 @@ def test_fixed_wall_force_counts_in_the_support_reaction(tmp_path, method):
     print(f"{method}: support impulse {impulse:.6e}, M v {momentum:.6e}, speed after {speed:.1e}")
     assert speed < 1e-9 * v                   # the plate has landed and stopped
     assert abs(impulse - momentum) <= 1e-9 * momentum
+
+
+def test_formula_references_need_a_tube():
+    """[crush].mean_force_reference: a formula name is a tube's closed form, so a scene of
+    another mesh is refused with a one-line error naming the key (exit 2); a bad entry too."""
+    from .test_reliability import cli_run
+    tube = str(ROOT / "scenes" / "square_tube.toml")
+    assert cli_run("validate", tube).code == 0                  # the scene names both formulas
+    other = cli_run("validate", tube, "--set", "mesh.kind=plate", "--set", "mesh.lx=60", "--set", "mesh.ly=300",
+                    "--set", "mesh.nx=4", "--set", "mesh.ny=4")
+    print(other.err)
+    assert other.code == 2
+    assert "[crush].mean_force_reference: 'wierzbicki_abramowicz' is a formula for a tube" in other.err
+    bad = cli_run("validate", tube, "--set", "crush.mean_force_reference=[8.0, 'jones']")
+    assert bad.code == 2 and "[crush].mean_force_reference: expected a non-empty list of numbers > 0" in bad.err

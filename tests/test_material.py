@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import taichi as ti
 
-from taichi_shell_mpm.materials import MATERIAL_PARAMETERS, parameter_row
+from taichi_shell_mpm.materials import MATERIAL_PARAMETERS, hardening_laws, parameter_row, rate_laws
 from taichi_shell_mpm.quadrature import through_thickness_rule
 from taichi_shell_mpm.scene import Material
 from taichi_shell_mpm.simulation import init_taichi
@@ -38,29 +38,35 @@ def equivalent(tensor):
 
 
 class Points:
-    """PlaneStressJ2.update run in a kernel at independent points along increment paths."""
+    """PlaneStressJ2.update run in a kernel at independent points along increment paths: the
+    linear material (E, NU, SY0, `hardening`), or the scene material `spec` with its laws,
+    with steps of `dt` (the rate laws' time; no filter).  ``converged`` holds each update's
+    flag after :meth:`path`."""
 
-    def __init__(self, hardening):
+    def __init__(self, hardening=0.0, spec=None, dt=1.0):
         init_taichi("cpu")
-        self.mat = mat = PlaneStressJ2()
-        spec = Material(E=E, nu=NU, density=1.0, model="j2", yield_stress=SY0, hardening=hardening)
+        spec = spec or Material(E=E, nu=NU, density=1.0, model="j2", yield_stress=SY0, hardening=hardening)
+        self.mat = mat = PlaneStressJ2(hardening=hardening_laws([spec]), rates=rate_laws([spec]))
         parameters = tuple(float(x) for x in parameter_row(spec, MATERIAL_PARAMETERS))   # its table row
 
         @ti.kernel
         def run(stress: ti.types.ndarray(ti.f64, 2), ebar: ti.types.ndarray(ti.f64, 1),
                 incr: ti.types.ndarray(ti.f64, 3), out_stress: ti.types.ndarray(ti.f64, 3),
-                out_ebar: ti.types.ndarray(ti.f64, 2), out_work: ti.types.ndarray(ti.f64, 2)):
+                out_ebar: ti.types.ndarray(ti.f64, 2), out_work: ti.types.ndarray(ti.f64, 2),
+                out_converged: ti.types.ndarray(ti.i32, 2)):
             row = ti.Vector(parameters, dt=ti.f64)
             for p in range(incr.shape[0]):
                 s = ti.Vector([stress[p, 0], stress[p, 1], stress[p, 2], stress[p, 3], stress[p, 4]])
                 ep = ebar[p]
                 for k in range(incr.shape[1]):
-                    s, ep, w, _ = mat.update(row, s, ep, ti.Vector([incr[p, k, 0], incr[p, k, 1], incr[p, k, 2]]),
-                                             ti.Vector([incr[p, k, 3], incr[p, k, 4]]))
+                    s, ep, _, w, ok = mat.update(row, ti.Vector([1.0, 0.0]), s, ep, 0.0,
+                                                 ti.Vector([incr[p, k, 0], incr[p, k, 1], incr[p, k, 2]]),
+                                                 ti.Vector([incr[p, k, 3], incr[p, k, 4]]), dt)
                     for i in ti.static(range(5)):
                         out_stress[p, k, i] = s[i]
                     out_ebar[p, k] = ep
                     out_work[p, k] = w
+                    out_converged[p, k] = ti.cast(ok, ti.i32)
 
         self.kernel = run
 
@@ -72,7 +78,8 @@ class Points:
         stress = np.zeros((n, 5)) if stress is None else np.asarray(stress, dtype=float).reshape(n, 5)
         ebar = np.zeros(n) if ebar is None else np.asarray(ebar, dtype=float).reshape(n)
         out_s, out_e, out_w = np.zeros((n, steps, 5)), np.zeros((n, steps)), np.zeros((n, steps))
-        self.kernel(stress, ebar, incr, out_s, out_e, out_w)
+        self.converged = np.zeros((n, steps), np.int32)
+        self.kernel(stress, ebar, incr, out_s, out_e, out_w, self.converged)
         return out_s, out_e, out_w
 
     def step(self, stress, ebar, d_strain):

@@ -160,6 +160,7 @@ def scene_dir(tmp_path_factory) -> Path:
     folder = tmp_path_factory.mktemp("scenes")
     (folder / "ref.csv").write_text(REF_HEADER)
     (folder / "cantilever_end_shear.csv").write_text(REF_HEADER)
+    (folder / "steel.csv").write_text("plastic strain,yield stress\n0.0,0.25\n# a comment\n\n0.1,0.3\n")
     (folder / "meshes").mkdir()
     (folder / "meshes" / "strip.vtk").write_text("# vtk DataFile Version 2.0\n")
     return folder
@@ -276,7 +277,7 @@ BAD_VALUES = [  # (dotted path, value, expected message after "case.toml: ")
     ("material.E", -3, "[material].E: expected a number > 0, got -3"),
     ("material.nu", math.nan, "[material].nu: expected a number in (-1, 0.5), got nan"),
     ("material.nu", 0.5, "[material].nu: expected a number in (-1, 0.5), got 0.5"),
-    ("material.model", "plastic", "[material].model: expected one of elastic, j2, got 'plastic'"),
+    ("material.model", "plastic", "[material].model: expected one of elastic, j2, orthotropic, got 'plastic'"),
     ("section.thickness", True, "[section].thickness: expected a number > 0, got true"),
     ("section.shear_factor", math.inf, "[section].shear_factor: expected a number in (0, 1], got inf"),
     ("section.points", 11, "[section].points: expected an integer in [1, 10], got 11"),
@@ -305,7 +306,7 @@ BAD_VALUES = [  # (dotted path, value, expected message after "case.toml: ")
     ("load.0.nodes", "zz", "[[load]][0].nodes: unknown node set 'zz' "
                            "(defined: all, clamped, corner, everything, some, tip)"),
     ("load.0.force", [0, 0, "4"], "[[load]][0].force: expected 3 finite numbers [x, y, z], got [0, 0, '4']"),
-    ("load.1.distribute", "even", "[[load]][1].distribute: expected one of area, equal, got 'even'"),
+    ("load.1.distribute", "even", "[[load]][1].distribute: expected one of area, equal, length, got 'even'"),
     ("initial.1.center", [0, 0, math.inf], "[[initial]][1].center: expected 3 finite numbers [x, y, z], "
                                            "got [0, 0, inf]"),
     ("nodesets.some.ids", [], "[nodesets.some].ids: expected a non-empty list of node indices >= 0, got []"),
@@ -347,7 +348,7 @@ BAD_VALUES = [  # (dotted path, value, expected message after "case.toml: ")
     ("output.load_steps", 1, "[output].load_steps: expected true or false, got 1"),
     ("output.every_steps", -1, "[output].every_steps: expected an integer >= 0, got -1"),
     ("method.cel_size", 0.5, "[method].cel_size: unknown key (did you mean 'cell_size'?)"),
-    ("mesh.radius", 10, "[mesh].radius: unknown key (allowed: lx, ly, nx, ny, origin, kind)"),
+    ("mesh.radius", 10, "[mesh].radius: unknown key (allowed: lx, ly, nx, ny, origin, triangles, kind)"),
     ("nodesets.tip.bx", 1, "[nodesets.tip].bx: unknown key (did you mean 'box'?)"),
     ("methd", {}, "[methd]: unknown key (did you mean 'method'?)"),
     ("boundary", {"nodes": "tip"}, "[[boundary]]: expected an array of tables ([[boundary]] sections), "
@@ -381,7 +382,7 @@ MISSING = [  # (dotted path to delete, expected message after "case.toml: ")
                          "got none"),
     ("reference.compare", "[reference].compare: missing required key (add [[reference.compare]] tables)"),
     ("method.grid_max", "[method].grid_max: missing required key (grid_min and grid_max come together)"),
-    ("load", "[[load]]: a static solve needs at least one [[load]]"),
+    ("load", "[[load]]: a static solve needs at least one [[load]], [[motion]], [[pressure]] or [gravity]"),
 ]
 
 
@@ -617,7 +618,83 @@ def test_mutated_scenes_fail_cleanly(scene_dir, data):
         assert isinstance(scene, Scene)
 
 
-_FUZZ_BASES = [raw_of(text) for text in (FULL, TUBE_SCENE, HEMISPHERE_SCENE, FILE_MESH)]
+# Curves, prescribed motion, pressure, gravity, curve/follower/line loads (issue 18; runs in
+# tests/test_motion_loads.py).
+MOTION_SCENE = """
+[scene]
+name = "motion"
+units = "consistent"
+[mesh]
+kind = "plate"
+lx = 4.0
+ly = 1.0
+nx = 4
+ny = 1
+[material]
+E = 1000.0
+nu = 0.3
+density = 1.0
+[section]
+thickness = 0.1
+[elementsets.left]
+box = { min = [0, 0, 0], max = [2, 1, 0] }
+[nodesets.clamp]
+plane = { point = [0, 0, 0], normal = [1, 0, 0] }
+[nodesets.tip]
+plane = { point = [4, 0, 0], normal = [1, 0, 0] }
+[curves.table]
+points = [[0.0, 0.0], [0.5, 1.0], [1.0, 0.0]]
+scale = 2.0
+[curves.up]
+shape = "ramp"
+start = 0.1
+end = 0.4
+[curves.smooth]
+shape = "smooth_step"
+end = 0.5
+[curves.one]
+shape = "constant"
+[[boundary]]
+nodes = "clamp"
+fix = "all"
+[[motion]]
+name = "lift"
+nodes = "tip"
+dofs = ["uz", "ry"]
+kind = "displacement"
+value = [0.2, 0.1]
+curve = "smooth"
+[[motion]]
+name = "push"
+nodes = "tip"
+dofs = ["ux"]
+kind = "velocity"
+value = 1.0
+curve = "table"
+[[load]]
+nodes = "tip"
+force = [0.0, 1.0, 0.0]
+moment = [0.0, 0.0, 0.1]
+curve = "up"
+follower = true
+[[load]]
+nodes = "tip"
+force_per_length = [0.0, 0.0, 1.0]
+moment_per_length = [0.0, 0.1, 0.0]
+distribute = "length"
+[[pressure]]
+value = -0.5
+elements = "left"
+curve = "one"
+[gravity]
+acceleration = [0.0, 0.0, -9.81]
+curve = "up"
+[solve]
+kind = "dynamic"
+end_time = 1.0
+"""
+
+_FUZZ_BASES = [raw_of(text) for text in (FULL, TUBE_SCENE, HEMISPHERE_SCENE, FILE_MESH, MOTION_SCENE)]
 
 
 # ------------------------------------------------------------------ every key is documented
@@ -689,6 +766,162 @@ def _table_heading(path: str) -> str:
     return f"[{name}.NAME]" if sub else f"[{name}]"
 
 
+# Every hardening and rate law (issue 18), one material each on a strip of five elements.
+LAWS_SCENE = """
+[scene]
+name = "laws"
+units = "kN-mm-ms-kg"
+[mesh]
+kind = "plate"
+lx = 5.0
+ly = 1.0
+nx = 5
+ny = 1
+[materials.swift]
+E = 200.0
+nu = 0.3
+density = 7.85e-6
+model = "j2"
+hardening_law = "swift"
+K = 0.5
+eps0 = 0.01
+n = 0.2
+rate_law = "cowper_symonds"
+C = 0.0404
+p = 5
+rate_cutoff_frequency = 10.0
+[materials.ludwik]
+E = 200.0
+nu = 0.3
+density = 7.85e-6
+model = "j2"
+hardening_law = "ludwik"
+yield_stress = 0.25
+B = 0.4
+n = 0.4
+max_stress = 0.5
+rate_law = "johnson_cook"
+c = 0.02
+reference_rate = 0.001
+rate_measure = "plastic"
+rate_filter_time = 0.05
+[materials.voce]
+E = 200.0
+nu = 0.3
+density = 7.85e-6
+model = "j2"
+hardening_law = "voce"
+yield_stress = 0.25
+Q = 0.15
+b = 15.0
+hardening = 0.2
+[materials.curve]
+E = 200.0
+nu = 0.3
+density = 7.85e-6
+model = "j2"
+hardening_law = "tabulated"
+curve = [[0.0, 0.25], [0.05, 0.3], [0.2, 0.35]]
+beyond_curve = "extrapolate"
+[materials.file]
+E = 200.0
+nu = 0.3
+density = 7.85e-6
+model = "j2"
+hardening_law = "tabulated"
+curve_file = "steel.csv"
+[sections.skin]
+thickness = 1.0
+points = 5
+rule = "gauss"
+""" + "".join(f"""[elementsets.{m}]
+ids = [{i}]
+[[part]]
+name = "{m}"
+material = "{m}"
+section = "skin"
+elements = "{m}"
+""" for i, m in enumerate(("swift", "ludwik", "voce", "curve", "file"))) + """[solve]
+kind = "dynamic"
+end_time = 1.0
+"""
+
+
+def test_hardening_and_rate_laws_parse(scene_dir):
+    path = scene_dir / "laws.toml"
+    path.write_text(LAWS_SCENE)
+    m = load_scene(path).materials
+    assert (m["swift"].hardening_law, m["swift"].K, m["swift"].eps0, m["swift"].n) == ("swift", 0.5, 0.01, 0.2)
+    assert (m["swift"].rate_law, m["swift"].C, m["swift"].p, m["swift"].rate_measure,
+            m["swift"].rate_cutoff_frequency) == ("cowper_symonds", 0.0404, 5.0, "total", 10.0)
+    assert (m["ludwik"].B, m["ludwik"].max_stress, m["ludwik"].rate_law, m["ludwik"].c,
+            m["ludwik"].reference_rate, m["ludwik"].rate_measure, m["ludwik"].rate_filter_time) == (
+        0.4, 0.5, "johnson_cook", 0.02, 0.001, "plastic", 0.05)
+    assert (m["voce"].Q, m["voce"].b, m["voce"].hardening, m["voce"].rate_law) == (0.15, 15.0, 0.2, "none")
+    assert m["curve"].curve == ((0.0, 0.25), (0.05, 0.3), (0.2, 0.35)) and m["curve"].beyond_curve == "extrapolate"
+    assert m["file"].curve == ((0.0, 0.25), (0.1, 0.3)) and m["file"].curve_file == (scene_dir / "steel.csv").resolve()
+    assert m["file"].beyond_curve == "flat"
+
+
+J2 = {"E": 200.0, "nu": 0.3, "density": 1.0, "model": "j2", "yield_stress": 0.25}
+
+
+@pytest.mark.parametrize("table, expected", [
+    ({"hardening_law": "swift", "K": 0.5, "eps0": 0.01, "B": 0.1},
+     ['[material].B: not used by hardening_law = "swift" (its keys: K, n, eps0, yield_stress, hardening)',
+      '[material].n: missing required key for hardening_law = "swift"',
+      '[material].eps0: expected exactly one of eps0 and yield_stress for hardening_law = "swift" (yield_stress '
+      'sets eps0 = (yield_stress / K)^(1/n))']),
+    ({"hardening_law": "voce", "Q": 0.1, "B": 0.1},
+     ['[material].B: not used by hardening_law = "voce" (its keys: yield_stress, Q, b, hardening)',
+      '[material].b: missing required key for hardening_law = "voce"']),
+    ({"hardening_law": "ludwik", "B": 0.1, "n": 0.5, "max_stress": 0.2},
+     ["[material].max_stress: expected a number above yield_stress = 0.25, got 0.2"]),
+    ({"hardening_law": "tabulated", "curve": [[0.01, 0.25], [0.1, 0.3]]},
+     ["[material].curve: point 1: expected plastic strain 0 (the initial yield stress), got 0.01",
+      '[material].yield_stress: not used by hardening_law = "tabulated" (its keys: curve, curve_file, beyond_curve)']),
+    ({"hardening_law": "tabulated", "yield_stress": None, "curve": [[0.0, 0.25], [0.1, 0.2]]},
+     ["[material].curve: point 2: the yield stress falls (0.25 -> 0.2): softening curves are not supported"]),
+    ({"hardening_law": "tabulated", "yield_stress": None, "curve": [[0.0, 0.25], [0.0, 0.3]]},
+     ["[material].curve: point 2: expected a plastic strain above the previous point's 0, got 0"]),
+    ({"hardening_law": "tabulated", "yield_stress": None, "curve": [[0.0, 0.25]], "beyond_curve": "extrapolate"},
+     ['[material].beyond_curve: "extrapolate" needs a curve of at least two points']),
+    ({"hardening_law": "tabulated", "yield_stress": None, "curve": [0.0, 0.25]},
+     ["[material].curve: expected a list of [plastic strain, yield stress] pairs, got [0.0, 0.25]"]),
+    ({"hardening_law": "tabulated", "yield_stress": None},
+     ['[material].curve: expected exactly one of curve and curve_file for hardening_law = "tabulated"']),
+    ({"hardening_law": "tabulated", "yield_stress": None, "curve_file": "ref.csv"},
+     ["[material].curve_file: ref.csv line 2: expected two numbers (plastic strain, yield stress), got "
+      "'0.05,0.20,0.026,0.663'"]),
+    ({"rate_law": "cowper_symonds", "C": 0.04},
+     ['[material].p: missing required key for rate_law = "cowper_symonds"']),
+    ({"C": 0.04, "rate_measure": "plastic"},
+     ['[material].C: not used by rate_law = "none"', '[material].rate_measure: not used by rate_law = "none"']),
+    ({"rate_law": "johnson_cook", "c": 0.02, "reference_rate": 1.0, "rate_filter_time": 0.1,
+      "rate_cutoff_frequency": 2.0},
+     ["[material].rate_cutoff_frequency: give the rate filter either as rate_filter_time or as "
+      "rate_cutoff_frequency, not both"]),
+    ({"rate_law": "johnson_cook", "c": 0.02, "reference_rate": 0.0},
+     ["[material].reference_rate: expected a number > 0, got 0.0"]),
+    ({"model": "elastic", "yield_stress": None, "rate_law": "cowper_symonds"},
+     ['[material].rate_law: only for model = "j2"']),
+    ({"hardening_law": "power"},
+     ["[material].hardening_law: expected one of linear, swift, ludwik, voce, tabulated, got 'power'"]),
+])
+def test_hardening_and_rate_key_errors(scene_dir, table, expected):
+    """One line per mistake, naming the key (the CLI exits with code 2: tests/test_hardening.py)."""
+    raw = raw_of(TUBE_SCENE)
+    raw["material"] = {k: v for k, v in {**J2, **table}.items() if v is not None}
+    assert errors(raw, scene_dir) == [f"case.toml: {line}" for line in expected]
+
+
+def test_a_rate_law_needs_a_dynamic_solve(scene_dir):
+    raw = raw_of(HEMISPHERE_SCENE)
+    raw["material"].update(model="j2", yield_stress=1e5, rate_law="cowper_symonds", C=40.0, p=5.0)
+    assert errors(raw, scene_dir) == ['case.toml: [material].rate_law: a static solve has no physical time: a rate '
+                                      'law needs [solve].kind = "dynamic"']
+
+
 def test_every_scene_key_is_documented(scene_dir, monkeypatch):
     """Every key the parser accepts in the scenes of this file, the bundled scenes and a parts
     scene appears as `key` in the docs/scenes.md section of its table."""
@@ -701,9 +934,10 @@ def test_every_scene_key_is_documented(scene_dir, monkeypatch):
         return read(self, path, data, spec, cls, required, extra)
 
     monkeypatch.setattr(scene_module._SceneParser, "read", recording)
-    scenes = [(text, scene_dir / "case.toml") for text in (FULL, TUBE_SCENE, HEMISPHERE_SCENE, PARTS_SCENE)]
+    scenes = [(text, scene_dir / "case.toml")
+              for text in (FULL, TUBE_SCENE, HEMISPHERE_SCENE, PARTS_SCENE, LAWS_SCENE, MOTION_SCENE)]
     scenes += [((ROOT / "scenes" / f"{n}.toml").read_text(), ROOT / "scenes" / f"{n}.toml")
-               for n in ("cantilever", "hemisphere", "square_tube")]
+               for n in ("cantilever", "hemisphere", "square_tube", "tube_rate_dependent")]
     for text, source in scenes:
         parse_scene(raw_of(text), source)
     sections = _doc_sections()

@@ -9,6 +9,10 @@ code (:mod:`taichi_shell_mpm.peers.kratos`).  Each case is a subprocess
 compile different kernels; a fresh process keeps memory and the Taichi runtime clean); its
 ``summary.json`` gives compile and run wall time, steps, microseconds per element-step and
 the errors against the reference table, ``os.wait4`` the peak resident memory of the child.
+The cases go through the study executor (:mod:`taichi_shell_mpm.executor`, shared with
+``sweep``): one after the other by default, since the timings need a quiet machine;
+``--workers N`` runs N at a time on a local Dask cluster, trading the timings for speed (the
+``machine`` column and the report say so).
 
 Files, under ``--out`` (default ``outputs/bench``, ``outputs/bench_quick`` with ``--quick``):
 

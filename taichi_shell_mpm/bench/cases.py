@@ -34,7 +34,7 @@ class Case:
     name: str
     scene: str                      # key of SCENE_FILES
     mesh: str                       # label, e.g. "10x1", "16x16q", "10/2/60"
-    mode: str                       # mpm | fem | kratos
+    mode: str                       # mpm | fem | newton | kratos
     ratio: float | None             # grid cell / element size (mpm), else None
     element_size: float
     overrides: tuple[str, ...]
@@ -54,18 +54,22 @@ def _ratio_tag(r: float) -> str:
 
 
 def _mode_cases(scene: str, prefix: str, mesh: str, ell: float, base: tuple[str, ...], ratios, fem: bool,
-                peers: bool, tag: str = "") -> list[Case]:
-    """One mesh of a static refinement series: mpm at each grid ratio, fem, and the peer."""
+                peers: bool, tag: str = "", newton: bool = True) -> list[Case]:
+    """One mesh of a static refinement series: mpm at each grid ratio, fem (dynamic relaxation
+    and, issue 19, Newton: mode ``newton``, steps = Newton iterations), and the peer."""
     out = [Case(f"{prefix}_mpm_{_ratio_tag(r)}{tag}", scene, mesh, "mpm", r, ell,
                 base + ("method.kind=mpm", f"method.cell_size={r * ell:g}")) for r in ratios]
     if fem:
         out.append(Case(f"{prefix}_fem{tag}", scene, mesh, "fem", None, ell, base + ("method.kind=fem",)))
+        if newton:
+            out.append(Case(f"{prefix}_newton{tag}", scene, mesh, "newton", None, ell,
+                            base + ("method.kind=fem", "solve.solver=newton")))
     if peers:
         out.append(Case(f"{prefix}_kratos{tag}", scene, mesh, "kratos", None, ell, base))
     return out
 
 
-def cantilever_cases(nxs=CANTILEVER_NX, ratios=RATIOS, fem=True, peers=False) -> list[Case]:
+def cantilever_cases(nxs=CANTILEVER_NX, ratios=RATIOS, fem=True, peers=False, newton=True) -> list[Case]:
     out = []
     for nx in nxs:
         ny = max(1, nx // 10)
@@ -73,11 +77,12 @@ def cantilever_cases(nxs=CANTILEVER_NX, ratios=RATIOS, fem=True, peers=False) ->
         mesh = f"{nx}x{ny}"
         base = (f"mesh.nx={nx}", f"mesh.ny={ny}",
                 f"solve.max_steps_per_load_step={int(400_000 * max(1.0, nx / 10))}")
-        out += _mode_cases("cantilever", f"cantilever_{mesh}", mesh, ell, base, ratios, fem, peers)
+        out += _mode_cases("cantilever", f"cantilever_{mesh}", mesh, ell, base, ratios, fem, peers, newton=newton)
     return out
 
 
-def hemisphere_cases(ns=HEMISPHERE_N, ratios=RATIOS, fem=True, peers=False, load_steps=None) -> list[Case]:
+def hemisphere_cases(ns=HEMISPHERE_N, ratios=RATIOS, fem=True, peers=False, load_steps=None,
+                     newton=True) -> list[Case]:
     out = []
     for n in ns:
         ell = 8.0 / n                 # nominal: the default cell 0.25 at 16x16 is l/2
@@ -88,7 +93,7 @@ def hemisphere_cases(ns=HEMISPHERE_N, ratios=RATIOS, fem=True, peers=False, load
         if load_steps:
             base += (f"solve.load_steps={load_steps}",)
             tag = f"_ls{load_steps}"
-        out += _mode_cases("hemisphere", f"hemisphere_{n}x{n}", mesh, ell, base, ratios, fem, peers, tag)
+        out += _mode_cases("hemisphere", f"hemisphere_{n}x{n}", mesh, ell, base, ratios, fem, peers, tag, newton)
     return out
 
 
@@ -172,8 +177,8 @@ def peers_available() -> bool:
 def plan(quick: bool, peers: bool) -> list[Case]:
     if quick:     # each case compiles its own kernels (~20 s on a cold cache): five cases fit in 3 minutes
         return (cantilever_cases((5,), ratios=(0.5,), fem=False, peers=peers)
-                + cantilever_cases((10,), ratios=(0.5,), peers=peers)
-                + hemisphere_cases((8,), ratios=(0.5,), peers=peers, load_steps=QUICK_LOAD_STEPS))
+                + cantilever_cases((10,), ratios=(0.5,), peers=peers, newton=False)
+                + hemisphere_cases((8,), ratios=(0.5,), peers=peers, load_steps=QUICK_LOAD_STEPS, newton=False))
     return (cantilever_cases(peers=peers) + hemisphere_cases(peers=peers) + relaxation_cases() + tube_cases()
             + scaling_cases() + empty_grid_cases())
 

@@ -1,8 +1,9 @@
 """The ``bench`` subcommand: its options (:func:`add_arguments`, wired into
 ``python -m taichi_shell_mpm bench`` by the package's cli.py), where its files go
 (:func:`default_out`, :func:`default_report`) and the sitting itself (:func:`main`):
-plan, select, run the cases one after the other, record each row and regenerate the
-report after every case.
+plan, select, run the cases (one after the other, or ``--workers N`` at a time on a local
+Dask cluster, :mod:`taichi_shell_mpm.executor`), record each row and regenerate the report
+after every case.
 """
 from __future__ import annotations
 
@@ -12,11 +13,12 @@ import sys
 import time
 from pathlib import Path
 
+from ..executor import Executor, Task
 from .cases import peers_available, plan, select
 from .machine import machine_info, machine_tag
 from .report import error_pair, fmt, regenerate
 from .results import read_results, replace_row
-from .run import pending, run_case
+from .run import pending, row_from_summary, run_case
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -36,6 +38,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--list", action="store_true", help="list the planned cases and exit")
     p.add_argument("--report-only", action="store_true", help="regenerate report and plots from results.csv")
     p.add_argument("--arch", choices=["cpu", "cuda", "vulkan"], default="cpu")
+    p.add_argument("--workers", type=_positive_int, default=None, metavar="N",
+                   help="run N cases at a time on a local Dask cluster (default: one after the other in "
+                        "this process; cases that share the cores time slower, and the report says so)")
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {value}")
+    return value
 
 
 def command_line(args: argparse.Namespace) -> str:
@@ -51,6 +66,8 @@ def command_line(args: argparse.Namespace) -> str:
         words += ["--cases", pat]
     if args.arch != "cpu":
         words += ["--arch", args.arch]
+    if getattr(args, "workers", None):
+        words += ["--workers", str(args.workers)]
     return shlex.join(words)
 
 
@@ -87,27 +104,41 @@ def main(args: argparse.Namespace) -> int:
         print(f"error: cannot create {exc.filename}: {exc.strerror}", file=sys.stderr)
         return 2
     info = machine_info()
-    tag = machine_tag(info, args.arch)
+    workers = getattr(args, "workers", None)
+    tag = machine_tag(info, args.arch, workers)
     command = command_line(args)
     results = out / "results.csv"
     todo = [] if args.report_only else pending(selected, read_results(results), args.resume)
     print(f"bench: {len(todo)} case(s) to run of {len(planned)} planned; results in {results}, report {report}",
           flush=True)
+    if todo and workers:
+        print(f"bench: {workers} cases at a time (--workers {workers}): they share the machine, so their timings "
+              "are not those of a quiet machine (the machine column and the report say so)", flush=True)
     failures = 0
     start = time.perf_counter()
+    by_name = {c.name: c for c in todo}
+
+    def on_done(outcome) -> bool:
+        nonlocal failures
+        case = by_name[outcome.task.key]
+        row = outcome.value if outcome.error is None else dict(
+            row_from_summary(case, {}), status=f"failed: {outcome.error}", machine=tag)
+        replace_row(results, row)
+        ok = row["status"] == "ok"
+        failures += not ok
+        errs = (f"errors {error_pair(row, 1)} | {error_pair(row, 2)} %" if row.get("comp1")
+                else f"mean force {fmt(float(row.get('mean_force') or 'nan'))} kN")
+        print(f"{case.name}: {'ok' if ok else row['status']}: wall {float(row.get('wall_s') or 'nan'):.1f} s "
+              f"(compile {fmt(float(row.get('compile_s') or 'nan'))} s, run {fmt(float(row.get('run_s') or 'nan'))} "
+              f"s), {errs}", flush=True)
+        regenerate(out, report, planned, command, info, args.arch, peers, args.quick)
+        return ok
+
     try:
-        for i, case in enumerate(todo, 1):
-            print(f"[{i}/{len(todo)}] {case.name} ...", end=" ", flush=True)
-            row = run_case(case, out, args.arch, tag)
-            replace_row(results, row)
-            ok = row["status"] == "ok"
-            failures += not ok
-            errs = (f"errors {error_pair(row, 1)} | {error_pair(row, 2)} %" if row.get("comp1")
-                    else f"mean force {fmt(float(row.get('mean_force') or 'nan'))} kN")
-            print(f"{'ok' if ok else row['status']}: wall {row['wall_s']:.1f} s (compile "
-                  f"{fmt(float(row.get('compile_s') or 'nan'))} s, run {fmt(float(row.get('run_s') or 'nan'))} s), "
-                  f"{errs}", flush=True)
-            regenerate(out, report, planned, command, info, args.arch, peers, args.quick)
+        with Executor(workers=workers, label="bench") as ex:
+            if workers:
+                print(f"bench: {ex.describe()}", flush=True)
+            ex.run([Task(c.name, run_case, (c, out.resolve(), args.arch, tag)) for c in todo], on_done)
     except KeyboardInterrupt:
         regenerate(out, report, planned, command, info, args.arch, peers, args.quick)
         print(f"\ninterrupted; continue with: {command} --resume", file=sys.stderr)

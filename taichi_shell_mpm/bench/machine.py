@@ -33,5 +33,7 @@ def machine_info() -> dict:
             "python": platform.python_version(), "os": f"{platform.system()} {platform.release()}"}
 
 
-def machine_tag(info: dict, arch: str) -> str:
-    return f"{info['cpu']}, {info['cores']} cores, taichi {info['taichi']}, {arch}"
+def machine_tag(info: dict, arch: str, workers: int | None = None) -> str:
+    """The machine column; with ``--workers N`` (N cases at a time) it says so."""
+    tag = f"{info['cpu']}, {info['cores']} cores, taichi {info['taichi']}, {arch}"
+    return tag + (f", {workers} cases at a time" if workers and workers > 1 else "")

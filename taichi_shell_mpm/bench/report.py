@@ -136,6 +136,11 @@ def _relaxation_section(rows: list[dict]) -> list[str]:
     return L + [""]
 
 
+def _parallel(rows: list[dict]) -> bool:
+    """Some row was measured with other cases running at once (bench --workers: machine_tag)."""
+    return any("cases at a time" in (r.get("machine") or "") for r in rows)
+
+
 def write_report(path: Path, out: Path, rows: list[dict], planned: list[Case], command: str, info: dict,
                  arch: str, peers: bool, plots: dict[str, Path | None], quick: bool) -> None:
     rel = lambda p: Path(os.path.relpath(p, path.parent)).as_posix()   # noqa: E731
@@ -146,8 +151,10 @@ def write_report(path: Path, out: Path, rows: list[dict], planned: list[Case], c
          "(regenerated after every case: it shows everything measured so far).", "",
          f"**Machine:** {info['cpu']}, {info['cores']} cores available, {info['memory_GB']:.0f} GB memory, "
          f"{info['os']}; Python {info['python']}, Taichi {info['taichi']}, arch `{arch}`, f64.  "
-         "Cases run one after the other, each in its own process "
-         "(`python -m taichi_shell_mpm run SCENE --quiet --out RUN --set ...`; the exact command is the "
+         + ("Cases run one after the other, each in its own process " if not _parallel(rows) else
+            "**Some cases ran several at a time** (`--workers`; their machine column says how many), so their "
+            "timings shared the cores and do not compare with a quiet machine's.  Each case runs in its own process ")
+         + "(`python -m taichi_shell_mpm run SCENE --quiet --out RUN --set ...`; the exact command is the "
          f"first line of `{rel(out / 'runs')}/CASE/bench.log`).", ""]
     other = sorted({r.get("machine", "") for r in rows if r.get("machine") and r.get("machine") != this})
     if other:
@@ -161,7 +168,9 @@ def write_report(path: Path, out: Path, rows: list[dict], planned: list[Case], c
           "Sze, Liu & Lo (2004), both tabulated components; rows = reference rows compared.  "
           "h / l: grid cell over element size l (cantilever l = 10/nx; quarter hemisphere nominal "
           "l = 8/n, so that the scene's default h = 0.25 at 16×16 is l/2).  For `kratos` rows (implicit "
-          "peer): compile s = model set-up, run s = Newton solve, steps = Newton iterations.", ""]
+          "peer): compile s = model set-up, run s = Newton solve, steps = Newton iterations.  For `newton` "
+          "rows (`[solve].solver = \"newton\"`, fem, issue 19): steps = Newton iterations, run s includes, as for "
+          "every row of ours, recording each load step (probes, energies, a frame), which the peer does not.", ""]
     for scene, title in (("cantilever", "Cantilever strip under end shear (Sze), 20 load steps"),
                          ("hemisphere", "Quarter hemisphere with an 18° hole (Sze)")):
         rs = [r for r in rows if r["scene"] == scene]

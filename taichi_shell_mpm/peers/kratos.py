@@ -118,6 +118,8 @@ def _check_supported(scene, model) -> None:
         problems.append("rigid bodies, walls and contact are not mapped")
     if np.any(model.load_moment):
         problems.append("nodal moments are not mapped")
+    if scene.motions or model.loading.loads:
+        problems.append("prescribed motion, pressure, gravity, curve and follower loads are not mapped")
     if problems:
         raise KratosSolveError("Kratos peer: " + "; ".join(problems))
 

@@ -6,7 +6,26 @@ The load is never advanced by comparing with a reference answer (the paper did):
 is done when the out-of-balance force falls below ``tolerance * |F_ext|`` and the kinetic
 energy below 1e-8 of the external work (checked in-kernel every step, see
 :class:`~taichi_shell_mpm.solvers.stepper.Stepper`).  Non-convergence within the step
-budget is an error.
+budget is an error.  A level whose displacement increment is far larger than its
+neighbours' is reported as a jump to a remote branch (solvers/path.JumpMonitor, issue 19).
+Under displacement control (``[[motion]]``, kind = "displacement":
+u = value x f(lambda), f(lambda) = lambda without a curve) the forces on the prescribed
+DOFs count in the scale: the residual must fall below ``tolerance * sqrt(|F_ext|^2 + |R|^2)``,
+R the prescribed DOFs' reactions (moments over the mean edge, as in the residual), and the
+kinetic energy below 1e-8 of the loads' and the motions' work.
+
+Displacement control ramps [choice, measured]: the prescribed DOFs move from the last level's
+value to this level's at most RAMP_STEP x the shortest element edge per step, and the
+relaxation's restarts (FIRE or kinetic damping) wait until they arrive; then the level
+relaxes as a load level does.  A jump in one step, like a load's, wrecks the incremental
+(corotational, hypo-elastic) element update: the 10 x 1 cantilever (fem, PL^2/EI = 1, 5
+levels, tip u_z prescribed to the load-controlled run's deflection) came back with a tip
+reaction 3.8 % short of P.  Ramped at 1e-2 / 3e-3 / 1e-3 / 3e-4 of the edge per step it was
+0.12 / 0.014 / 0.0016 / 0.0004 % short, and the motion's work (with the kinetic energy the
+relaxation takes out after the ramp) 66 / 13 / 2.9 / 1.05 x the strain energy; 3e-4 took
+25 000 steps against 16 300 at 1e-3.  Restarts during the ramp (tried first) dumped and
+re-accelerated the shell every few steps: 107 x the strain energy went through the
+relaxation at 1e-3.
 
 The driver is resumable (:mod:`taichi_shell_mpm.checkpoint`): its position is the load
 level and the steps already taken in it, and it cuts each level into batches whose sizes
@@ -17,18 +36,47 @@ from __future__ import annotations
 import numpy as np
 
 from ..checkpoint import RunControl
+from ..curves import evaluate
 from ..energy import balance_ratio
+from ..loading import reference_loads
 from ..simulation import Simulation, SimulationError
 from ..state import STATUS_CONVERGED, STATUS_OK
+from .path import JumpMonitor
 from .stepper import FIRE_ALPHA_START
 
 BATCH_ELEMENT_STEPS = 1_000_000   # one batch ~ 1 s at most, so a Ctrl-C is answered promptly
+RAMP_STEP = 3e-4    # displacement control: a prescribed DOF's move per step / shortest edge (module docstring)
 
 
 def load_norm(sim: Simulation, lam: float) -> float:
-    f = sim.model.load_force
-    m = sim.model.load_moment / sim.model.mean_edge
-    return lam * float(np.sqrt(np.sum(f * f) + np.sum(m * m)))
+    """|F_ext| at load factor lam (every load, in the reference configuration; moments over
+    the mean edge).  Plain loads only: lam |F_ext(1)|, the bits of the runs before issue 18."""
+    if not sim.model.loading.loads:
+        f, m = sim.model.load_force, sim.model.load_moment / sim.model.mean_edge
+        return lam * float(np.sqrt(np.sum(f * f) + np.sum(m * m)))
+    f, m = reference_loads(sim.model, lam)
+    m = m / sim.model.mean_edge
+    return float(np.sqrt(np.sum(f * f) + np.sum(m * m)))
+
+
+def motion_ramp(sim: Simulation, lam_start: float, lam: float) -> float:
+    """The largest change of the motions' argument per step in the level from lam_start to lam:
+    no prescribed DOF moves more than RAMP_STEP x the shortest element edge per step (a
+    rotation: times the mean edge)."""
+    specs = sim.model.loading.curves.specs
+    largest = 0.0
+    for m in sim.model.loading.motions:
+        change = lam - lam_start if m.curve < 0 else evaluate(specs[m.curve], lam) - evaluate(specs[m.curve], lam_start)
+        arm = np.where(np.arange(6) < 3, 1.0, sim.model.mean_edge)
+        largest = max(largest, abs(change) * float(np.max(np.abs(m.value) * arm)))
+    return (lam - lam_start) / max(1, int(np.ceil(largest / (RAMP_STEP * sim.model.min_edge))))
+
+
+def target_sq(sim: Simulation) -> float:
+    """The residual's squared target of this step (with displacement control, the
+    prescribed DOFs' reactions count: stepper.Stepper.end)."""
+    s = sim.state.step
+    return s.residual_target_sq[None] + s.tolerance_sq[None] * s.constraint_sq[None]
 
 
 def batch_size(sim: Simulation, cap: int) -> int:
@@ -44,10 +92,15 @@ def run_static(sim: Simulation, control: RunControl | None = None) -> dict:
     n_levels = scene.solve.load_steps
     budget = scene.solve.max_steps_per_load_step
     chunk = batch_size(sim, 20_000)
+    s.tolerance_sq[None] = scene.solve.tolerance ** 2
     level_steps = sim.driver_data.setdefault("level_steps", [])
     pos = control.resume or {"level": 1, "steps": 0, "started": False}
     j, steps, started = int(pos["level"]), int(pos["steps"]), bool(pos["started"])
     control.start(sim)
+    jumps = JumpMonitor(sim.warn)            # a jump to a remote branch between two levels (issue 19)
+    for level, size in sim.driver_data.get("level_increments", []):
+        jumps.add(level, size)
+    previous = sim.state.fetch("nodes.position")
     reporter = sim.reporter
     reporter.start(int(s.step[None]), (j - 1) / n_levels)
     try:
@@ -56,6 +109,7 @@ def run_static(sim: Simulation, control: RunControl | None = None) -> dict:
             if not started:
                 s.load_factor[None] = lam
                 s.residual_target_sq[None] = (scene.solve.tolerance * load_norm(sim, lam)) ** 2
+                s.motion_ramp[None] = motion_ramp(sim, (j - 1) / n_levels, lam)
                 s.velocity_keep[None] = 0.0          # start each level from rest ...
                 s.restart_factor[None] = 0.5         # ... with the central-difference half step
                 s.kinetic_prev[None] = 0.0
@@ -69,14 +123,13 @@ def run_static(sim: Simulation, control: RunControl | None = None) -> dict:
                     break
                 sim.check_status()
                 if steps >= budget:
-                    ratio = np.sqrt(s.residual_sq[None] / max(s.residual_target_sq[None], 1e-300)) \
-                        * scene.solve.tolerance
+                    ratio = np.sqrt(s.residual_sq[None] / max(target_sq(sim), 1e-300)) * scene.solve.tolerance
                     raise SimulationError(
                         f"load step {j}/{n_levels} (load factor {lam:.4g}) did not converge in {budget} steps "
                         f"at {sim.where()} (residual {ratio:.2e} of the load; raise "
                         "[solve].max_steps_per_load_step or load_steps)")
                 if reporter.due():
-                    target = max(s.residual_target_sq[None], 1e-300)
+                    target = max(target_sq(sim), 1e-300)
                     reporter.show(f"load step {j}/{n_levels} (residual/target "
                                   f"{np.sqrt(s.residual_sq[None] / target):.1e})", int(s.step[None]),
                                   s.dt[None], balance_ratio(sim.energies()),
@@ -88,12 +141,18 @@ def run_static(sim: Simulation, control: RunControl | None = None) -> dict:
             started = False                          # this level's steps are counted
             s.status[None] = STATUS_OK
             sim.record(lam, frame=scene.output.load_steps)
+            position = sim.state.fetch("nodes.position")
+            size = float(np.linalg.norm(position - previous))
+            previous = position
+            jumps.add(lam, size)
+            sim.driver_data.setdefault("level_increments", []).append((lam, size))
             e = sim.energies()
             sim.progress(f"load step {j:3d}/{n_levels}  lambda {lam:.3f}  steps {steps:7d}  dt {s.dt[None]:.3e}  "
                          f"W_ext {e['external_work']:.4e}  E_int {e['internal']:.4e}  E_hg {e['hourglass']:.2e}  "
                          f"[{control.run_seconds():.1f} s]")
             j, steps, started = j + 1, 0, False
             control.boundary(sim, {"level": j, "steps": 0, "started": False})
+        jumps.finish()
     except BaseException:
         if started:          # a failed or interrupted level: its steps were taken too (summary, us/step)
             sim.total_steps += steps

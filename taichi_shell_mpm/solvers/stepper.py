@@ -28,10 +28,12 @@ from ..energy import EnergyLedger
 from ..state import STATUS_CONVERGED, STATUS_OK, State
 from ..stages.accumulate import Accumulator
 from ..stages.bodies import RigidBodies
-from ..stages.constraints import NodeUpdate
+from ..stages.constraints import NodeUpdate, drop_fixed
 from ..stages.contact import SelfContact
 from ..stages.grid import GridUpdate
+from ..stages.loads import ExternalLoads
 from ..stages.mapping import Mapping
+from ..stages.motion import PrescribedMotion
 from ..stages.shell import ShellElement
 from ..stages.timestep import TimeStep
 
@@ -50,8 +52,10 @@ class Stepper:
         self.cfg = cfg                  # config.Features
         self.batched = cfg.serial
         self.energy = EnergyLedger(state, cfg, cfg.plastic)
-        self.bodies = RigidBodies(state, cfg, self.energy)
-        self.nodes = NodeUpdate(state, cfg, self.bodies, self.energy)
+        self.loads = ExternalLoads(state, cfg)
+        self.motion = PrescribedMotion(state, cfg, self.loads, self.energy)
+        self.bodies = RigidBodies(state, cfg, self.energy, self.loads)
+        self.nodes = NodeUpdate(state, cfg, self.bodies, self.energy, self.loads, self.motion)
         self.contact = SelfContact(state, cfg, model) if cfg.contact else None
         self.shell = ShellElement(state, cfg, self.energy)
         self.timestep = TimeStep(state, cfg)
@@ -69,6 +73,10 @@ class Stepper:
         self.s.step.residual_sq[None] = 0.0
         self.s.step.max_speed[None] = 0.0
         self.s.step.reaction[None] = ti.Vector([0.0, 0.0, 0.0])
+        if ti.static(self.cfg.loads):
+            self.loads.begin()              # curves, gravity, pressure at x^n
+            self.s.step.constraint_sq[None] = 0.0
+            self.motion.begin()
         if ti.static(self.cfg.contact):
             self.s.contact.pairs[None] = 0
             self.s.contact.velocity_high[None] = ti.Vector([-1e300, -1e300, -1e300])
@@ -104,10 +112,18 @@ class Stepper:
         self.s.step.velocity_keep[None] = 1.0
         self.s.step.restart_factor[None] = 1.0
         if ti.static(self.cfg.static):
-            if self.s.step.status[None] == STATUS_OK and self.s.step.residual_sq[None] <= self.s.step.residual_target_sq[None] \
-                    and self.s.step.kinetic[None] <= KINETIC_CONVERGED * self.s.step.external_work[None]:
+            target, work = self.s.step.residual_target_sq[None], self.s.step.external_work[None]
+            ramped = True
+            if ti.static(self.cfg.loads):       # displacement control: the prescribed DOFs' forces set the scale
+                target += self.s.step.tolerance_sq[None] * self.s.step.constraint_sq[None]
+                work += self.s.step.motion_work[None]
+                ramped = self.s.step.curve_argument[None] == self.s.step.load_factor[None]
+            if self.s.step.status[None] == STATUS_OK and self.s.step.residual_sq[None] <= target \
+                    and self.s.step.kinetic[None] <= KINETIC_CONVERGED * work and ramped:
                 self.s.step.status[None] = STATUS_CONVERGED
-            if ti.static(self.cfg.fire):
+            if not ramped:
+                self.s.step.kinetic_prev[None] = self.s.step.kinetic[None]
+            elif ti.static(self.cfg.fire):
                 self.fire()
             elif self.s.step.kinetic[None] < self.s.step.kinetic_prev[None]:
                 self.restart_from_rest()         # kinetic damping: a KE peak has passed
@@ -140,6 +156,9 @@ class Stepper:
             if not self.nodes.is_prescribed(c):
                 force, torque = self.nodes.residual_force(c), self.nodes.residual_torque(c)
                 v, w = self.s.nodes.grid_velocity[c], self.s.nodes.omega[c]
+                if ti.static(self.cfg.loads):      # a prescribed DOF's velocity is no relaxation
+                    held = self.s.nodes.motion_mask[c]
+                    v, w = drop_fixed(v, held, 0), drop_fixed(w, held, 3)
                 m, inertia = self.s.nodes.mass[c], self.s.nodes.inertia[c]
                 self.acc.total(self.s.step.fire_power, force.dot(v) + torque.dot(w))
                 self.acc.total(self.s.step.fire_speed_sq, m * v.norm_sqr() + inertia * w.norm_sqr())

@@ -22,10 +22,11 @@ class RigidBodies:
     """Bodies and walls are run-time tables (state.bodies); Features.bodies / walls decide
     whether their code is compiled."""
 
-    def __init__(self, state, cfg, energy):
+    def __init__(self, state, cfg, energy, loads):
         self.s = state
         self.cfg = cfg
         self.energy = energy            # energy.EnergyLedger
+        self.loads = loads              # stages/loads.ExternalLoads
         self.acc = Accumulator(cfg.serial)
         # threads launch: wall impulses summed in node order instead of by atomics (serial
         # and gpu launches add them directly)
@@ -33,13 +34,17 @@ class RigidBodies:
 
     @ti.func
     def update(self):
-        """V^{n+1/2} = V^{n-1/2} + dt F / M_tot with F = sum over slaves of (f_ext - f_int + f_con).dir."""
+        """V^{n+1/2} = V^{n-1/2} + dt F / M_tot with F = sum over slaves of (f_ext - f_int + f_con).dir
+        (+ the added mass's weight under gravity)."""
         for b in range(self.s.bodies.count[None]):
             d = self.s.bodies.direction[b]
             force = 0.0
+            if ti.static(self.cfg.loads):
+                force = self.s.bodies.added_mass[b] * self.s.loads.gravity_now[None].dot(d)      # its weight
             for i in range(self.s.bodies.first_slave[b], self.s.bodies.first_slave[b] + self.s.bodies.slave_count[b]):
                 c = self.s.bodies.slave_nodes[i]
-                f = self.s.step.load_factor[None] * self.s.nodes.load_force[c] - self.s.nodes.force_int[c]
+                external, _ = self.loads.at_node(c)
+                f = external - self.s.nodes.force_int[c]
                 if ti.static(self.cfg.contact):
                     f += self.s.contact.force[c]
                 force += f.dot(d)
@@ -49,6 +54,10 @@ class RigidBodies:
             self.s.bodies.velocity_start[b] = self.s.step.velocity_keep[None] * self.s.bodies.velocity[b]
             self.s.bodies.velocity[b] = self.s.step.velocity_keep[None] * self.s.bodies.velocity[b] + impulse_time(self.s.step) * force / self.s.bodies.total_mass[b]
             self.s.bodies.displacement[b] += self.s.step.dt[None] * self.s.bodies.velocity[b]
+            if ti.static(self.cfg.loads):      # the added mass's weight works on the body (the slaves' loads: per node)
+                weight = self.s.bodies.added_mass[b] * self.s.loads.gravity_now[None].dot(d)
+                self.energy.body_external(b, impulse_time(self.s.step) * weight * 0.5
+                                          * (self.s.bodies.velocity_start[b] + self.s.bodies.velocity[b]))
 
     @ti.func
     def slave_velocity(self, c):

@@ -1,5 +1,7 @@
-"""Node-level update after the velocity is known: essential BCs, position, rotations
-(stages S4 tail, S5, S6; method.md 2.3 and 2.5) and the per-node energy terms (section 8).
+"""Node-level update after the velocity is known: essential BCs and prescribed motion
+(stages/motion.py), position, rotations (stages S4 tail, S5, S6; method.md 2.3 and 2.5) and
+the per-node energy terms (section 8).  The external loads come from
+stages/loads.ExternalLoads.at_node.
 
 Also the explicit-FE node update used in ``fem`` mode, where the grid is switched off and
 the same BT forces are integrated directly at the nodes.
@@ -26,18 +28,28 @@ def drop_fixed(vec, mask, first_bit: ti.template()):
 
 @ti.data_oriented
 class NodeUpdate:
-    def __init__(self, state: State, cfg, bodies, energy):
+    def __init__(self, state: State, cfg, bodies, energy, loads, motion):
         self.s = state
         self.cfg = cfg
         self.bodies = bodies
         self.energy = energy            # energy.EnergyLedger
+        self.loads = loads              # stages/loads.ExternalLoads
+        self.motion = motion            # stages/motion.PrescribedMotion
         self.acc = Accumulator(cfg.serial)
 
     @ti.func
+    def held(self, c):
+        """DOF bits (ux .. rz) of node c that a [[boundary]] fixes or a [[motion]] prescribes."""
+        mask = self.s.nodes.fix_mask[c]
+        if ti.static(self.cfg.loads):
+            mask |= self.s.nodes.motion_mask[c]
+        return mask
+
+    @ti.func
     def is_prescribed(self, c):
-        """Fully prescribed translation or rigid-body slave: Lagrangian only, skipped by P2G/G2P
-        (method.md 2.5a, 2.5c)."""
-        return (self.s.nodes.fix_mask[c] & FIXED_TRANSLATION) == FIXED_TRANSLATION or self.s.nodes.body[c] >= 0
+        """All translations fixed or prescribed, or a rigid-body slave: Lagrangian only, skipped
+        by P2G/G2P (method.md 2.5a, 2.5c)."""
+        return (self.held(c) & FIXED_TRANSLATION) == FIXED_TRANSLATION or self.s.nodes.body[c] >= 0
 
     @ti.func
     def drill_normal(self, c):
@@ -53,26 +65,29 @@ class NodeUpdate:
 
     @ti.func
     def residual_force(self, c):
-        """Out-of-balance nodal force f_ext - f_int with fixed components dropped."""
-        r = self.s.step.load_factor[None] * self.s.nodes.load_force[c] - self.s.nodes.force_int[c]
+        """Out-of-balance nodal force f_ext - f_int (+ f_con) with fixed and prescribed components dropped."""
+        force, _ = self.loads.at_node(c)
+        r = force - self.s.nodes.force_int[c]
         if ti.static(self.cfg.contact):
             r += self.s.contact.force[c]
-        return drop_fixed(r, self.s.nodes.fix_mask[c], 0)
+        return drop_fixed(r, self.held(c), 0)
 
     @ti.func
     def residual_torque(self, c):
         """Out-of-balance nodal moment mu_ext - mu_int without its drilling part (method.md 2.3),
         fixed components dropped."""
         normal, project = self.drill_normal(c)
-        return self.residual_torque_about(c, normal, project)
+        _, moment = self.loads.at_node(c)
+        return self.residual_torque_about(c, normal, project, moment)
 
     @ti.func
-    def residual_torque_about(self, c, normal, project):
-        """residual_torque with the node's drilling normal already at hand (finish has it)."""
-        torque = self.s.step.load_factor[None] * self.s.nodes.load_moment[c] - self.s.nodes.moment_int[c]
+    def residual_torque_about(self, c, normal, project, moment):
+        """residual_torque with the node's drilling normal and external moment already at hand
+        (finish has them)."""
+        torque = moment - self.s.nodes.moment_int[c]
         if project:
             torque -= torque.dot(normal) * normal
-        return drop_fixed(torque, self.s.nodes.fix_mask[c], 3)
+        return drop_fixed(torque, self.held(c), 3)
 
     @ti.func
     def velocity_gain(self, mass):
@@ -84,13 +99,13 @@ class NodeUpdate:
 
     @ti.func
     def finish(self, c, v_grid):
-        """Given the node's new grid velocity: apply BCs and walls, move it, update omega
-        (S5 with the drilling projection of method.md 2.3), book KE, the node's energy
-        increments (energy.py: work with the time-centred velocity), residual and max speed,
-        and (batched launch) zero the node sums of the element loads."""
+        """Given the node's new grid velocity: apply BCs, prescribed motion and walls, move it,
+        update omega (S5 with the drilling projection of method.md 2.3), book KE, the node's
+        energy increments (energy.py: work with the time-centred velocity), residual and max
+        speed, and (batched launch) zero the node sums of the element loads."""
         dt = self.s.step.dt[None]
         mask = self.s.nodes.fix_mask[c]
-        lam = self.s.step.load_factor[None]
+        force_ext, moment_ext = self.loads.at_node(c)
         keep = self.s.step.velocity_keep[None]
         v_start = keep * self.s.nodes.grid_velocity[c]          # v^(n-1/2) (0 after a relaxation reset)
         w_start = keep * self.s.nodes.omega[c]
@@ -99,15 +114,19 @@ class NodeUpdate:
         if ti.static(self.cfg.bodies):
             if rigid:
                 vg = self.bodies.slave_velocity(c)
+        moved = 0                                            # DOF bits prescribed by a motion
+        if ti.static(self.cfg.loads):
+            moved = self.s.nodes.motion_mask[c]
+            vg = self.motion.prescribed(c, vg, v_start, 0)
         before_walls = vg
         if (mask & FIXED_TRANSLATION) == FIXED_TRANSLATION:
             # support reaction R = f_int - f_ext - f_con (method.md 2.5a)
-            reaction = self.s.nodes.force_int[c] - lam * self.s.nodes.load_force[c]
+            reaction = self.s.nodes.force_int[c] - force_ext
             if ti.static(self.cfg.contact):
                 reaction -= self.s.contact.force[c]
             self.acc.total(self.s.step.reaction, reaction)
         elif ti.static(self.cfg.walls):
-            if not rigid:
+            if not rigid and (moved & FIXED_TRANSLATION) == 0:      # walls leave prescribed nodes alone
                 vg = self.bodies.walls(c, vg)
         if not (vg.norm() <= self.s.step.runaway_speed[None]):       # also catches NaN
             self.s.step.status[None] = STATUS_NONFINITE
@@ -120,28 +139,39 @@ class NodeUpdate:
         self.s.nodes.position[c] += dt * vg
         # rotations: J w' = mu_ext - mu_int, then remove the drilling component
         normal, project = self.drill_normal(c)
-        torque = lam * self.s.nodes.load_moment[c] - self.s.nodes.moment_int[c]
+        torque = moment_ext - self.s.nodes.moment_int[c]
         w = w_start + self.velocity_gain(self.s.nodes.inertia[c]) * torque
         if project:
             w -= w.dot(normal) * normal
         w = drop_fixed(w, mask, 3)
         if rigid:
             w = ti.Vector([0.0, 0.0, 0.0])
+        if ti.static(self.cfg.loads):
+            w = self.motion.prescribed(c, w, w_start, 3)
         self.s.nodes.omega[c] = w
         self.rotate_orientation(c, dt * w)
         if not rigid:        # a slave's rotation is held and its translation is the body's (stages/bodies.py)
             self.acc.total(self.s.step.residual_sq,
-                           self.residual_torque_about(c, normal, project).norm_sqr() / (self.s.step.length_ref[None] ** 2))
-            self.acc.total(self.s.step.kinetic, 0.5 * (self.s.nodes.mass[c] * vg.norm_sqr()
-                                                  + self.s.nodes.inertia[c] * w.norm_sqr()))
+                           self.residual_torque_about(c, normal, project, moment_ext).norm_sqr()
+                           / (self.s.step.length_ref[None] ** 2))
+            moving_v, moving_w = vg, w
+            if ti.static(self.cfg.static and self.cfg.loads):      # a prescribed DOF's speed is no relaxation
+                moving_v, moving_w = drop_fixed(vg, moved, 0), drop_fixed(w, moved, 3)
+            self.acc.total(self.s.step.kinetic, 0.5 * (self.s.nodes.mass[c] * moving_v.norm_sqr()
+                                                  + self.s.nodes.inertia[c] * moving_w.norm_sqr()))
         v_mid, w_mid = 0.5 * (v_start + vg), 0.5 * (w_start + w)
         kick = impulse_time(self.s.step)              # the duration of the velocity update (dt/2 from rest)
-        external = kick * lam * (self.s.nodes.load_force[c].dot(v_mid) + self.s.nodes.load_moment[c].dot(w_mid))
+        external = self.loads.work(c, v_mid, w_mid, kick)
         contact = 0.0
+        force = force_ext - self.s.nodes.force_int[c]
         if ti.static(self.cfg.contact):
             contact = -kick * self.s.contact.force[c].dot(v_mid)
+            force += self.s.contact.force[c]
         wall = -self.s.nodes.mass[c] * (vg - before_walls).dot(v_mid)     # minus the walls' impulse . v_mid
-        self.energy.node(c, external, contact, wall)
+        motion = 0.0
+        if ti.static(self.cfg.loads):
+            motion = self.motion.book(c, force, torque, v_start, vg, w_start, w)
+        self.energy.node(c, external, contact, wall, motion)
         self.acc.maximum(self.s.step.max_speed, ti.max(ti.abs(vg[0]), ti.abs(vg[1]), ti.abs(vg[2])))
         if ti.static(self.cfg.contact):
             for d in ti.static(range(3)):
@@ -156,14 +186,24 @@ class NodeUpdate:
 
     @ti.func
     def rotate_orientation(self, c, dtheta):
-        """q <- normalize(q + 1/2 (0, dtheta) q): orientation for output only (BT needs no nodal frame)."""
+        """q <- normalize(q + 1/2 (0, dtheta) q): the orientation, for output only (BT needs no
+        nodal frame).  With follower loads or prescribed motion it is physics (the loads turn
+        with it; a prescribed rotation is checked against it), and the increment is the exact
+        (cos(phi/2), sin(phi/2) dtheta / phi) q, phi = |dtheta| [choice: the first-order form
+        turns by 2 atan(phi/2), 3e-4 rad short of a static level's 0.157 rad jump]."""
         q = self.s.nodes.rotation[c]
         p = 0.5 * dtheta
+        w = 1.0
+        if ti.static(self.cfg.loads):
+            half = p.norm()
+            w = ti.cos(half)
+            if half > 1e-8:
+                p *= ti.sin(half) / half
         r = ti.Vector([
-            q[0] - p[0] * q[1] - p[1] * q[2] - p[2] * q[3],
-            q[1] + p[0] * q[0] + p[1] * q[3] - p[2] * q[2],
-            q[2] - p[0] * q[3] + p[1] * q[0] + p[2] * q[1],
-            q[3] + p[0] * q[2] - p[1] * q[1] + p[2] * q[0]])
+            w * q[0] - p[0] * q[1] - p[1] * q[2] - p[2] * q[3],
+            w * q[1] + p[0] * q[0] + p[1] * q[3] - p[2] * q[2],
+            w * q[2] - p[0] * q[3] + p[1] * q[0] + p[2] * q[1],
+            w * q[3] + p[0] * q[2] - p[1] * q[1] + p[2] * q[0]])
         self.s.nodes.rotation[c] = r.normalized()
 
     @ti.func

@@ -1,8 +1,9 @@
 """Penalty node-to-segment self-contact (stage S1; method.md 7.3), compiled only for scenes
 with a [contact] table.
 
-Segments are the element faces split into triangles (1,2,3), (1,3,4), both sides active,
-contact thickness t_c.  Excluded: elements touching the node's one-ring of nodes.  Each
+Segments are the element faces split into triangles (1,2,3), (1,3,4) (a triangular element
+is one segment), both sides active, contact thickness t_c.  Excluded: elements touching the
+node's one-ring of nodes.  Each
 node takes its single closest penetrating segment [choice: no double counting where
 segments meet]; the force k g + c g' along the closest-point direction (so edges and
 vertices are handled too) goes to the node and, with the barycentric weights, back to the
@@ -112,9 +113,23 @@ class SelfContact:
         return ti.floor(x / self.s.contact.hash_cell[None], ti.i32)
 
     @ti.func
-    def centroid(self, e):
+    def segment_corners(self, e):
+        """Element e's corners, a triangle's 4th read as its 1st (then (x3 - x1) x (x4 - x2) is
+        its normal x 2A, and the 4th barycentric weight, always 0, lands on a real node)."""
         c = self.s.elements.corners[e]
-        return 0.25 * (self.s.nodes.position[c[0]] + self.s.nodes.position[c[1]] + self.s.nodes.position[c[2]] + self.s.nodes.position[c[3]])
+        if ti.static(self.cfg.triangles):
+            if c[3] < 0:
+                c[3] = c[0]
+        return c
+
+    @ti.func
+    def centroid(self, e):
+        c = self.segment_corners(e)
+        centre = 0.25 * (self.s.nodes.position[c[0]] + self.s.nodes.position[c[1]] + self.s.nodes.position[c[2]] + self.s.nodes.position[c[3]])
+        if ti.static(self.cfg.triangles):
+            if c[3] == c[0]:
+                centre = (self.s.nodes.position[c[0]] + self.s.nodes.position[c[1]] + self.s.nodes.position[c[2]]) / 3.0
+        return centre
 
     @ti.func
     def excluded(self, c, e):
@@ -152,7 +167,7 @@ class SelfContact:
             if rebuild:
                 centre = self.centroid(e)
                 radius = 0.0
-                c = self.s.elements.corners[e]
+                c = self.segment_corners(e)
                 for a in ti.static(range(4)):
                     radius = ti.max(radius, (self.s.nodes.position[c[a]] - centre).norm())
                 self.s.contact.element_radius[e] = radius
@@ -244,7 +259,7 @@ class SelfContact:
         for c in range(self.s.nodes.count[None]):
             e = self.s.contact.last_element[c]
             if e >= 0:
-                corners = self.s.elements.corners[e]
+                corners = self.segment_corners(e)
                 force = self.s.contact.pair_force[c]
                 w = self.s.contact.pair_weight[c]
                 self.scatter_acc.add(self.s.contact.force, c, force)
@@ -264,12 +279,15 @@ class SelfContact:
         best_w = ti.Vector([0.0, 0.0, 0.0, 0.0])
         for i in range(self.s.contact.candidate_start[c], self.s.contact.candidate_start[c + 1]):
             e = self.s.contact.candidate_elements[i]
-            corners = self.s.elements.corners[e]
+            corners = self.segment_corners(e)
             p0, p1 = self.s.nodes.position[corners[0]], self.s.nodes.position[corners[1]]
             p2, p3 = self.s.nodes.position[corners[2]], self.s.nodes.position[corners[3]]
             qa, ba = closest_point_on_triangle(x, p0, p1, p2)
             qb, bb = closest_point_on_triangle(x, p0, p2, p3)
             da, db = (x - qa).norm(), (x - qb).norm()
+            if ti.static(self.cfg.triangles):
+                if corners[3] == corners[0]:     # a triangle: one segment (the second, (1,3,1), is a line)
+                    db = 2.0 * t_c
             if da < best_dist:
                 best_dist, best_e, best_point = da, e, qa
                 best_w = ti.Vector([ba[0], ba[1], ba[2], 0.0])
@@ -277,7 +295,7 @@ class SelfContact:
                 best_dist, best_e, best_point = db, e, qb
                 best_w = ti.Vector([bb[0], 0.0, bb[1], bb[2]])
         if best_e >= 0 and best_dist > 0.0 and dt > 0.0:
-            corners = self.s.elements.corners[best_e]
+            corners = self.segment_corners(best_e)
             normal = (x - best_point) / best_dist
             gap = t_c - best_dist
             facet = (self.s.nodes.position[corners[2]] - self.s.nodes.position[corners[0]]).cross(

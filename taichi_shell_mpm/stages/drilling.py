@@ -64,12 +64,12 @@ class DrillingSpring:
 
     @ti.func
     def nodal_loads(self, moment, b1, b2):
-        """Resisting local forces and moments (4x3) of the corner moments M_a: the transpose of
-        `rates`."""
-        f = ti.Matrix.zero(ti.f64, 4, 3)
-        m = ti.Matrix.zero(ti.f64, 4, 3)
+        """Resisting local forces and moments (corners x 3: 4 for a quad, 3 for a triangle) of
+        the corner moments M_a: the transpose of `rates`."""
+        f = ti.Matrix.zero(ti.f64, moment.n, 3)
+        m = ti.Matrix.zero(ti.f64, moment.n, 3)
         total = moment.sum()
-        for a in ti.static(range(4)):
+        for a in ti.static(range(moment.n)):
             f[a, 0] = 0.5 * b2[a] * total
             f[a, 1] = -0.5 * b1[a] * total
             m[a, 2] = moment[a]

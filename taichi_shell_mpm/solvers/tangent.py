@@ -1,0 +1,257 @@
+"""The shell's internal forces for a trial increment from the last converged state, and
+their tangent stiffness by central differences, element by element (issue 19).
+
+Why a trial increment.  The element is in rate form (stages/shell.py): one update turns
+the corner displacements dt v and rotation increments dt omega of a step into a strain
+increment on the mid-step geometry, updates the stress at each through-thickness point
+(the plastic return included), the hourglass and drilling resultants, and gives the
+resisting nodal forces at the end of the step.  So the internal force of an increment
+(du, dtheta) is *one* element update with dt = 1, v = du, omega = dtheta, positions
+x_n + du, from the converged state (stress, plastic strain, hourglass and drilling
+resultants of the start of the increment) [choice]: a Newton iterate is a trial of that one
+update, never an accumulation of them, so the equations solved are exactly those of a
+(large) explicit step from the converged point.  The rotation increment enters the element
+only as dtheta (the BT frame comes from the geometry, method.md 3.1); the nodal
+orientation is composed with exp(dtheta) once the increment has converged
+(:meth:`IncrementalForces.commit`).
+
+How, without a second copy of the element.  The element pass of the explicit step is
+reused as it is, on a *virtual* state (state.State of a virtual model): each element e
+appears P = 1 + 2 x 24 times with 4 private corner nodes: slot 0 with the trial increment,
+slot 1 + 2 j (+ 1) with degree of freedom j of its 24 (corner a = j // 6, component j % 6:
+ux uy uz rx ry rz) moved by +h (-h).  One parallel element pass (stages/shell.ShellElement,
+the parallel launch: corner loads in per-element slots, no scatter) then gives the forces
+of the trial increment (slot 0) and the 24 x 24 element tangent
+K_e[:, j] = (f(+h_j) - f(-h_j)) / (2 h_j): the derivative of exactly the discrete forces
+the explicit step uses (hourglass, drilling spring, BWC, the plane-stress return, i.e. the
+consistent tangent of the return map).  h = FD_STEP x the mean edge for translations and
+FD_STEP radians for rotations.
+
+Cost: 49 element updates per element and iteration (measured: docs/newton.md).  The
+virtual state holds 4 x 49 nodes per element (about 0.1 MB per element).
+"""
+
+import dataclasses
+
+import numpy as np
+import taichi as ti
+
+from ..energy import ELEMENT_PARTS, EnergyLedger
+from ..stages.shell import ShellElement
+from ..state import STATUS_OK, State
+
+DOFS_PER_ELEMENT = 24
+SLOTS = 1 + 2 * DOFS_PER_ELEMENT          # the trial increment, then +h / -h of each element DOF
+FD_STEP = 1e-6     # central-difference step: relative to the mean edge (translations), radians (rotations)
+ELEMENT_SUBSTEPS = 1        # element updates along the trial increment (docs/newton.md)
+STAGGER = ELEMENT_PARTS.index("stagger")     # the element pass books dt/2 P_e there (energy.py): dt = 1 is no time step
+MAX_VIRTUAL_ELEMENTS = 1 << 22            # ~85 000 shell elements (about 8 GB): a clear error beyond
+
+
+def virtual_model(model, slots: int):
+    """`model` with each element repeated `slots` times, slot-major (virtual element
+    s * m + e), each copy on 4 private nodes (virtual node 4 v + a); nothing is loaded,
+    fixed or inertial there (the virtual state only runs the element pass)."""
+    m = len(model.elements)
+    count = m * slots
+    el = model.element
+    tile = {f.name: np.tile(getattr(el, f.name), slots) for f in dataclasses.fields(el)}
+    corners = np.arange(4 * count, dtype=np.int32).reshape(count, 4)
+    corners[np.tile(model.elements[:, 3] < 0, slots), 3] = -1        # a triangle stays one
+    n = 4 * count
+    points = np.zeros((n, 3))
+    ones = np.ones(n)
+    return dataclasses.replace(
+        model, points=points, elements=corners, element=type(el)(**tile),
+        area0=np.tile(model.area0, slots), corner_weight=np.tile(model.corner_weight, (slots, 1)),
+        corner_mass=np.tile(model.corner_mass, (slots, 1)), corner_inertia=np.tile(model.corner_inertia, (slots, 1)),
+        node_mass=ones, node_inertia=ones, node_area=ones, node_thickness=np.ones(n),
+        fix_mask=np.zeros(n, np.int32), load_force=np.zeros((n, 3)), load_moment=np.zeros((n, 3)),
+        velocity0=np.zeros((n, 3)), omega0=np.zeros((n, 3)), grid=None, probes=(), rigid_bodies=(), walls=(),
+        node_body=np.full(n, -1, np.int32), neighbor_start=None, neighbor_nodes=None)
+
+
+@ti.data_oriented
+class IncrementalForces:
+    """Internal forces and element tangents of trial increments of `sim`'s shell (module
+    docstring).  ``evaluate`` fills numpy arrays; ``commit`` makes an increment the new
+    converged state of ``sim.state``."""
+
+    def __init__(self, sim):
+        self.sim = sim
+        self.main = sim.state
+        model = sim.model
+        self.m, self.n = len(model.elements), len(model.points)
+        if self.m * SLOTS > MAX_VIRTUAL_ELEMENTS:
+            raise ValueError(f"{self.m} elements: the Newton tangent holds {SLOTS} copies of each, more than "
+                             f"{MAX_VIRTUAL_ELEMENTS} in all")
+        launch = "threads" if sim.arch == "cpu" else "gpu"
+        self.cfg = dataclasses.replace(sim.cfg, method="fem", launch=launch, grid_rule=False, grid_planes=False,
+                                       bodies=False, walls=False, moving_walls=False, contact=False, friction=False)
+        vmodel = virtual_model(model, SLOTS)
+        self.v = State(vmodel, self.cfg)
+        self.v.load(vmodel)
+        self.v.step.dt[None] = 1.0                  # v = du, omega = dtheta: one update of dt = 1
+        self.shell = ShellElement(self.v, self.cfg, EnergyLedger(self.v, self.cfg, self.cfg.plastic))
+        self.plastic = self.cfg.plastic
+        self.drilling = self.cfg.drilling_spring
+        self.substeps = ELEMENT_SUBSTEPS
+        self.internal = np.zeros((self.n, 6))
+        self.stiffness = np.zeros((self.m, DOFS_PER_ELEMENT, DOFS_PER_ELEMENT))
+
+    # ------------------------------------------------------------------ kernels
+    @ti.func
+    def step(self, k: ti.template()):
+        """The central-difference step of component k (run-time: the mean edge is data)."""
+        h = FD_STEP
+        if ti.static(k < 3):
+            h *= self.v.step.length_ref[None]
+        return h
+
+    @ti.func
+    def load_slot(self, ve, increment: ti.template(), fraction, share, restore):
+        """Virtual element ve for a sub-step of the trial increment d (+- h on its DOF): corners
+        at x_n + fraction d, v = share d (translations), omega = share d (rotations); with
+        `restore`, its stress, plastic strain, resultants and energies those of the converged
+        element."""
+        m = self.main.elements.count[None]
+        slot, e = ve // m, ve % m
+        j = (slot - 1) // 2
+        sign = 1.0 - 2.0 * ((slot - 1) % 2)
+        c = self.main.elements.corners[e]
+        for a in ti.static(range(4)):
+            node = 4 * ve + a
+            if c[a] >= 0:
+                d = ti.Vector.zero(ti.f64, 6)
+                for k in ti.static(range(6)):
+                    d[k] = increment[c[a], k]
+                    if slot > 0 and j == 6 * a + k:
+                        d[k] += sign * self.step(k)
+                du = ti.Vector([d[0], d[1], d[2]])
+                self.v.nodes.position[node] = self.main.nodes.position[c[a]] + fraction * du
+                self.v.nodes.grid_velocity[node] = share * du
+                self.v.nodes.omega[node] = share * ti.Vector([d[3], d[4], d[5]])
+        if restore:
+            for k in ti.static(range(self.cfg.points)):
+                self.v.points.stress[ve, k] = self.main.points.stress[e, k]
+                if ti.static(self.plastic):
+                    self.v.points.plastic_strain[ve, k] = self.main.points.plastic_strain[e, k]
+            self.v.elements.hourglass_resultant[ve] = self.main.elements.hourglass_resultant[e]
+            if ti.static(self.drilling):
+                self.v.elements.drilling_moment[ve] = self.main.elements.drilling_moment[e]
+            self.v.elements.energy[ve] = self.main.elements.energy[e]
+
+    @ti.kernel
+    def _substep(self, increment: ti.types.ndarray(), tangent: ti.i32, fraction: ti.f64, share: ti.f64,
+                 restore: ti.i32):
+        """One element pass over slot 0 (with `tangent` all slots) of every element: the
+        sub-step of the trial increment that ends at `fraction` of it and covers `share` of it
+        (from the converged element state when `restore`).  `tangent` is run-time data: one
+        kernel for both (its front end costs ~4 s, docs/newton.md)."""
+        m = self.main.elements.count[None]
+        count = m
+        if tangent:
+            count = m * SLOTS
+        self.v.elements.count[None] = count
+        self.v.nodes.count[None] = 4 * count
+        if restore:
+            self.v.step.status[None] = STATUS_OK
+        for ve in range(count):
+            self.load_slot(ve, increment, fraction, share, restore)
+        self.shell.element_pass()
+
+    @ti.kernel
+    def _collect(self, internal: ti.types.ndarray(), stiffness: ti.types.ndarray(), tangent: ti.i32) -> ti.i32:
+        """The trial's nodal internal forces into `internal` (n, 6) and, with `tangent`, the
+        element tangents into `stiffness` (m, 24, 24).  Returns the first failing virtual
+        element (status), or -1."""
+        m = self.main.elements.count[None]
+        for c, k in ti.ndrange(self.main.nodes.count[None], 6):
+            internal[c, k] = 0.0
+        for _ in range(1):                        # serial: the corner loads summed at the nodes
+            for e in range(m):
+                c = self.main.elements.corners[e]
+                for a in ti.static(range(4)):
+                    if c[a] >= 0:
+                        load = self.v.elements.corner_loads[e, a]
+                        for k in ti.static(range(6)):
+                            internal[c[a], k] += load[k]
+        if tangent:
+            for e, j in ti.ndrange(m, DOFS_PER_ELEMENT):
+                h = FD_STEP
+                if j % 6 < 3:
+                    h *= self.v.step.length_ref[None]
+                for a in ti.static(range(4)):
+                    plus = self.v.elements.corner_loads[(1 + 2 * j) * m + e, a]
+                    minus = self.v.elements.corner_loads[(2 + 2 * j) * m + e, a]
+                    for k in ti.static(range(6)):
+                        stiffness[e, 6 * a + k, j] = (plus[k] - minus[k]) / (2.0 * h)
+        failed = -1
+        if self.v.step.status[None] != STATUS_OK:
+            failed = self.v.step.status_index[None]
+        return failed
+
+    @ti.kernel
+    def _commit(self, increment: ti.types.ndarray()):
+        """Slot 0's element state becomes the converged one; nodes move by du, their
+        orientation turns by exp(dtheta), velocities are zero (a static equilibrium)."""
+        m = self.main.elements.count[None]
+        for e in range(m):
+            for k in ti.static(range(self.cfg.points)):
+                self.main.points.stress[e, k] = self.v.points.stress[e, k]
+                if ti.static(self.plastic):
+                    self.main.points.plastic_strain[e, k] = self.v.points.plastic_strain[e, k]
+            self.main.elements.hourglass_resultant[e] = self.v.elements.hourglass_resultant[e]
+            if ti.static(self.drilling):
+                self.main.elements.drilling_moment[e] = self.v.elements.drilling_moment[e]
+            energy = self.v.elements.energy[e]
+            energy[STAGGER] = self.main.elements.energy[e][STAGGER]     # no kinetic energy: no stagger term
+            self.main.elements.energy[e] = energy
+        for c in range(self.main.nodes.count[None]):
+            du = ti.Vector([increment[c, 0], increment[c, 1], increment[c, 2]])
+            theta = ti.Vector([increment[c, 3], increment[c, 4], increment[c, 5]])
+            self.main.nodes.position[c] += du
+            self.main.nodes.grid_velocity[c] = ti.Vector([0.0, 0.0, 0.0])
+            self.main.nodes.velocity[c] = ti.Vector([0.0, 0.0, 0.0])
+            self.main.nodes.omega[c] = ti.Vector([0.0, 0.0, 0.0])
+            angle = theta.norm()
+            s = 0.5
+            if angle > 1e-12:
+                s = ti.sin(0.5 * angle) / angle
+            p = s * theta                       # q_inc = (cos(angle/2), sin(angle/2) theta/angle)
+            w = ti.cos(0.5 * angle)
+            q = self.main.nodes.rotation[c]
+            self.main.nodes.rotation[c] = ti.Vector([
+                w * q[0] - p[0] * q[1] - p[1] * q[2] - p[2] * q[3],
+                w * q[1] + p[0] * q[0] + p[1] * q[3] - p[2] * q[2],
+                w * q[2] - p[0] * q[3] + p[1] * q[0] + p[2] * q[1],
+                w * q[3] + p[0] * q[2] - p[1] * q[1] + p[2] * q[0]]).normalized()
+
+    # ------------------------------------------------------------------ host
+    def compile(self) -> None:
+        """Compile (or load) the kernels: a zero increment, with and without the tangent, and
+        its commit."""
+        zero = np.zeros((self.n, 6))
+        self.evaluate(zero, tangent=True)
+        self.evaluate(zero, tangent=False)
+        self.commit(zero)                     # changes nothing: slot 0 holds the converged state
+        ti.sync()
+
+    def evaluate(self, increment: np.ndarray, tangent: bool) -> int:
+        """Internal forces (self.internal, (n, 6): force, moment) of the trial increment
+        (n, 6) and, with `tangent`, the element tangents (self.stiffness).  Returns the
+        virtual element whose update failed (inverted, return map) in slot 0, or -1."""
+        increment = np.ascontiguousarray(increment, dtype=np.float64)
+        failed = self._run(increment, tangent)
+        if failed >= self.m:                 # a perturbed copy failed: check the trial itself
+            failed = self._run(increment, False)
+        return failed
+
+    def _run(self, increment: np.ndarray, tangent: bool) -> int:
+        n = self.substeps
+        for k in range(n):
+            self._substep(increment, int(tangent), (k + 1) / n, 1.0 / n, int(k == 0))
+        return int(self._collect(self.internal, self.stiffness, int(tangent)))
+
+    def commit(self, increment: np.ndarray) -> None:
+        self._commit(np.ascontiguousarray(increment, dtype=np.float64))
