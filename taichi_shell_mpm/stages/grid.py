@@ -155,15 +155,14 @@ class GridUpdate:
         for q in range(8):
             g = self.s.grid.node_slots[c][q]
             f = -1
-            for s in range(MAX_FIELDS):
-                a = self.s.grid.anchor[g][s] - 1
-                if a < 0:
-                    self.s.grid.anchor[g][s] = c + 1
-                    f = s
-                    break
-                elif self.same_layer(c, a):
-                    f = s
-                    break
+            for s in ti.static(range(MAX_FIELDS)):
+                if f < 0:
+                    a = self.s.grid.anchor[g][s] - 1
+                    if a < 0:
+                        self.s.grid.anchor[g][s] = c + 1
+                        f = s
+                    elif self.same_layer(c, a):
+                        f = s
             if f < 0:
                 f = MAX_FIELDS - 1
                 ti.atomic_add(self.s.grid.field_overflow[None], 1)
