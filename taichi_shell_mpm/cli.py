@@ -162,7 +162,7 @@ def setup_warnings(scene, model) -> list[str]:
         lines.append(f"{scene.source.name}: [method].cell_size: {model.grid.h:g} is more than "
                      f"{STICKING_CELL_RATIO:g} x the longest element edge ({model.max_edge:.3g}); with [contact], "
                      "shell layers within two cells stick through the grid (docs/crush.md, sticking check): "
-                     "use fields = \"multi\" (the default with [contact]) or about half the element size")
+                     "use fields = \"multi\" or about half the element size")
     return lines
 
 

@@ -104,6 +104,5 @@ class Features:
             moving_walls=any(w.body >= 0 for w in model.walls),
             contact=scene.contact is not None,
             friction=scene.contact is not None and scene.contact.friction > 0.0,
-            multi_field=model.grid is not None and (scene.method.fields == "multi" or (
-                scene.method.fields == "auto" and scene.contact is not None)),
+            multi_field=model.grid is not None and scene.method.fields == "multi",
             launch=launch, loads=model.loading.loads)

@@ -296,9 +296,9 @@ class Method:
     the shell, stages/grid.py)."""
     transfer: Literal["apic", "pic", "flip"] = "apic"
     flip_blend: float = 0.99
-    fields: Literal["auto", "single", "multi"] = "auto"
+    fields: Literal["single", "multi"] = "single"
     """Velocity fields per grid node (stages/grid.py): ``multi`` keeps a field per shell layer
-    at each grid node, ``single`` one velocity; ``auto`` = multi with [contact]."""
+    at each grid node, ``single`` one velocity."""
 
 
 # ---------------------------------------------------------------- node sets, BCs, loads
@@ -1026,7 +1026,7 @@ _ELEMENT = {"hourglass": _unit_interval, "w_hourglass": _choice("kirchhoff", "bt
             "drilling": _choice("projection", "penalty"), "drilling_stiffness": _positive,
             "warping": _choice("none", "bwc")}
 _METHOD = {"kind": _choice("mpm", "fem"), "cell_size": _positive, "grid_min": _vec3,
-           "grid_max": _vec3, "fields": _choice("auto", "single", "multi"),
+           "grid_max": _vec3, "fields": _choice("single", "multi"),
            "transfer": _choice("apic", "pic", "flip"), "flip_blend": _unit_interval}
 _SOLVE = {"kind": _choice("static", "dynamic"), "load_steps": _int(1),
           "tolerance": _number(0, 0.1, lo_open=True), "max_steps_per_load_step": _int(1),

@@ -435,7 +435,8 @@ class State:
         # (corner (i, j, k) at 4 i + 2 j + k); on_grid 0 for prescribed nodes; the nodes whose
         # base changed this step (found in parallel, hashed serially)
         g.entity("node_base", ti.Vector.field(3, i32), n, used=on, host=False)
-        g.entity("node_slots", ti.Vector.field(8, i32), n, used=on, host=False)
+        g.entity("node_slots", ti.field(i32), n, (8,), used=on, host=False)   # scalars: no dynamic
+        #                                                   index into a vector (a stack slot per use)
         g.entity("on_grid", ti.field(i32), n, used=on, host=False)
         g.table("moved_count", ti.field(i32), (), used=on, persistent=False)
         g.entity("moved_nodes", ti.field(i32), n, used=on, host=False)
@@ -452,7 +453,7 @@ class State:
         multi = on and fx.multi_field
         g.table("field_radius_sq", ti.field(f64), (), used=multi)         # (FIELD_RADIUS_CELLS h)^2
         g.table("field_overflow", ti.field(i32), (), used=multi, persistent=False)   # joins of a full node
-        g.entity("anchor", ti.Vector.field(MAX_FIELDS, i32), slots if multi else 0, used=multi, host=False)
+        g.entity("anchor", ti.field(i32), slots if multi else 0, (MAX_FIELDS,), used=multi, host=False)
         g.entity("node_fields", ti.field(i32), n, used=multi, host=False)
         # mass, momentum (without grid_force: p + dt f, stages/grid.py), force: an array of
         # structures, one grid node's data in one cache line.  Never read or written by the

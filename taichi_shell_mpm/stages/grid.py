@@ -96,7 +96,7 @@ class GridUpdate:
         ok = True
         for q in range(8):
             slot = self.slot_of(base + ti.Vector([q >> 2, (q >> 1) & 1, q & 1]))
-            self.s.grid.node_slots[c][q] = slot
+            self.s.grid.node_slots[c, q] = slot
             if slot < 0:
                 ok = False
         return ok
@@ -124,7 +124,7 @@ class GridUpdate:
     @ti.func
     def corner(self, c, i: ti.template(), j: ti.template(), k: ti.template()):
         """The slot of corner (i, j, k) in {0,1}^3 of node c's stencil."""
-        return self.s.grid.node_slots[c][4 * i + 2 * j + k]
+        return self.s.grid.node_slots[c, 4 * i + 2 * j + k]
 
     # ------------------------------------------------------------------ the fields of a grid node
     @ti.func
@@ -153,13 +153,13 @@ class GridUpdate:
         node: field_overflow)."""
         fields = 0
         for q in range(8):
-            g = self.s.grid.node_slots[c][q]
+            g = self.s.grid.node_slots[c, q]
             f = -1
             for s in ti.static(range(MAX_FIELDS)):
                 if f < 0:
-                    a = self.s.grid.anchor[g][s] - 1
+                    a = self.s.grid.anchor[g, s] - 1
                     if a < 0:
-                        self.s.grid.anchor[g][s] = c + 1
+                        self.s.grid.anchor[g, s] = c + 1
                         f = s
                     elif self.same_layer(c, a):
                         f = s
@@ -182,13 +182,13 @@ class GridUpdate:
                 if self.s.grid.on_grid[c] == 1:
                     for q in range(8):
                         if (self.s.grid.node_fields[c] >> (16 + q)) & 1 == 0:
-                            ti.atomic_max(self.s.grid.anchor[self.s.grid.node_slots[c][q]][s], c + 1)
+                            ti.atomic_max(self.s.grid.anchor[self.s.grid.node_slots[c, q], s], c + 1)
             for c in range(self.s.nodes.count[None]):
                 if self.s.grid.on_grid[c] == 1:
                     bits = self.s.grid.node_fields[c]
                     for q in range(8):
                         if (bits >> (16 + q)) & 1 == 0:
-                            a = self.s.grid.anchor[self.s.grid.node_slots[c][q]][s] - 1
+                            a = self.s.grid.anchor[self.s.grid.node_slots[c, q], s] - 1
                             if a == c or self.same_layer(c, a):
                                 bits |= (s << (2 * q)) | (1 << (16 + q))
                             elif ti.static(s == MAX_FIELDS - 1):
@@ -239,7 +239,8 @@ class GridUpdate:
             slot = self.corner(c, i, j, k)
             g = self.address(slot, self.field_of(c, 4 * i + 2 * j + k))
             if ti.static(self.cfg.multi_field):
-                self.s.grid.anchor[slot] = ti.Vector.zero(ti.i32, MAX_FIELDS)
+                for s in ti.static(range(MAX_FIELDS)):
+                    self.s.grid.anchor[slot, s] = 0
             self.s.grid.mass[g] = 0.0
             self.s.grid.momentum[g] = ti.Vector([0.0, 0.0, 0.0])
             if ti.static(self.cfg.grid_force):
