@@ -19,9 +19,20 @@ travels.
 Measured against the dense box it replaces (a flat array over the grid box, addressed by
 strides): benchmarks/step_cost.py, see the commit message of this change.
 
-Why not Taichi's sparse SNodes: pointer SNodes crashed at random in the step on Taichi 1.7
-on the CPU (state.py), and a pointer tree still has a fixed virtual box, with an SNode id
-that the offline cache keys kernels by; dense fields of a run-time size class avoid both.
+Why not Taichi's sparse SNodes (not measured here): a pointer/bitmasked tree still has a
+fixed virtual box, and its SNode tree is part of what the offline cache keys kernels by;
+dense fields of a run-time size class keep one compiled configuration for every scene.
+
+Multi-field grid ([method].fields = "multi", Bardenhagen et al. 2001; Homel & Herbold
+2017): every grid node has MAX_FIELDS velocity fields, stored field-major (field f of slot
+g at f * capacity + g).  In P2G each shell node takes, at each of its 8 grid nodes, the
+first field opened by a node of its layer (:meth:`same_layer`: same part, reference
+positions within FIELD_RADIUS_CELLS cells, nodal normals on one side), else opens a free
+one; G2P and the clear read the same fields.  Layers closer than a cell thus keep their
+own velocities; they interact only through [contact] (the penalty forces enter P2G as
+nodal forces), not through a grid contact condition.  The per-node indices are scalar
+fields (node_slots[c, q], anchor[g, f]): with vector fields indexed at run time, the
+multi-field step segfaulted in its first batch on Taichi 1.7 (CPU), in debug mode too.
 
 The update is evaluated where G2P reads a node (:meth:`GridUpdate.velocities`) rather
 than in a loop of its own over a list of touched nodes [choice, measured in the note of
