@@ -102,7 +102,7 @@ SLIDE_TOL = 1.1e-3    # measured 1.8e-4 (t = 0.02), 7.2e-4 (t = 0.125)
 ROLLUP_LEVELS, ROLLUP_LOAD = 4, 0.8
 
 
-def rollup_scene(tmp_path, levels: int, load: float, fields: str = "auto"):
+def rollup_scene(tmp_path, levels: int, load: float, fields: str = "single"):
     """scenes/rollup.toml at `levels` load steps up to `load` x M_max (its [reference] rows are
     keyed by M / M_max, so the closed form is evaluated here instead)."""
     text = (ROOT / "scenes" / "rollup.toml").read_text()
