@@ -23,36 +23,27 @@ AXES = {"x": 0, "y": 1, "z": 2}
 SYMMETRY_FIXES = {0: ("ux", "ry", "rz"), 1: ("uy", "rx", "rz"), 2: ("uz", "rx", "ry")}
 
 
+KEY_BITS = 21
+"""Bits of one axis in a grid node's hash key (stages/grid.py): stencil bases from -2^20 to
+2^20 - 2 cells, i.e. +-2.6 km at h = 2.5 mm."""
+
+
 @dataclass(frozen=True)
 class GridGeometry:
-    """Background grid: node (i, j, k) sits at (lo + (i, j, k)) * h, lo integer."""
+    """Background grid: node (i, j, k) sits at (i, j, k) * h.  Unbounded [choice, issue 20]:
+    only the grid nodes of the shell's stencils exist (stages/grid.py), so the cells a stencil
+    base may take are limited only by the hash key's range, or by the optional grid box."""
     h: float
-    lo: tuple[int, int, int]
-    dims: tuple[int, int, int]
+    bound_lo: tuple[int, int, int]
+    bound_hi: tuple[int, int, int]
+    """The stencil base cells allowed, inclusive: the [method] grid box, or the key range."""
     planes: tuple[tuple[int, int], ...]
     """Symmetry grid planes as (axis, absolute grid index)."""
+    free_nodes: int
+    """Shell nodes that move through the grid (not prescribed): the grid's size class."""
     slab_axis: int = 0
     """The axis of the mesh's longest extent: P2G bins the shell nodes into grid slabs across
-    it (stages/mapping.py), so the most slabs hold nodes [choice: the mesh's, not the grid
-    box's longest axis -- the tube in a grid 16x its area put its nodes in 24 of the 160
-    x-slabs and stepped 38 % slower]."""
-
-    @property
-    def n_nodes(self) -> int:
-        return int(np.prod(self.dims))
-
-    @property
-    def strides(self) -> tuple[int, int, int]:
-        """Flat-index strides of the grid axes, the slab axis innermost [choice, measured in the
-        note of issue 4]: a shell's longest extent lies along its surface, so its grid nodes
-        then sit in long contiguous runs.  With the slab axis outermost the tube's grid nodes
-        spread over a plane of memory per slab and its P2G + G2P ran 1.8x slower."""
-        inner = [d for d in range(3) if d != self.slab_axis]
-        out = [0, 0, 0]
-        out[self.slab_axis] = 1
-        out[inner[1]] = self.dims[self.slab_axis]
-        out[inner[0]] = self.dims[self.slab_axis] * self.dims[inner[1]]
-        return (out[0], out[1], out[2])
+    it (stages/mapping.py), so the most slabs hold nodes."""
 
 
 @dataclass(frozen=True)
@@ -322,24 +313,23 @@ def selective_mass_factor(steps: np.ndarray, target_dt: float) -> np.ndarray:
     return np.maximum(1.0, (target_dt / steps) ** 2)
 
 
-def _grid_geometry(scene: Scene, points: np.ndarray, min_edge: float, planes_xyz) -> GridGeometry:
+def _grid_geometry(scene: Scene, points: np.ndarray, min_edge: float, planes_xyz, free_nodes: int) -> GridGeometry:
     m = scene.method
     h = m.cell_size if m.cell_size is not None else 0.5 * min_edge
     lo_pt, hi_pt = points.min(axis=0), points.max(axis=0)
+    reach = 1 << (KEY_BITS - 1)
+    bound_lo, bound_hi = np.full(3, -reach), np.full(3, reach - 2)
     if m.grid_min is not None:
         gmin, gmax = np.array(m.grid_min), np.array(m.grid_max)
         if np.any(lo_pt < gmin) or np.any(hi_pt > gmax):
             raise SceneError(f"{scene.source.name}: [method].grid_min/grid_max: the grid box does not "
                              f"cover the mesh (mesh spans {lo_pt.round(6).tolist()} .. {hi_pt.round(6).tolist()})")
-    else:
-        pad = m.padding if m.padding is not None else 0.25 * float(np.max(hi_pt - lo_pt))
-        gmin, gmax = lo_pt - pad, hi_pt + pad
-    lo = np.floor(gmin / h).astype(int) - 1
-    hi = np.ceil(gmax / h).astype(int) + 2
-    dims = hi - lo + 1
-    if np.prod(dims) > 60_000_000:
-        raise SceneError(f"{scene.source.name}: [method].cell_size: grid of {dims.tolist()} nodes is too large; "
-                         "use a larger cell_size or a smaller grid box")
+        bound_lo = np.maximum(bound_lo, np.floor(gmin / h))
+        bound_hi = np.minimum(bound_hi, np.floor(gmax / h))
+    if np.any(np.floor(lo_pt / h) < bound_lo) or np.any(np.floor(hi_pt / h) > bound_hi):
+        raise SceneError(f"{scene.source.name}: [method].cell_size: the mesh spans more than the grid's "
+                         f"{reach} cells from the origin on some axis at cell_size {h:g}; use a larger "
+                         "cell_size or move the mesh nearer to the origin")
     planes = []
     for axis, coord in planes_xyz:
         idx = coord / h
@@ -347,8 +337,9 @@ def _grid_geometry(scene: Scene, points: np.ndarray, min_edge: float, planes_xyz
             raise SceneError(f"{scene.source.name}: [[boundary]].symmetry: the {'xyz'[axis]}-symmetry plane at "
                              f"{coord:g} is not a grid plane for cell_size {h:g}; choose a cell size dividing it")
         planes.append((axis, int(round(idx))))
-    return GridGeometry(h=float(h), lo=tuple(int(v) for v in lo), dims=tuple(int(v) for v in dims),
-                        planes=tuple(sorted(set(planes))), slab_axis=int(np.argmax(hi_pt - lo_pt)))
+    return GridGeometry(h=float(h), bound_lo=tuple(int(v) for v in bound_lo), bound_hi=tuple(int(v) for v in bound_hi),
+                        planes=tuple(sorted(set(planes))), free_nodes=int(free_nodes),
+                        slab_axis=int(np.argmax(hi_pt - lo_pt)))
 
 
 def uniform_dt_mass_factor(points: np.ndarray, elements: np.ndarray, area0: np.ndarray) -> np.ndarray:
@@ -781,7 +772,8 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
         omega0[(fix_mask >> (3 + d)) & 1 == 1, d] = 0.0
     probes = tuple(ProbeSpec(p.name, nodes_of(p.nodes), p.components) for p in scene.probes)
     min_edge = float(edges.min())
-    grid = _grid_geometry(scene, points, min_edge, planes_xyz) if scene.method.kind == "mpm" else None
+    free = int(np.sum(((fix_mask & 0b111) != 0b111) & (node_body < 0)))
+    grid = _grid_geometry(scene, points, min_edge, planes_xyz, free) if scene.method.kind == "mpm" else None
     contact = scene.contact
     parameters = StepParameters(
         dt_safety=scene.solve.dt_safety, flip_blend=scene.method.flip_blend,

@@ -42,6 +42,7 @@ class Features:
     friction: bool              # contact friction
     erosion: bool = False       # some material's elements fail (issue 18; stages/masses.py)
     mass_scaling: bool = False  # selective mass scaling to [solve].target_dt (stages/masses.py)
+    multi_field: bool = False   # a velocity field per shell layer at each grid node (stages/grid.py)
     launch: str = "batched"     # "batched" | "threads" | "gpu" (solvers/stepper.py)
     loads: bool = False         # curve or follower loads, pressure, gravity, prescribed motion
     #                             (stages/loads.py, stages/motion.py): one switch [choice: a
@@ -80,6 +81,12 @@ class Features:
         return bool(self.tool_kinds)
 
     @property
+    def nodal_normals(self) -> bool:
+        """Whether the shell stage gathers the nodal normals (sum A e3, sum A): the drilling
+        projection and the multi-field grid's layer test use them."""
+        return not self.drilling_spring or self.multi_field
+
+    @property
     def plastic(self) -> bool:
         from .materials import PLASTIC
         return any(PLASTIC[k] for k in self.materials)
@@ -114,4 +121,5 @@ class Features:
             tool_kinds=tuple(k for k in TOOL_KINDS if model.tools is not None and k in model.tools.kinds),
             erosion=model.materials.erosion,
             mass_scaling=scene.solve.kind == "dynamic" and scene.solve.mass_scaling == "selective",
+            multi_field=model.grid is not None and scene.method.fields == "multi",
             launch=launch, loads=model.loading.loads or (model.tools is not None and model.tools.prescribed))

@@ -299,11 +299,13 @@ class Method:
     """Grid cell size h; None = half the shortest element edge (method.md 2.2)."""
     grid_min: Vec3 | None = None
     grid_max: Vec3 | None = None
-    """Explicit grid box; None = mesh bounding box grown by `padding` on every side."""
-    padding: float | None = None
-    """None = 0.25 x the largest bounding-box extent."""
+    """Optional grid box: a node leaving it stops the run; None = unbounded (the grid follows
+    the shell, stages/grid.py)."""
     transfer: Literal["apic", "pic", "flip"] = "apic"
     flip_blend: float = 0.99
+    fields: Literal["single", "multi"] = "single"
+    """Velocity fields per grid node (stages/grid.py): ``multi`` keeps a field per shell layer
+    at each grid node, ``single`` one velocity."""
 
 
 # ---------------------------------------------------------------- node sets, BCs, loads
@@ -1083,7 +1085,7 @@ _ELEMENT = {"hourglass": _unit_interval, "w_hourglass": _choice("kirchhoff", "bt
             "drilling": _choice("projection", "penalty"), "drilling_stiffness": _positive,
             "warping": _choice("none", "bwc")}
 _METHOD = {"kind": _choice("mpm", "fem"), "cell_size": _positive, "grid_min": _vec3,
-           "grid_max": _vec3, "padding": _non_negative,
+           "grid_max": _vec3, "fields": _choice("single", "multi"),
            "transfer": _choice("apic", "pic", "flip"), "flip_blend": _unit_interval}
 _SOLVE = {"kind": _choice("static", "dynamic"), "load_steps": _int(1),
           "tolerance": _number(0, 0.1, lo_open=True), "max_steps_per_load_step": _int(1),

@@ -27,8 +27,9 @@ from .reference import reference_summary
 from .scene import Scene
 from .solvers.stepper import Stepper
 from .stages.timestep import DT_UNSET, initial_dt
-from .state import (CANDIDATES_PER_NODE, STATUS_CONTACT_FULL, STATUS_DT_COLLAPSE, STATUS_ENERGY, STATUS_INVERTED,
-                    STATUS_LEFT_GRID, STATUS_MASS_ADDED, STATUS_NONFINITE, STATUS_RETURN_FAILED, State)
+from .state import (CANDIDATES_PER_NODE, MAX_FIELDS, STATUS_CONTACT_FULL, STATUS_DT_COLLAPSE, STATUS_ENERGY,
+                    STATUS_INVERTED, STATUS_LEFT_GRID, STATUS_MASS_ADDED, STATUS_NONFINITE, STATUS_RETURN_FAILED,
+                    State)
 from . import energy, frontend
 from .energy import ENERGY_COLUMNS, PART_COLUMNS, added_mass, eroded_elements, part_energies, part_names
 
@@ -46,8 +47,9 @@ FAILURES = {
                       "time step too large ([solve].dt_safety), too little hourglass control "
                       "([element].hourglass), or an excessive load"),
     STATUS_LEFT_GRID: ("node {index} left the background grid",
-                       "enlarge [method].grid_min/grid_max or padding, or the shell flies away "
-                       "(a missing support, an excessive load or initial velocity)"),
+                       "it left the [method].grid_min/grid_max box (leave them out: the grid follows the "
+                       "shell), or flew 2^20 cells from the origin (a missing support, an excessive load "
+                       "or initial velocity)"),
     STATUS_NONFINITE: ("node {index} got a non-finite or runaway velocity",
                        "numerical instability: time step too large ([solve].dt_safety), an excessive "
                        "load or initial velocity, or a missing support"),
@@ -191,12 +193,12 @@ class Simulation:
 
     # ------------------------------------------------------------------ set-up helpers
     def _initial_geometry(self) -> None:
-        """State before the first step: for the drilling projection (method.md 2.3) the nodal
-        normals (sum A e3) and the initial omega without its drilling part; the first
-        stable dt."""
+        """State before the first step: for the drilling projection (method.md 2.3) and the
+        multi-field grid the nodal normals (sum A e3); for the projection the initial omega
+        without its drilling part; the first stable dt."""
         pts, elements = self.model.points, self.model.elements
         w = self.model.omega0
-        if not self.cfg.drilling_spring:
+        if self.cfg.nodal_normals:
             # a triangle's corner 4 read as its corner 1: (x3 - x1) x (x1 - x2) = (x2 - x1) x (x3 - x1)
             x = pts[np.where(elements >= 0, elements, elements[:, :1])]
             element_normal = 0.5 * np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])     # A e3
@@ -207,6 +209,7 @@ class Simulation:
             np.add.at(area, elements[corner], np.repeat(np.linalg.norm(element_normal, axis=1)[:, None], 4, axis=1)[corner])
             self.state.put("nodes.normal_sum", normal)
             self.state.put("nodes.area_sum", area)
+        if not self.cfg.drilling_spring:
             unit = normal / np.maximum(np.linalg.norm(normal, axis=1), 1e-300)[:, None]
             w = w - np.sum(w * unit, axis=1)[:, None] * unit
         self.state.put("nodes.omega", w)
@@ -555,6 +558,19 @@ class Simulation:
                         "energies": {k: float(energies[len(self.model.parts) + i, j]) for j, k in enumerate(PART_COLUMNS)}})
         return out
 
+    def grid_summary(self) -> dict:
+        """The grid's memory (stages/grid.py): slots taken now and in the pool, grid-node
+        bytes, collections so far; with the multi-field grid, joins of a full grid node."""
+        g = self.state.grid
+        per_node = 8 * (4 + 3 * self.cfg.grid_force) * (MAX_FIELDS if self.cfg.multi_field else 1)
+        out = {"slots_used": int(g.slot_count[None]), "slots": int(self.state.grid_slots),
+               "bytes": int(self.state.grid_slots * (per_node + 12 * 4 + 4 * MAX_FIELDS * self.cfg.multi_field)),
+               "collections": int(g.collections[None])}
+        if self.cfg.multi_field:
+            out["fields"] = MAX_FIELDS
+            out["field_overflow"] = int(g.field_overflow[None])
+        return out
+
     def write_results(self, extra: dict | None = None) -> dict:
         """Tables and summary.json (both attempted even if one cannot be written; then the
         first OutputError is raised); returns the summary."""
@@ -582,6 +598,8 @@ class Simulation:
         }
         if extra:
             summary.update(extra)
+        if self.state.grid is not None:
+            summary["grid"] = self.grid_summary()
         if self.model.loading.motions:
             values = self.motion_values()
             columns = self.motion_columns()

@@ -65,7 +65,11 @@ from .tools import MAX_TOOLS
 CANDIDATES_PER_NODE = 64     # capacity of the contact candidate lists, on average per node
 
 CAPACITY_MIN = 16384         # the smallest size class of a per-entity field (4^7)
-GRID_CAPACITY_MIN = 1 << 20  # the smallest size class of a grid (4^10 nodes: 32-56 MB)
+GRID_CAPACITY_MIN = 1 << 16  # the smallest size class of the grid's slots (4^8: 2-3.5 MB)
+GRID_SLOTS_PER_NODE = 16     # grid slots per free shell node: twice the most its stencils can hold
+NO_CELL = -(1 << 30)         # node_base of a node whose grid slots are not looked up yet
+MAX_FIELDS = 4               # velocity fields per grid node of the multi-field grid (stages/grid.py)
+FIELD_RADIUS_CELLS = 4.0     # shell nodes this many cells apart in the reference state are other layers
 MAX_MATERIALS = 64
 MAX_SECTIONS = 64
 MAX_BODIES = 16
@@ -74,11 +78,10 @@ MAX_SLAB_PLANES = 1 << 16
 
 
 def grid_capacity(nodes: int) -> int:
-    """The size class of the grid: a power of 4, at least GRID_CAPACITY_MIN (zero nodes, fem
-    mode: the minimal size).  Only the nodes around the shell are touched, so a larger class
-    costs address space and one zeroing, not time per step."""
-    if nodes <= 0:
-        return CAPACITY_MIN
+    """The size class of the grid's slot pool for `nodes` grid nodes: a power of 4, at least
+    GRID_CAPACITY_MIN.  The shell's stencils hold at most 8 grid nodes per free shell node,
+    so GRID_SLOTS_PER_NODE = 16 per node leaves half the pool for the slots of cells the
+    shell has left, until a collection (stages/grid.py) hands them out again."""
     out = GRID_CAPACITY_MIN
     while out < nodes:
         out *= 4
@@ -197,8 +200,10 @@ class State:
         g.entity("affine", ti.Matrix.field(3, 3, f64), n,   # C_c (method.md 2.2)
                  used=fx.transfer == "apic" and fx.method == "mpm")
         # sum_e A_e e3 and sum_e A_e: the nodal normal of the drilling projection (method.md 2.3)
-        g.entity("normal_sum", ti.Vector.field(3, f64), n, used=not fx.drilling_spring)
-        g.entity("area_sum", ti.field(f64), n, used=not fx.drilling_spring)
+        # and of the multi-field grid's layer test (stages/grid.py)
+        g.entity("normal_sum", ti.Vector.field(3, f64), n, used=fx.nodal_normals)
+        g.entity("area_sum", ti.field(f64), n, used=fx.nodal_normals)
+        g.entity("part", ti.field(i32), n, used=fx.multi_field)      # the lowest part of its elements
         # prescribed motion (stages/motion.py): DOF bits ux .. rz a [[motion]] prescribes, and the
         # motion of each DOF (-1: none)
         g.entity("motion_mask", ti.field(i32), n, used=fx.loads)
@@ -461,38 +466,65 @@ class State:
         g.entity("strain_rate", ti.field(f64), m, (nk,),       # the filtered strain rate of the rate law
                  used=fx.rate_filter)
 
-        # --- background grid (mpm), flattened; only the nodes around shell nodes are written,
-        # read and cleared.  Last in the tree: its layout depends on Features.grid_force.
+        # --- background grid (mpm): hashed, unbounded (stages/grid.py).  Only the grid nodes of
+        # the shell nodes' stencils exist: a hash table maps a grid node's integer coordinates
+        # to a slot of the dense storage below, whose size class follows the shell's free nodes.
+        # Last in the tree: its layout depends on Features.grid_force.
         g = grid = Group("grid")
         self.grid = g if model.grid is not None else None
         on = model.grid is not None
+        free = model.grid.free_nodes if on else 0
+        slots = grid_capacity(GRID_SLOTS_PER_NODE * free) if on else CAPACITY_MIN
+        self.grid_slots = slots
         for name in ("h", "inv_h"):
             g.table(name, ti.field(f64), (), used=on)
-        for name in ("lo", "dims", "strides"):
-            g.table(name, ti.Vector.field(3, i32), (), used=on)
-        g.table("slab_stride", ti.field(i32), (), used=on)        # stride and size of the slab axis
-        g.table("slab_dim", ti.field(i32), (), used=on)
+        g.table("bound_lo", ti.Vector.field(3, i32), (), used=on)    # the cells a stencil base may take:
+        g.table("bound_hi", ti.Vector.field(3, i32), (), used=on)    # the grid box, or the key range
+        g.table("slab_axis", ti.field(i32), (), used=on)
         g.table("planes", ti.field(i32), (), used=on)                 # symmetry grid planes: count,
         g.table("plane_axis", ti.field(i32), (3,), used=on)           # their axes
         g.table("plane_index", ti.field(i32), (3,), used=on)          # and absolute grid indices
+        # the hash table (open addressing, linear probing; key + 1, 0 = empty) and its slot pool
+        g.table("slot_count", ti.field(i32), (), used=on, persistent=False)   # slots handed out
+        g.table("slot_capacity", ti.field(i32), (), used=on)
+        g.table("table_bits", ti.field(i32), (), used=on)
+        g.table("collections", ti.field(i32), (), used=on, persistent=False)  # full re-hashes so far
+        g.entity("table_key", ti.field(ti.i64), 2 * slots if on else 0, used=on, host=False)
+        g.entity("table_slot", ti.field(i32), 2 * slots if on else 0, used=on, host=False)
+        # per shell node: the stencil base cell its addresses were found for, and the 8 slots
+        # (corner (i, j, k) at 4 i + 2 j + k); on_grid 0 for prescribed nodes; the nodes whose
+        # base changed this step (found in parallel, hashed serially)
+        g.entity("node_base", ti.Vector.field(3, i32), n, used=on, host=False)
+        g.entity("node_slots", ti.field(i32), n, (8,), used=on, host=False)   # scalars: no dynamic
+        #                                                   index into a vector (a stack slot per use)
+        g.entity("on_grid", ti.field(i32), n, used=on, host=False)
+        g.table("moved_count", ti.field(i32), (), used=on, persistent=False)
+        g.entity("moved_nodes", ti.field(i32), n, used=on, host=False)
         # P2G order (stages/mapping.py): the free nodes binned by the grid plane of their
         # stencil's base across the slab axis (counting sort, rebuilt every step); scratch
-        g.entity("node_cell", ti.field(i32), n, used=on, host=False)   # -1: not on the grid
+        g.table("slab_low", ti.field(i32), (), used=on, persistent=False)
+        g.table("slab_high", ti.field(i32), (), used=on, persistent=False)
         g.table("slab_start", ti.field(i32), (MAX_SLAB_PLANES + 1,), used=False)
         g.table("slab_fill", ti.field(i32), (MAX_SLAB_PLANES,), used=False)
         g.entity("slab_nodes", ti.field(i32), n, used=on, host=False)
+        # multi-field grid (stages/grid.py): per grid node, the shell node + 1 that opened each
+        # of its fields (0: none; zero between steps); per shell node, the field of each of
+        # its 8 corners (2 bits each; bits 16-23: decided, GPU claim rounds)
+        multi = on and fx.multi_field
+        g.table("field_radius_sq", ti.field(f64), (), used=multi)         # (FIELD_RADIUS_CELLS h)^2
+        g.table("field_overflow", ti.field(i32), (), used=multi, persistent=False)   # joins of a full node
+        g.entity("anchor", ti.field(i32), slots if multi else 0, (MAX_FIELDS,), used=multi, host=False)
+        g.entity("node_fields", ti.field(i32), n, used=multi, host=False)
         # mass, momentum (without grid_force: p + dt f, stages/grid.py), force: an array of
-        # structures, one grid node's data in one cache line (the grid is much larger than the
-        # cache and is touched at scattered places).  Never read or written by the host: zero
-        # between steps.
+        # structures, one grid node's data in one cache line.  Never read or written by the
+        # host: zero between steps.
         g.mass = ti.field(f64)
         g.momentum = ti.Vector.field(3, f64)
         placed = [g.mass, g.momentum]
         if fx.grid_force:
             g.force = ti.Vector.field(3, f64)
             placed.append(g.force)
-        cells = model.grid.n_nodes if on else 0
-        g._builder.dense(ti.i, grid_capacity(cells)).place(*placed)
+        g._builder.dense(ti.i, slots * (MAX_FIELDS if multi else 1)).place(*placed)
         for group in (self.nodes, self.elements, self.sections, self.step, self.bodies, self.loads, self.tools, contact,
                       self.points, grid):
             group.finalize()
@@ -592,12 +624,20 @@ class State:
         if self.grid is not None:
             gg, geo = self.grid, model.grid
             gg.h[None], gg.inv_h[None] = geo.h, 1.0 / geo.h
-            gg.lo[None], gg.dims[None], gg.strides[None] = geo.lo, geo.dims, geo.strides
-            gg.slab_stride[None] = geo.strides[geo.slab_axis]
-            gg.slab_dim[None] = geo.dims[geo.slab_axis]
+            gg.bound_lo[None], gg.bound_hi[None] = geo.bound_lo, geo.bound_hi
+            gg.slab_axis[None] = geo.slab_axis
             gg.planes[None] = len(geo.planes)
             for i, (axis, index) in enumerate(geo.planes):
                 gg.plane_axis[i], gg.plane_index[i] = axis, index
+            gg.slot_capacity[None] = self.grid_slots
+            gg.table_bits[None] = int(np.log2(gg.table_key.shape[0]))
+            w(gg.node_base, np.full((n, 3), NO_CELL, np.int32))      # every node looks its slots up
+            if self.features.multi_field:
+                gg.field_radius_sq[None] = (FIELD_RADIUS_CELLS * geo.h) ** 2
+                part = np.full(n, np.iinfo(np.int32).max, np.int64)
+                np.minimum.at(part, model.elements[model.elements >= 0],
+                              np.repeat(model.element.part, 4)[model.elements.ravel() >= 0])
+                w(nd.part, part.astype(np.int32))
             st.dilatational_speed[None] = model.materials.dilatational_speed
 
     def _load_tools(self, tt) -> None:

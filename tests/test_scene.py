@@ -56,7 +56,6 @@ kind = "fem"
 cell_size = 0.25
 grid_min = [-1, -1, -1]
 grid_max = [11, 1, 8]
-padding = 0.5
 transfer = "flip"
 flip_blend = 0.95
 
@@ -192,7 +191,7 @@ def test_full_scene_parses_into_expected_dataclasses(scene_dir):
     assert scene.section == Section(thickness=0.1, points=5, rule="gauss", shear_factor=0.8)
     assert scene.element == ElementOptions(hourglass=0.1)
     assert scene.method == Method(kind="fem", cell_size=0.25, grid_min=(-1.0, -1.0, -1.0),
-                                  grid_max=(11.0, 1.0, 8.0), padding=0.5, transfer="flip",
+                                  grid_max=(11.0, 1.0, 8.0), transfer="flip",
                                   flip_blend=0.95)
     assert scene.nodesets == (
         NodeSet(name="clamped", kind="plane", point=(0.0, 0.0, 0.0), normal=(1.0, 0.0, 0.0), tol=1e-5),

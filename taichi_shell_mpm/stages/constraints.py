@@ -206,7 +206,7 @@ class NodeUpdate:
         if ti.static(self.cfg.serial):          # parallel launches overwrite them (CornerLoads.gather)
             self.s.nodes.force_int[c] = ti.Vector([0.0, 0.0, 0.0])
             self.s.nodes.moment_int[c] = ti.Vector([0.0, 0.0, 0.0])
-            if ti.static(not self.cfg.drilling_spring):
+            if ti.static(self.cfg.nodal_normals):
                 self.s.nodes.normal_sum[c] = ti.Vector([0.0, 0.0, 0.0])
                 self.s.nodes.area_sum[c] = 0.0
 

@@ -121,7 +121,7 @@ class ShellElement:
         self.hourglass = Hourglass(state, cfg.kirchhoff_w_hourglass)
         self.drilling = DrillingSpring(state)
         self.acc = Accumulator(cfg.serial)
-        self.loads = CornerLoads(state, cfg.serial, normals=not cfg.drilling_spring)
+        self.loads = CornerLoads(state, cfg.serial, normals=cfg.nodal_normals)
         self.triangle = TriangleElement(self) if cfg.triangles else None
         self.masses = MassUpdate(state, cfg)
 
