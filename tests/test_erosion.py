@@ -78,7 +78,6 @@ elements = "right"
 [method]
 kind = "mpm"
 cell_size = 2.5
-padding = 20.0
 [nodesets.clamp]
 plane = {{ point = [0.0, 0.0, 0.0], normal = [1.0, 0.0, 0.0] }}
 [nodesets.grip]
