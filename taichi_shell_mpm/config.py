@@ -44,6 +44,9 @@ class Features:
     #                             (stages/loads.py, stages/motion.py): one switch [choice: a
     #                             configuration costs 25-60 s to compile, and a scene with any of
     #                             them pays next to nothing for the others' empty loops]
+    finite_increment: bool = False  # the step is one large increment (Newton's trial,
+    #                             solvers/tangent.py): mid-step shape from the end shapes
+    #                             (stages/shell.mid_geometry)
 
     @property
     def serial(self) -> bool:

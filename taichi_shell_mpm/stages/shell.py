@@ -56,6 +56,41 @@ def local_geometry(x):
 
 
 @ti.func
+def rotation_vector(q):
+    """The rotation vector (axis x angle, angle < pi) of the rotation matrix q."""
+    w = 0.5 * ti.Vector([q[2, 1] - q[1, 2], q[0, 2] - q[2, 0], q[1, 0] - q[0, 1]])
+    s = w.norm()
+    c = 0.5 * (q[0, 0] + q[1, 1] + q[2, 2] - 1.0)
+    scale = 1.0
+    if s > 1e-12:
+        scale = ti.atan2(s, c) / s
+    return scale * w
+
+
+@ti.func
+def increment_geometry(x, dx):
+    """The mid-step of a large increment dx (4x3) that ends at x, in the corotational frame
+    of x - dx/2 (returned first): the corners' coordinates, the mean of the start's and the
+    end's, each in its own frame; their change in those frames (the increment less the
+    frames' rigid motion); and the frames' rotation from start to end (a rotation vector,
+    in the mid frame).  Why: x - dx/2 is the element shrunk by cos(alpha/2) across the axis
+    of a rotation alpha of the increment, which overstates the strain increments by
+    1/cos(alpha/2) (curvature) to 1/cos^2(alpha/2) (membrane) and lets a rigid rotation
+    shear the element by alpha - 2 tan(alpha/2); negligible in an explicit step, a
+    second-order error of the load increment in Newton's (docs/newton.md)."""
+    rot0, x0, y0, z0 = local_geometry(x - dx)
+    rot1, x1, y1, z1 = local_geometry(x)
+    rot_m = corotational_frame(x - 0.5 * dx)
+    change = ti.Matrix.zero(ti.f64, 4, 3)
+    for a in ti.static(range(4)):
+        change[a, 0] = x1[a] - x0[a]
+        change[a, 1] = y1[a] - y0[a]
+        change[a, 2] = z1[a] - z0[a]
+    spin = rot_m @ rotation_vector(rot1.transpose() @ rot0)
+    return rot_m, 0.5 * (x0 + x1), 0.5 * (y0 + y1), 0.5 * (z0 + z1), change, spin
+
+
+@ti.func
 def gradient_operators(xh, yh):
     """Area and B1, B2 of the one-point quad (paper eq 27): B_alpha = dN_a/dx_alpha at the centre."""
     area = 0.5 * ((xh[2] - xh[0]) * (yh[3] - yh[1]) + (xh[1] - xh[3]) * (yh[2] - yh[0]))
@@ -231,6 +266,13 @@ class ShellElement:
         rot_m, xm, ym, zm = local_geometry(x - (0.5 * dt) * v)
         vl = v @ rot_m.transpose()                # v^_a = R v~_a
         wl = w @ rot_m.transpose()                # theta^_a = R omega_a
+        if ti.static(self.cfg.finite_increment):  # one large increment (Newton): increment_geometry
+            rot_m, xm, ym, zm, change, spin = increment_geometry(x, dt * v)
+            vl = change / dt
+            wl = w @ rot_m.transpose()
+            for a in ti.static(range(4)):
+                for d in ti.static(range(3)):
+                    wl[a, d] -= spin[d] / dt
         vx, vy, vz = column(vl, 0), column(vl, 1), column(vl, 2)
         tx, ty, tz = column(wl, 0), column(wl, 1), column(wl, 2)
         area_m, g1, g2 = gradient_operators(xm, ym)
