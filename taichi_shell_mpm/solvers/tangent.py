@@ -45,7 +45,6 @@ SLOTS = 1 + 2 * DOFS_PER_ELEMENT          # the trial increment, then +h / -h of
 FD_STEP = 1e-6     # central-difference step: relative to the mean edge (translations), radians (rotations)
 ELEMENT_SUBSTEPS = 1        # element updates along the trial increment (docs/newton.md)
 STAGGER = ELEMENT_PARTS.index("stagger")     # the element pass books dt/2 P_e there (energy.py): dt = 1 is no time step
-FINITE_INCREMENT = True
 MAX_VIRTUAL_ELEMENTS = 1 << 22            # ~85 000 shell elements (about 8 GB): a clear error beyond
 
 
@@ -89,7 +88,7 @@ class IncrementalForces:
         launch = "threads" if sim.arch == "cpu" else "gpu"
         self.cfg = dataclasses.replace(sim.cfg, method="fem", launch=launch, grid_rule=False, grid_planes=False,
                                        bodies=False, walls=False, moving_walls=False, contact=False, friction=False,
-                                       finite_increment=FINITE_INCREMENT)
+                                       finite_increment=True)
         vmodel = virtual_model(model, SLOTS)
         self.v = State(vmodel, self.cfg)
         self.v.load(vmodel)

@@ -17,6 +17,7 @@ from ..state import STATUS_INVERTED, STATUS_OK, STATUS_RETURN_FAILED, State
 from . import warping
 from .accumulate import Accumulator, CornerLoads
 from .material import ConstitutiveUpdate
+from .rotation import rotation_vector
 from .drilling import DrillingSpring
 from .hourglass import Hourglass
 from .timestep import element_limit
@@ -53,18 +54,6 @@ def local_geometry(x):
             xl[a, d] = x[a, d] - centre[d]
     xl = xl @ rot.transpose()
     return rot, column(xl, 0), column(xl, 1), column(xl, 2)
-
-
-@ti.func
-def rotation_vector(q):
-    """The rotation vector (axis x angle, angle < pi) of the rotation matrix q."""
-    w = 0.5 * ti.Vector([q[2, 1] - q[1, 2], q[0, 2] - q[2, 0], q[1, 0] - q[0, 1]])
-    s = w.norm()
-    c = 0.5 * (q[0, 0] + q[1, 1] + q[2, 2] - 1.0)
-    scale = 1.0
-    if s > 1e-12:
-        scale = ti.atan2(s, c) / s
-    return scale * w
 
 
 @ti.func
@@ -263,16 +252,16 @@ class ShellElement:
         # dt*d second-order accurate and exactly zero for a discrete rigid rotation
         # (Hughes-Winget). Evaluated at x^(n+1), a free plate spinning 1.5 revolutions
         # gained 0.9% spurious strain energy (tests/test_stability.py).
-        rot_m, xm, ym, zm = local_geometry(x - (0.5 * dt) * v)
-        vl = v @ rot_m.transpose()                # v^_a = R v~_a
-        wl = w @ rot_m.transpose()                # theta^_a = R omega_a
         if ti.static(self.cfg.finite_increment):  # one large increment (Newton): increment_geometry
             rot_m, xm, ym, zm, change, spin = increment_geometry(x, dt * v)
-            vl = change / dt
-            wl = w @ rot_m.transpose()
-            for a in ti.static(range(4)):
-                for d in ti.static(range(3)):
-                    wl[a, d] -= spin[d] / dt
+            vl = change / dt                      # the corners' motion less the frame's
+            wl = w @ rot_m.transpose()            # their rotation less the frame's
+            for a, d in ti.static(ti.ndrange(4, 3)):
+                wl[a, d] -= spin[d] / dt
+        else:
+            rot_m, xm, ym, zm = local_geometry(x - (0.5 * dt) * v)
+            vl = v @ rot_m.transpose()                # v^_a = R v~_a
+            wl = w @ rot_m.transpose()                # theta^_a = R omega_a
         vx, vy, vz = column(vl, 0), column(vl, 1), column(vl, 2)
         tx, ty, tz = column(wl, 0), column(wl, 1), column(wl, 2)
         area_m, g1, g2 = gradient_operators(xm, ym)
