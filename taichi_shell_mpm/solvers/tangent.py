@@ -120,6 +120,7 @@ class IncrementalForces:
         j = (slot - 1) // 2
         sign = 1.0 - 2.0 * ((slot - 1) % 2)
         c = self.main.elements.corners[e]
+        origin = self.main.nodes.position[c[0]]   # the copy about its first corner: round-off of the element's size, not of |x|
         for a in ti.static(range(4)):
             node = 4 * ve + a
             if c[a] >= 0:
@@ -129,7 +130,7 @@ class IncrementalForces:
                     if slot > 0 and j == 6 * a + k:
                         d[k] += sign * self.step(k)
                 du = ti.Vector([d[0], d[1], d[2]])
-                self.v.nodes.position[node] = self.main.nodes.position[c[a]] + fraction * du
+                self.v.nodes.position[node] = (self.main.nodes.position[c[a]] - origin) + fraction * du
                 self.v.nodes.grid_velocity[node] = share * du
                 self.v.nodes.omega[node] = share * ti.Vector([d[3], d[4], d[5]])
         if restore:

@@ -80,6 +80,24 @@ def increment_geometry(x, dx):
 
 
 @ti.func
+def mid_step(x, v, w, dt, large: ti.template()):
+    """The mid-step frame, the corners' local coordinates there and their local velocities
+    and angular velocities (4x3).  An explicit step (`large` False): the frame and
+    coordinates of x - dt/2 v, v^_a = R v~_a, theta^_a = R omega_a.  One large increment
+    (Newton's trial, Features.finite_increment): increment_geometry, the corners' motion and
+    rotation less the frame's."""
+    if ti.static(large):
+        rot_m, xm, ym, zm, change, spin = increment_geometry(x, dt * v)
+        wl = w @ rot_m.transpose()
+        for a, d in ti.static(ti.ndrange(4, 3)):
+            wl[a, d] -= spin[d] / dt
+        return rot_m, xm, ym, zm, change / dt, wl
+    else:
+        rot_m, xm, ym, zm = local_geometry(x - (0.5 * dt) * v)
+        return rot_m, xm, ym, zm, v @ rot_m.transpose(), w @ rot_m.transpose()
+
+
+@ti.func
 def gradient_operators(xh, yh):
     """Area and B1, B2 of the one-point quad (paper eq 27): B_alpha = dN_a/dx_alpha at the centre."""
     area = 0.5 * ((xh[2] - xh[0]) * (yh[3] - yh[1]) + (xh[1] - xh[3]) * (yh[2] - yh[0]))
@@ -252,16 +270,7 @@ class ShellElement:
         # dt*d second-order accurate and exactly zero for a discrete rigid rotation
         # (Hughes-Winget). Evaluated at x^(n+1), a free plate spinning 1.5 revolutions
         # gained 0.9% spurious strain energy (tests/test_stability.py).
-        if ti.static(self.cfg.finite_increment):  # one large increment (Newton): increment_geometry
-            rot_m, xm, ym, zm, change, spin = increment_geometry(x, dt * v)
-            vl = change / dt                      # the corners' motion less the frame's
-            wl = w @ rot_m.transpose()            # their rotation less the frame's
-            for a, d in ti.static(ti.ndrange(4, 3)):
-                wl[a, d] -= spin[d] / dt
-        else:
-            rot_m, xm, ym, zm = local_geometry(x - (0.5 * dt) * v)
-            vl = v @ rot_m.transpose()                # v^_a = R v~_a
-            wl = w @ rot_m.transpose()                # theta^_a = R omega_a
+        rot_m, xm, ym, zm, vl, wl = mid_step(x, v, w, dt, self.cfg.finite_increment)
         vx, vy, vz = column(vl, 0), column(vl, 1), column(vl, 2)
         tx, ty, tz = column(wl, 0), column(wl, 1), column(wl, 2)
         area_m, g1, g2 = gradient_operators(xm, ym)

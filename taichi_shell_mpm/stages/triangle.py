@@ -127,6 +127,20 @@ def increment_geometry(x, dx):
 
 
 @ti.func
+def mid_step(x, v, w, dt, large: ti.template()):
+    """The triangle's twin of shell.mid_step (its normal in place of z^)."""
+    if ti.static(large):
+        rot_m, xm, ym, normal_m, change, spin = increment_geometry(x, dt * v)
+        wl = w @ rot_m.transpose()
+        for a, d in ti.static(ti.ndrange(3, 3)):
+            wl[a, d] -= spin[d] / dt
+        return rot_m, xm, ym, normal_m, change / dt, wl
+    else:
+        rot_m, xm, ym, normal_m = triangle_geometry(x - (0.5 * dt) * v)
+        return rot_m, xm, ym, normal_m, v @ rot_m.transpose(), w @ rot_m.transpose()
+
+
+@ti.func
 def gradient_operators(xh, yh):
     """Area and B1, B2 (dN_a/dx^, dN_a/dy^) of the linear triangle."""
     area = 0.5 * ((xh[1] - xh[0]) * (yh[2] - yh[0]) - (xh[2] - xh[0]) * (yh[1] - yh[0]))
@@ -207,16 +221,7 @@ class TriangleElement:
         c = self.s.elements.corners[e]
         x, v, w = self.quad.gather(c, 3)
         # --- rates on the mid-step geometry (as the quad: shell.ShellElement.update)
-        if ti.static(self.cfg.finite_increment):  # one large increment (Newton): as the quad's
-            rot_m, xm, ym, normal_m, change, spin = increment_geometry(x, dt * v)
-            vl = change / dt
-            wl = w @ rot_m.transpose()
-            for a, d in ti.static(ti.ndrange(3, 3)):
-                wl[a, d] -= spin[d] / dt
-        else:
-            rot_m, xm, ym, normal_m = triangle_geometry(x - (0.5 * dt) * v)
-            vl = v @ rot_m.transpose()
-            wl = w @ rot_m.transpose()
+        rot_m, xm, ym, normal_m, vl, wl = mid_step(x, v, w, dt, self.cfg.finite_increment)
         vx, vy, vz = column(vl, 0), column(vl, 1), column(vl, 2)
         tx, ty, tz = column(wl, 0), column(wl, 1), column(wl, 2)
         area_m, g1, g2 = gradient_operators(xm, ym)
