@@ -48,6 +48,17 @@ STAGGER = ELEMENT_PARTS.index("stagger")     # the element pass books dt/2 P_e t
 MAX_VIRTUAL_ELEMENTS = 1 << 22            # ~85 000 shell elements (about 8 GB): a clear error beyond
 
 
+def newton_is_serial(n_elements: int) -> bool:
+    """Whether Newton's kernels run serially on the CPU: a virtual mesh (SLOTS copies of each
+    element) below simulation.THREADS_MIN_ELEMENTS, or one core.  The CLI then starts Taichi
+    with one thread [measured, docs/newton.md]: a thread-pool dispatch per parallel loop costs
+    more than the work of a few hundred element updates, and on a busy machine each one waits
+    for a worker to be scheduled (a 10x1 cantilever's tangent: 0.27 ms median, 0.29 ms mean
+    on one thread; 0.40-0.56 ms median, 1.4-2.6 ms mean through the pool, even with its loops
+    serial)."""
+    return cpu_threads() < 2 or n_elements * SLOTS < THREADS_MIN_ELEMENTS
+
+
 def virtual_model(model, slots: int):
     """`model` with each element repeated `slots` times, slot-major (virtual element
     s * m + e), each copy on 4 private nodes (virtual node 4 v + a); nothing is loaded,
@@ -86,9 +97,7 @@ class IncrementalForces:
             raise ValueError(f"{self.m} elements: the Newton tangent holds {SLOTS} copies of each, more than "
                              f"{MAX_VIRTUAL_ELEMENTS} in all")
         launch = "threads" if sim.arch == "cpu" else "gpu"
-        # serial loops on a small mesh [measured, docs/newton.md]: a thread-pool dispatch per
-        # parallel loop costs more than the work of a few hundred element updates
-        self.serial = sim.arch == "cpu" and (cpu_threads() < 2 or model.elements.shape[0] * SLOTS < THREADS_MIN_ELEMENTS)
+        self.serial = sim.arch == "cpu" and newton_is_serial(self.m)
         self.cfg = dataclasses.replace(sim.cfg, method="fem", launch=launch, grid_rule=False, grid_planes=False,
                                        bodies=False, walls=False, moving_walls=False, contact=False, friction=False,
                                        finite_increment=True)
