@@ -222,7 +222,8 @@ def _accept(sim, eq, outcome, lam_old, record, control):
     """Commit a converged point: state, energies, reaction, counters (one launch:
     tangent.IncrementalForces._commit), record, progress."""
     lam = outcome.lam
-    eq.forces.commit(eq.full(outcome.d), eq.forces.internal, lam_old, lam, outcome.iterations)   # the converged iterate's forces
+    # eq.forces.internal: the converged iterate's forces (its last evaluation)
+    eq.forces.commit(eq.full(outcome.d), eq.forces.internal, lam_old, lam, outcome.iterations)
     sim.total_steps += outcome.iterations
     sim.driver_data["iterations"].append(outcome.iterations)
     sim.check_hourglass()

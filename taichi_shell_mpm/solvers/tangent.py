@@ -10,8 +10,11 @@ resisting nodal forces at the end of the step.  So the internal force of an incr
 x_n + du, from the converged state (stress, plastic strain, hourglass and drilling
 resultants of the start of the increment) [choice]: a Newton iterate is a trial of that one
 update, never an accumulation of them, so the equations solved are exactly those of a
-(large) explicit step from the converged point.  The rotation increment enters the element
-only as dtheta (the BT frame comes from the geometry, method.md 3.1); the nodal
+(large) explicit step from the converged point, with the mid-step geometry of a large
+increment (Features.finite_increment: stages/shell.increment_geometry; the explicit step's
+x - dt v / 2 is the element shrunk by cos(alpha / 2) under a rotation alpha, which made
+Newton 0.04-0.09 % stiffer at 20 increments, docs/newton.md).  The rotation increment enters
+the element only as dtheta (the BT frame comes from the geometry, method.md 3.1); the nodal
 orientation is composed with exp(dtheta) once the increment has converged
 (:meth:`IncrementalForces.commit`).
 
@@ -19,8 +22,9 @@ How, without a second copy of the element.  The element pass of the explicit ste
 reused as it is, on a *virtual* state (state.State of a virtual model): each element e
 appears P = 1 + 2 x 24 times with 4 private corner nodes: slot 0 with the trial increment,
 slot 1 + 2 j (+ 1) with degree of freedom j of its 24 (corner a = j // 6, component j % 6:
-ux uy uz rx ry rz) moved by +h (-h).  One parallel element pass (stages/shell.ShellElement,
-the parallel launch: corner loads in per-element slots, no scatter) then gives the forces
+ux uy uz rx ry rz) moved by +h (-h).  One element pass (stages/shell.ShellElement, the
+parallel launch's code: corner loads in per-element slots, no scatter; serial on a small
+mesh, :func:`newton_is_serial`), in one kernel launch with the collection, then gives the forces
 of the trial increment (slot 0) and the 24 x 24 element tangent
 K_e[:, j] = (f(+h_j) - f(-h_j)) / (2 h_j): the derivative of exactly the discrete forces
 the explicit step uses (hourglass, drilling spring, BWC, the plane-stress return, i.e. the
@@ -237,7 +241,8 @@ class IncrementalForces:
         for c in range(self.main.nodes.count[None]):
             du = ti.Vector([increment[c, 0], increment[c, 1], increment[c, 2]])
             theta = ti.Vector([increment[c, 3], increment[c, 4], increment[c, 5]])
-            self.main.nodes.energy[c][0] += 0.5 * (lam_old + lam) * (self.main.nodes.load_force[c].dot(du) + self.main.nodes.load_moment[c].dot(theta))
+            dead_load_work = self.main.nodes.load_force[c].dot(du) + self.main.nodes.load_moment[c].dot(theta)
+            self.main.nodes.energy[c][0] += 0.5 * (lam_old + lam) * dead_load_work
             self.main.nodes.position[c] += du
             self.main.nodes.grid_velocity[c] = ti.Vector([0.0, 0.0, 0.0])
             self.main.nodes.velocity[c] = ti.Vector([0.0, 0.0, 0.0])
@@ -271,7 +276,8 @@ class IncrementalForces:
             for c in range(self.main.nodes.count[None]):
                 work += self.main.nodes.energy[c][0]
                 if self.main.nodes.fix_mask[c] & 0b111 == 0b111:
-                    reaction += ti.Vector([internal[c, 0], internal[c, 1], internal[c, 2]]) - lam * self.main.nodes.load_force[c]
+                    force = ti.Vector([internal[c, 0], internal[c, 1], internal[c, 2]])
+                    reaction += force - lam * self.main.nodes.load_force[c]
             self.main.step.external_work[None] = work
             self.main.step.reaction[None] = reaction
             self.main.step.load_factor[None] = lam
