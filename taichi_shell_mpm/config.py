@@ -49,6 +49,9 @@ class Features:
     #                             configuration costs 25-60 s to compile, and a scene with any of
     #                             them pays next to nothing for the others' empty loops]
     tool_kinds: tuple[str, ...] = ()   # rigid tool kinds the scene uses (tools.TOOL_KINDS order; stages/tools.py)
+    finite_increment: bool = False  # the step is one large increment (Newton's trial,
+    #                             solvers/tangent.py): mid-step shape from the end shapes
+    #                             (stages/shell.mid_geometry)
 
     @property
     def mass_update(self) -> bool:

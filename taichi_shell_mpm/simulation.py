@@ -106,18 +106,18 @@ def cpu_threads() -> int:
         return os.cpu_count() or 1
 
 
-def init_taichi(arch: str = "cpu", quiet: bool = False) -> str:
+def init_taichi(arch: str = "cpu", quiet: bool = False, threads: int | None = None) -> str:
     """Start Taichi on `arch`; returns the arch it actually runs on ("cpu" when Taichi fell
     back from an unavailable GPU backend).  `quiet`: without its "[Taichi] Starting on"
-    line.  Taichi's own probing warnings for a missing GPU are held back (the caller
-    reports the fallback)."""
+    line.  `threads`: the CPU threads (default :func:`cpu_threads`).  Taichi's own probing
+    warnings for a missing GPU are held back (the caller reports the fallback)."""
     import contextlib
     import io
     frontend.speed_up()
     level = ti.WARN if arch == "cpu" else ti.ERROR
     with contextlib.redirect_stdout(io.StringIO()) if quiet else contextlib.nullcontext():
         ti.init(arch=getattr(ti, ARCHS[arch]), default_fp=ti.f64, default_ip=ti.i32, offline_cache=True,
-                offline_cache_file_path=kernel_cache_dir(), log_level=level, cpu_max_num_threads=cpu_threads())
+                offline_cache_file_path=kernel_cache_dir(), log_level=level, cpu_max_num_threads=threads or cpu_threads())
     if level != ti.WARN:
         ti.set_logging_level(ti.WARN)
     used = ti.lang.impl.current_cfg().arch
@@ -289,6 +289,10 @@ class Simulation:
 
     # ------------------------------------------------------------------ recording
     def record(self, key: float, frame: bool) -> None:
+        with self.state.reads_cached():
+            self._record(key, frame)
+
+    def _record(self, key: float, frame: bool) -> None:
         self.history.probe_rows.append([key] + self.probe_values())
         e = self.energies()
         self.history.energy_rows.append([key] + [e[k] for k in ENERGY_COLUMNS])

@@ -50,6 +50,7 @@ entries; ``field.to_numpy()`` would return the whole virtual capacity).
 Sign convention (method.md 0): ``nodes.force_int``/``nodes.moment_int`` are *resisting*
 nodal forces; m a = f_ext - f_int through the grid.
 """
+import contextlib
 from types import SimpleNamespace
 
 import numpy as np
@@ -179,6 +180,7 @@ class State:
         fx = features
         self.n_nodes, self.n_elements = n, m
         self.features = fx
+        self._cache: dict | None = None           # read(): see reads_cached
         nk = fx.points
 
         # --- shell nodes (= particle-domain corners), method.md 1
@@ -690,9 +692,30 @@ class State:
                                         ("step", self.step), ("bodies", self.bodies), ("loads", self.loads),
                                         ("tools", self.tools), ("contact", self.contact), ("grid", self.grid)) if g is not None}
 
+    def read(self, field, size: int) -> np.ndarray:
+        """The first `size` entries of `field` (all of a 0-d or fixed table) as a numpy array
+        (within :meth:`reads_cached`: the one read there, read-only)."""
+        if self._cache is None:
+            return self._read(field, size)
+        key = (id(field), size)
+        out = self._cache.get(key)
+        if out is None:
+            out = self._cache[key] = self._read(field, size)
+            out.flags.writeable = False
+        return out
+
+    @contextlib.contextmanager
+    def reads_cached(self):
+        """Each field read once within (a launch each, ~0.1-1 ms): for the host's recording of
+        a step, which reads the same fields for probes, energies and frames and writes none."""
+        self._cache = {}
+        try:
+            yield
+        finally:
+            self._cache = None
+
     @staticmethod
-    def read(field, size: int) -> np.ndarray:
-        """The first `size` entries of `field` (all of a 0-d or fixed table) as a numpy array."""
+    def _read(field, size: int) -> np.ndarray:
         if len(field.shape) == 0:
             return np.array(field.to_numpy())
         shape = (size, *field.shape[1:]) + ((field.n,) if isinstance(field, ti.MatrixField) and field.m == 1 else
