@@ -44,6 +44,9 @@ class Features:
     #                             (stages/loads.py, stages/motion.py): one switch [choice: a
     #                             configuration costs 25-60 s to compile, and a scene with any of
     #                             them pays next to nothing for the others' empty loops]
+    body_rotation: bool = False  # a rigid body free to rotate (stages/bodies.py): the rotation
+    #                             update and the slaves' placement x = x_c + R (X - X_c); a
+    #                             translation-only ram compiles the translation alone
 
     @property
     def serial(self) -> bool:
@@ -97,4 +100,5 @@ class Features:
             moving_walls=any(w.body >= 0 for w in model.walls),
             contact=scene.contact is not None,
             friction=scene.contact is not None and scene.contact.friction > 0.0,
-            launch=launch, loads=model.loading.loads)
+            launch=launch, loads=model.loading.loads,
+            body_rotation=any(b.rotates for b in model.rigid_bodies))

@@ -281,14 +281,74 @@ class Simulation:
         e = self.energies()
         self.history.energy_rows.append([key] + [e[k] for k in ENERGY_COLUMNS])
         self.history.part_rows.append([key] + part_energies(self.state, self.model).ravel().tolist())
-        st, bd = self.state.step, self.state.bodies
-        nb = len(self.model.rigid_bodies)
+        st = self.state.step
         self.history.force_rows.append([key] + st.reaction[None].to_numpy().tolist()
                                        + st.reaction_impulse[None].to_numpy().tolist()
-                                       + [bd.displacement[i] for i in range(nb)] + [bd.force[i] for i in range(nb)]
-                                       + self.motion_values())
+                                       + self.body_values() + self.motion_values())
         if frame:
             self.write_frame(key)
+
+    def body_state(self) -> list[dict]:
+        """Each rigid body's pose, velocities, loads and kinetic energy now (stages/bodies.py)."""
+        nb = len(self.model.rigid_bodies)
+        if not nb:
+            return []
+        bd = self.state.bodies
+        read = {name: self.state.read(getattr(bd, name), nb) for name in (
+            "displacement", "rotation", "velocity", "omega", "angular_momentum", "force", "moment", "kinetic_rotation")}
+        out = []
+        for i, b in enumerate(self.model.rigid_bodies):
+            q = read["rotation"][i]
+            half = math.atan2(float(np.linalg.norm(q[1:])), abs(float(q[0])))
+            axis = q[1:] / np.linalg.norm(q[1:]) if half > 0.0 else np.zeros(3)
+            v = read["velocity"][i]
+            out.append({k: read[k][i] for k in read} | {
+                "rotation_vector": 2.0 * half * np.sign(q[0] or 1.0) * axis,
+                "kinetic": 0.5 * b.total_mass * float(v @ v) + (float(read["kinetic_rotation"][i]) if b.rotates else 0.0)})
+        return out
+
+    def body_values(self) -> list[float]:
+        """force.csv's body columns (:meth:`body_columns`): a ram along a direction, its
+        displacement and force along it (as before 6-DOF bodies); a 6-DOF body, its
+        displacement, rotation vector, force, moment about its centre, kinetic energy and
+        angular momentum."""
+        first, second = [], []
+        for b, x in zip(self.model.rigid_bodies, self.body_state()):
+            if b.direction is not None:
+                d = np.asarray(b.direction)
+                first.append(float(x["displacement"] @ d))
+                second.append(float(x["force"] @ d))
+            else:
+                first += [*map(float, x["displacement"]), *map(float, x["rotation_vector"])]
+                second += [*map(float, x["force"]), *map(float, x["moment"]), x["kinetic"],
+                           *map(float, x["angular_momentum"])]
+        return first + second
+
+    def body_columns(self) -> list[str]:
+        first, second = [], []
+        for b in self.model.rigid_bodies:
+            if b.direction is not None:
+                first.append(f"{b.name}.displacement")
+                second.append(f"{b.name}.force")
+            else:
+                first += [f"{b.name}.{c}" for c in ("ux", "uy", "uz", "rx", "ry", "rz")]
+                second += [f"{b.name}.{c}" for c in ("force_x", "force_y", "force_z", "moment_x", "moment_y",
+                                                     "moment_z", "kinetic", "angular_momentum_x",
+                                                     "angular_momentum_y", "angular_momentum_z")]
+        return first + second
+
+    def body_summary(self) -> list[dict]:
+        """summary.json's rigid_bodies block."""
+        out = []
+        for b, x in zip(self.model.rigid_bodies, self.body_state()):
+            out.append({"name": b.name, "mass": b.total_mass, "added_mass": b.added_mass,
+                        "center": (b.center + x["displacement"]).tolist(), "inertia": b.inertia.tolist(),
+                        "direction": list(b.direction) if b.direction is not None else None,
+                        "displacement": x["displacement"].tolist(), "rotation": x["rotation"].tolist(),
+                        "rotation_vector": x["rotation_vector"].tolist(), "velocity": x["velocity"].tolist(),
+                        "angular_velocity": x["omega"].tolist(), "angular_momentum": x["angular_momentum"].tolist(),
+                        "force": x["force"].tolist(), "moment": x["moment"].tolist(), "kinetic_energy": x["kinetic"]})
+        return out
 
     def motion_values(self) -> list[float]:
         """force.csv's motion columns (:meth:`motion_columns`): each motion's reaction on each
@@ -345,8 +405,7 @@ class Simulation:
         self.state.step.reaction[None].to_numpy()
         self.state.step.reaction_impulse[None].to_numpy()
         self.state.fetch("nodes.grid_velocity")
-        for i in range(len(self.model.rigid_bodies)):
-            _ = self.state.bodies.displacement[i], self.state.bodies.force[i]
+        self.body_values()
         self.motion_values()
         self.where()
         ti.sync()
@@ -469,12 +528,9 @@ class Simulation:
         be written; then the first OutputError is raised."""
         out = self.out_dir
         key = self.history.probe_header[0]
-        names = [b.name for b in self.model.rigid_bodies]
         tables = [("probes.csv", self.history.probe_header, self.history.probe_rows),
                   ("energy.csv", [key, *ENERGY_COLUMNS], self.history.energy_rows),
-                  ("force.csv", [key, "support_x", "support_y", "support_z", "support_impulse_x", "support_impulse_y",
-                                 "support_impulse_z"] + [f"{b}.displacement" for b in names]
-                   + [f"{b}.force" for b in names] + self.motion_columns(), self.history.force_rows),
+                  ("force.csv", self.force_header(), self.history.force_rows),
                   ("parts.csv", [key, "part", *PART_COLUMNS], self.part_table())]
         failed = None
         for name, header, rows in tables:
@@ -484,6 +540,10 @@ class Simulation:
                 failed = failed or exc
         if failed is not None:
             raise failed
+
+    def force_header(self) -> list[str]:
+        return ([self.history.probe_header[0], "support_x", "support_y", "support_z", "support_impulse_x",
+                 "support_impulse_y", "support_impulse_z"] + self.body_columns() + self.motion_columns())
 
     def part_table(self) -> list[list]:
         """parts.csv rows (long format: one row per part and output point), from the history."""
@@ -508,6 +568,10 @@ class Simulation:
         for i, b in enumerate(self.model.rigid_bodies):
             out.append({"name": f"rigid_body:{b.name}", "mass": b.added_mass,
                         "energies": {k: float(energies[len(self.model.parts) + i, j]) for j, k in enumerate(PART_COLUMNS)}})
+        first = len(self.model.parts) + len(self.model.rigid_bodies)
+        for i, p in enumerate(self.model.point_masses):
+            out.append({"name": f"point_mass:{p.name}", "mass": p.mass * len(p.nodes), "nodes": int(len(p.nodes)),
+                        "energies": {k: float(energies[first + i, j]) for j, k in enumerate(PART_COLUMNS)}})
         return out
 
     def write_results(self, extra: dict | None = None) -> dict:
@@ -542,6 +606,8 @@ class Simulation:
                 {"name": m.name, "kind": self.scene.motions[k].kind, "dofs": list(m.dofs), "nodes": int(len(m.nodes)),
                  "reaction": {d: values[columns.index(f"{m.name}.reaction_{d}")] for d in m.dofs},
                  "work": values[columns.index(f"{m.name}.work")]} for k, m in enumerate(self.model.loading.motions)]
+        if self.model.rigid_bodies:
+            summary["rigid_bodies"] = self.body_summary()
         if self.state.contact is not None:
             summary["contact"] = {"max_penetration_over_thickness": float(self.state.contact.max_penetration[None]),
                                   "pairs_last_step": int(self.state.contact.pairs[None])}

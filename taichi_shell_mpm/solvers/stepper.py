@@ -103,7 +103,7 @@ class Stepper:
             self.contact.check_skin()
         shell_kinetic = self.s.step.kinetic[None]     # the nodes' (the bodies' is added below)
         if ti.static(self.cfg.bodies):
-            self.bodies.apply_wall_impulses()
+            self.bodies.apply_impulses()
             self.bodies.add_kinetic_energy()
         self.energy.guard(shell_kinetic)         # before a relaxation reset books the KE as damped
         self.s.step.reaction_impulse[None] += self.s.step.dt[None] * self.s.step.reaction[None]
