@@ -9,8 +9,9 @@ sum in a fixed order (the same bits on any number of threads and across a restar
   forces, energy taken out by rigid walls, work of the prescribed motions (their constraint
   forces, stages/motion.py) (:meth:`EnergyLedger.node`; per prescribed DOF too,
   :meth:`EnergyLedger.motion`, summed per motion on the host);
-* per rigid body (``bodies.wall_energy``, ``bodies.external_work``): the work of the walls
-  moving with it on the body, and of gravity on its added mass;
+* per rigid body (``bodies.wall_energy``, ``bodies.external_work``, ``bodies.contact_energy``):
+  the work of the walls moving with it on the body, of gravity on its added mass and of loads
+  applied to it, and for a rotating body that of the loads and contact forces at its slaves;
 * damped energy (0-d): kinetic energy removed by dynamic relaxation (batched launch only).
 
 The step keeps 0-d running totals of the same increments for its in-kernel decisions
@@ -129,8 +130,15 @@ class EnergyLedger:
         self.s.nodes.motion_work[c, d] += work
 
     @ti.func
+    def body_contact(self, b, work):
+        """Work done against the contact forces at rotating body b's slaves (stages/bodies.py); serial."""
+        self.s.bodies.contact_energy[b] += work
+        self.s.step.contact_energy[None] += work
+
+    @ti.func
     def body_external(self, b, work):
-        """Work of gravity on rigid body b's added mass (stages/bodies.py); serial."""
+        """Work of gravity on rigid body b's added mass, of the loads applied to it (stages/bodies.py)
+        and, rotating, of the loads at its slaves; serial."""
         self.s.bodies.external_work[b] += work
         self.s.step.external_work[None] += work
 
@@ -187,6 +195,8 @@ def totals(state, model, initial_kinetic: float) -> dict[str, float]:
     if model.rigid_bodies:
         e["wall"] += float(state.read(state.bodies.wall_energy, len(model.rigid_bodies)).sum())
         e["external_work"] += float(state.read(state.bodies.external_work, len(model.rigid_bodies)).sum())
+        if state.features.body_rotation and state.features.contact:
+            e["contact"] += float(state.read(state.bodies.contact_energy, len(model.rigid_bodies)).sum())
     e["kinetic"] = kinetic_energy(state, model)
     e["kinetic_bodies"] = bodies_kinetic_energy(state, model)      # (not a column: the guard's scale)
     e["damped"] = float(state.step.damped_energy[None])

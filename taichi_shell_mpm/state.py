@@ -291,7 +291,7 @@ class State:
         nb, nw = len(model.rigid_bodies), len(model.walls)
         g.table("count", ti.field(i32), ())
         g.table("wall_count", ti.field(i32), ())
-        for name in ("wall_energy", "total_mass", "added_mass", "external_work", "kinetic_rotation"):
+        for name in ("wall_energy", "total_mass", "added_mass", "external_work", "kinetic_rotation", "contact_energy"):
             g.table(name, ti.field(f64), (MAX_BODIES,), nb)
         for name in ("velocity", "velocity_start", "displacement", "force", "impulse", "center0", "omega",
                      "omega_start", "angular_momentum", "moment", "applied_force", "applied_moment",

@@ -176,6 +176,9 @@ class NodeUpdate:
         if ti.static(self.cfg.contact):
             contact = -kick * self.s.contact.force[c].dot(v_mid)
             force += self.s.contact.force[c]
+        if ti.static(self.cfg.body_rotation):
+            if rigid:           # a rotating body books its slaves' load and contact work (stages/bodies.py)
+                external, contact = 0.0, 0.0
         wall = -self.s.nodes.mass[c] * (vg - before_walls).dot(v_mid)     # minus the walls' impulse . v_mid
         motion = 0.0
         if ti.static(self.cfg.loads):
