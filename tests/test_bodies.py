@@ -192,3 +192,58 @@ def test_body_with_held_rotations_turns_about_its_free_axis(tmp_path):
     assert momentum < 1.7e-4 and theta < 9e-5      # measured 1.1e-4 and 5.9e-5: the arm turns
     assert held < 1e-12
     assert inertia < 1e-12 and work < 1e-12 and balance < 1e-12
+
+
+RAM = """[[rigid_body]]
+name = "ram"
+nodes = "anchor"
+mass = {mass}
+direction = [0, -1, 0]"""
+
+
+def pushed_plate_with_spinner(tmp_path, name: str, body: str, spinner: str) -> tuple:
+    """test_energy's plate pushed by a wall moving with a ram (fem), with a separate quad far
+    away (y = -2, on the wall's side), `spinner` its [[rigid_body]] block or none (then it lies still)."""
+    import meshio
+
+    from .test_energy import PUSHED
+    xs = np.linspace(0.0, 1.0, 5)
+    points = [[x, y, 0.0] for y in xs for x in xs]
+    quads = [[j * 5 + i, j * 5 + i + 1, j * 5 + i + 6, j * 5 + i + 5] for j in range(4) for i in range(4)]
+    for y in (2.0, -2.0):
+        base = len(points)
+        points += [[0.4, y, 0.0], [0.6, y, 0.0], [0.6, y + 0.2, 0.0], [0.4, y + 0.2, 0.0]]
+        quads.append([base, base + 1, base + 2, base + 3])
+    meshio.write(tmp_path / "pushed.vtu", meshio.Mesh(np.array(points), [("quad", np.array(quads))]))
+    text = PUSHED.format(method="fem", method_extra="", mass=1.0e3, velocity=-0.02, end=0.25, interval=0.005)
+    text = text.replace(RAM.format(mass=1.0e3), body) + "[nodesets.far]\nbox = {min = [0, -2.1, -1], max = [1, -1.7, 1]}\n" \
+        + spinner
+    return run_scene(tmp_path, text, name)
+
+
+def test_ram_is_the_translation_only_special_case(tmp_path):
+    """The ram of the tube ([[rigid_body]] with `direction`) is a 6-DOF body with the other DOFs
+    held: written so, the pushed plate of test_energy gives the same bits (the same compiled
+    code: no body rotates); and with another body spinning in the scene, so that the rotation
+    is compiled and the ram's slaves are placed by x_c + R (X - X_c), the same to round-off."""
+    six = 'name = "ram"\nnodes = "anchor"\nmass = 1000.0\nfixed = ["ux", "uz", "rx", "ry", "rz"]'
+    spinner = '[[rigid_body]]\nname = "spinner"\nnodes = "far"\nmass = 1.0\ninertia = [0.1, 0.2, 0.3]\n' \
+              'spin = [0.5, 0.0, 2.0]\n'
+    out_a, _ = pushed_plate_with_spinner(tmp_path, "ram", RAM.format(mass=1000.0), "")
+    out_b, _ = pushed_plate_with_spinner(tmp_path, "six", "[[rigid_body]]\n" + six, "")
+    out_c, _ = pushed_plate_with_spinner(tmp_path, "spin", "[[rigid_body]]\n" + six, spinner)
+    ea, eb, ec = (table(o / "energy.csv") for o in (out_a, out_b, out_c))
+    fa, fb, fc = (table(o / "force.csv") for o in (out_a, out_b, out_c))
+    same_bits = (out_a / "energy.csv").read_bytes() == (out_b / "energy.csv").read_bytes()
+    columns = np.array_equal(fa["ramdisplacement"], -fb["ramuy"]) and np.array_equal(fa["ramforce"], -fb["ramforce_y"])
+    pushed = float(np.abs(fa["ramdisplacement"]).max())
+    displacement = float(np.abs(fa["ramdisplacement"] + fc["ramuy"]).max()) / pushed
+    wall = float(np.abs(ea["wall"] - ec["wall"]).max() / np.abs(ea["wall"]).max())
+    internal = float(np.abs(ea["internal"] - ec["internal"]).max() / ea["internal"].max())
+    spin = (out_c / "summary.json").read_text()
+    print(f"\nram vs 6-DOF body holding 5 DOFs: energy.csv byte-identical {same_bits}, columns equal {columns}; "
+          f"with a spinning body beside it: ram displacement {displacement:.1e}, wall energy {wall:.1e}, plate internal "
+          f"energy {internal:.1e} (relative)")
+    assert same_bits and columns
+    assert "spinner" in spin and np.abs(fc["spinnerrz"]).max() > 0.1
+    assert displacement < 1e-9 and wall < 1e-9 and internal < 1e-9
