@@ -75,10 +75,11 @@ class RigidBodySpec:
     spin0: np.ndarray                       # (3,) initial angular velocity
     translation_free: np.ndarray            # (3, 3) projector on the free translations (d d^T along a direction)
     rotation_free: np.ndarray               # (3, 3) projector on the free rotations (diagonal 0/1)
+    turned: bool = False                    # a [[motion]] prescribes its rotations
 
     @property
     def rotates(self) -> bool:
-        return bool(self.rotation_free.any())
+        return bool(self.rotation_free.any()) or self.turned
 
 
 @dataclass(frozen=True)
@@ -796,8 +797,9 @@ def _rigid_body(scene: Scene, rb, ids: np.ndarray, points: np.ndarray, node_mass
         v0 = float(np.mean(velocity0[ids] @ d)) * d if rb.velocity is None else translation_free @ rb.velocity
     else:
         d = None
+        moved = {d for m in scene.motions if m.body == rb.name for d in m.dofs}   # prescribed: held + set
         translation_free = np.diag([0.0 if dof in rb.fixed else 1.0 for dof in DOFS[:3]])
-        rotation_free = np.diag([0.0 if dof in rb.fixed else 1.0 for dof in DOFS[3:]])
+        rotation_free = np.diag([0.0 if dof in rb.fixed or dof in moved else 1.0 for dof in DOFS[3:]])
         v0 = translation_free @ (np.mean(velocity0[ids], axis=0) if rb.velocity is None else np.asarray(rb.velocity))
     spin = rotation_free @ np.asarray(rb.spin if rb.spin is not None else (0.0, 0.0, 0.0))
     if translation_free.any() and not total > 0.0:
@@ -805,8 +807,9 @@ def _rigid_body(scene: Scene, rb, ids: np.ndarray, points: np.ndarray, node_mass
     free = np.diag(rotation_free) > 0
     if free.any() and not np.linalg.eigvalsh(inertia[np.ix_(free, free)]).min() > 1e-12 * max(np.abs(inertia).max(), 1e-300):
         raise SceneError(f"{where}: the inertia about its free rotation axes is singular: give inertia")
+    turned = any(m.body == rb.name and set(m.dofs) & set(DOFS[3:]) for m in scene.motions)
     return RigidBodySpec(rb.name, ids, rb.mass, None if d is None else tuple(d), total, v0, center, inertia,
-                         added, spin, translation_free, rotation_free)
+                         added, spin, translation_free, rotation_free, turned)
 
 
 def node_neighbors(elements: np.ndarray, n: int) -> dict[str, np.ndarray]:

@@ -130,6 +130,12 @@ class EnergyLedger:
         self.s.nodes.motion_work[c, d] += work
 
     @ti.func
+    def body_motion(self, b, d, work):
+        """Work of the prescribed motion of DOF d of rigid body b (stages/bodies.py); serial."""
+        self.s.bodies.motion_work[b][d] += work
+        self.s.step.motion_work[None] += work
+
+    @ti.func
     def body_contact(self, b, work):
         """Work done against the contact forces at rotating body b's slaves (stages/bodies.py); serial."""
         self.s.bodies.contact_energy[b] += work
@@ -195,6 +201,8 @@ def totals(state, model, initial_kinetic: float) -> dict[str, float]:
     if model.rigid_bodies:
         e["wall"] += float(state.read(state.bodies.wall_energy, len(model.rigid_bodies)).sum())
         e["external_work"] += float(state.read(state.bodies.external_work, len(model.rigid_bodies)).sum())
+        if state.features.loads and model.loading.body_motion_mask.any():
+            e["motion_work"] += float(state.read(state.bodies.motion_work, len(model.rigid_bodies)).sum())
         if state.features.body_rotation and state.features.contact:
             e["contact"] += float(state.read(state.bodies.contact_energy, len(model.rigid_bodies)).sum())
     e["kinetic"] = kinetic_energy(state, model)

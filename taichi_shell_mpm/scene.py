@@ -374,15 +374,18 @@ MOTION_KINDS = ("displacement", "velocity", "acceleration")
 
 @dataclass(frozen=True)
 class Motion:
-    """Prescribed motion of DOFs of a node set (stages/motion.py): u, v or a = value x f."""
+    """Prescribed motion of DOFs of a node set (stages/motion.py) or of a rigid body
+    (stages/bodies.py): u, v or a = value x f."""
     name: str
-    nodes: str
     dofs: tuple[str, ...]
     kind: Literal["displacement", "velocity", "acceleration"]
     value: tuple[float, ...]
     """One per DOF (a single number in the scene applies to every DOF)."""
     curve: str | None = None
     """None: the load factor (1 in a dynamic run; lambda in a static one)."""
+    nodes: str | None = None
+    body: str | None = None
+    """The [[rigid_body]] moved (instead of `nodes`)."""
 
 
 @dataclass(frozen=True)
@@ -1729,10 +1732,23 @@ class _SceneParser:
     def motion(self, path: str, data: Any, solve: Solve | None, curves: dict[str, Curve]) -> Motion | None:
         mark = len(self.messages)
         v = self.read(path, data, {"name": _identifier, "nodes": self.nodes, "dofs": _dofs(allow_all=True),
-                                   "kind": _choice(*MOTION_KINDS), "value": _numbers, "curve": self.curve_name},
-                      Motion)
+                                   "kind": _choice(*MOTION_KINDS), "value": _numbers, "curve": self.curve_name,
+                                   "body": _identifier}, Motion)
         if v is None:
             return None
+        if ("nodes" in data) == ("body" in data):
+            self.error(f"{path}.nodes", "give one of nodes (a node set) or body (a [[rigid_body]])")
+        if "body" in data:
+            listed = self.raw.get("rigid_body", [])
+            bodies = {b["name"]: b for b in (listed if isinstance(listed, list) else [])
+                      if isinstance(b, dict) and isinstance(b.get("name"), str)}
+            if v.get("body") is not None and v["body"] not in bodies:
+                self.error(f"{path}.body", f"no [[rigid_body]] named {v['body']!r}" + _hint(v["body"], list(bodies), "defined"))
+            elif v.get("body") is not None and "direction" in bodies[v["body"]]:
+                self.error(f"{path}.body", f"the [[rigid_body]] {v['body']!r} translates along its direction only: "
+                                           "a body with a prescribed motion has six DOFs (leave out direction)")
+            if solve is not None and solve.kind == "static":
+                self.error(f"{path}.body", "a body's motion is prescribed in dynamic runs only")
         dofs, value, kind, curve = v.get("dofs"), v.get("value"), v.get("kind"), v.get("curve")
         if dofs is not None and value is not None:
             if len(value) == 1:

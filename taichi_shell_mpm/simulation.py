@@ -358,11 +358,18 @@ class Simulation:
             return []
         reaction = self.state.fetch("nodes.motion_reaction")
         work = self.state.fetch("nodes.motion_work")
+        nb = len(self.model.rigid_bodies)
+        if any(m.body >= 0 for m in motions):       # a body's motions (stages/bodies.py)
+            body_reaction = self.state.read(self.state.bodies.motion_reaction, nb)
+            body_work = self.state.read(self.state.bodies.motion_work, nb)
         from .scene import DOFS
         out = []
         for m in motions:
             dofs = [DOFS.index(d) for d in m.dofs]
-            out += [float(reaction[m.nodes, d].sum()) for d in dofs] + [float(work[m.nodes][:, dofs].sum())]
+            if m.body >= 0:
+                out += [float(body_reaction[m.body, d]) for d in dofs] + [float(body_work[m.body, dofs].sum())]
+            else:
+                out += [float(reaction[m.nodes, d].sum()) for d in dofs] + [float(work[m.nodes][:, dofs].sum())]
         return out
 
     def motion_columns(self) -> list[str]:
@@ -604,6 +611,7 @@ class Simulation:
             columns = self.motion_columns()
             summary["motions"] = [
                 {"name": m.name, "kind": self.scene.motions[k].kind, "dofs": list(m.dofs), "nodes": int(len(m.nodes)),
+                 **({"body": self.model.rigid_bodies[m.body].name} if m.body >= 0 else {}),
                  "reaction": {d: values[columns.index(f"{m.name}.reaction_{d}")] for d in m.dofs},
                  "work": values[columns.index(f"{m.name}.work")]} for k, m in enumerate(self.model.loading.motions)]
         if self.model.rigid_bodies:

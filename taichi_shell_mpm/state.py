@@ -300,6 +300,12 @@ class State:
         for name in ("inertia", "translation_free", "rotation_free"):
             g.table(name, ti.Matrix.field(3, 3, f64), (MAX_BODIES,), nb)
         g.table("rotation", ti.Vector.field(4, f64), (MAX_BODIES,), nb)
+        # a [[motion]] of the body: its DOF bits and the motion of each DOF (-1: none), the
+        # reaction of each prescribed DOF this step and its work so far (stages/bodies.py)
+        g.table("motion_mask", ti.field(i32), (MAX_BODIES,), nb)
+        g.table("motion", ti.Vector.field(6, i32), (MAX_BODIES,), nb)
+        g.table("motion_reaction", ti.Vector.field(6, f64), (MAX_BODIES,), nb)
+        g.table("motion_work", ti.Vector.field(6, f64), (MAX_BODIES,), nb)
         g.table("rotation_mode", ti.field(i32), (MAX_BODIES,), nb)
         # (stages/bodies.py) velocity: the centre's V^(n+1/2); velocity_start: V^(n-1/2) of the
         # step; displacement: x_c - center0 (the reference centre X_c); rotation: unit
@@ -505,15 +511,20 @@ class State:
         bd.count[None], bd.wall_count[None] = len(model.rigid_bodies), len(model.walls)
         start = 0
         for i, b in enumerate(model.rigid_bodies):
-            bd.velocity[i], bd.total_mass[i], bd.added_mass[i] = b.velocity0, b.total_mass, b.added_mass
+            bd.velocity[i], bd.total_mass[i], bd.added_mass[i] = b.velocity0.tolist(), b.total_mass, b.added_mass
             bd.direction[i] = b.direction if b.direction is not None else (0.0, 0.0, 0.0)
             bd.first_slave[i], bd.slave_count[i] = start, len(b.nodes)
-            bd.center0[i], bd.rotation[i] = b.center, (1.0, 0.0, 0.0, 0.0)
-            bd.inertia[i], bd.translation_free[i], bd.rotation_free[i] = b.inertia, b.translation_free, b.rotation_free
+            bd.center0[i], bd.rotation[i] = b.center.tolist(), (1.0, 0.0, 0.0, 0.0)
+            bd.inertia[i], bd.translation_free[i] = b.inertia.tolist(), b.translation_free.tolist()
+            bd.rotation_free[i] = b.rotation_free.tolist()
             free = int(np.count_nonzero(np.diag(b.rotation_free)))
             bd.rotation_mode[i] = ROTATION_FREE if free == 3 else ROTATION_CONSTRAINED if free else ROTATION_HELD
-            bd.omega[i], bd.angular_momentum[i] = b.spin0, b.inertia @ b.spin0
+            bd.omega[i], bd.angular_momentum[i] = b.spin0.tolist(), (b.inertia @ b.spin0).tolist()
             bd.kinetic_rotation[i] = 0.5 * float(b.spin0 @ b.inertia @ b.spin0)
+            if len(model.loading.body_motion_mask):
+                bd.motion_mask[i], bd.motion[i] = int(model.loading.body_motion_mask[i]), model.loading.body_motion[i].tolist()
+            else:
+                bd.motion_mask[i], bd.motion[i] = 0, [-1] * 6
             start += len(b.nodes)
         if model.rigid_bodies:
             w(bd.slave_nodes, np.concatenate([b.nodes for b in model.rigid_bodies]).astype(np.int32))

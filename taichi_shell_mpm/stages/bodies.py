@@ -56,6 +56,7 @@ import taichi as ti
 
 from ..state import ROTATION_CONSTRAINED, ROTATION_FREE, ROTATION_HELD
 from .accumulate import Accumulator
+from .motion import ACCELERATION, DISPLACEMENT
 from .timestep import impulse_time
 
 SIMO_WONG_ITERATIONS = 50      # fixed-point iterations at most (a few at dt |omega| << 1)
@@ -202,6 +203,9 @@ class RigidBodies:
             keep = self.s.step.velocity_keep[None]
             self.s.bodies.velocity_start[b] = keep * self.s.bodies.velocity[b]
             self.s.bodies.velocity[b] = free @ (keep * self.s.bodies.velocity[b] + kick * force / self.s.bodies.total_mass[b])
+            if ti.static(self.cfg.loads):
+                if self.s.bodies.motion_mask[b] & 0b111:
+                    self.prescribe_translation(b, force, x_c)
             self.s.bodies.displacement[b] += self.s.step.dt[None] * self.s.bodies.velocity[b]
             # the added mass's weight and the applied force work on the body (the slaves' loads: per
             # node, or here with a rotating body)
@@ -213,6 +217,38 @@ class RigidBodies:
                 self.energy.body_external(b, kick * (slave_loads.dot(v_mid) + slave_load_moment.dot(omega_mid)))
                 if ti.static(self.cfg.contact):
                     self.energy.body_contact(b, -kick * (contact.dot(v_mid) + contact_moment.dot(omega_mid)))
+
+    @ti.func
+    def prescribed_rate(self, b, d: ti.template(), start):
+        """What the [[motion]] of DOF d of body b sets its velocity (d < 3) or angular velocity
+        component to over the step (stages/motion.py's rates; a translation's displacement is
+        aimed at X_c + value f(s^(n+1)), a rotation's turned by its increment)."""
+        k = self.s.bodies.motion[b][d]
+        value = self.s.loads.motion_value[k][d]
+        kind = self.s.loads.motion_kind[k]
+        out = value * self.s.loads.motion_rate[k]
+        if kind == DISPLACEMENT:
+            if ti.static(d < 3):
+                out = (self.s.bodies.center0[b][d] + value * self.s.loads.motion_level[k]
+                       - self.center(b)[d]) / self.s.step.dt[None]
+        elif kind == ACCELERATION:
+            out += start
+        return out
+
+    @ti.func
+    def prescribe_translation(self, b, force, x_c):
+        """The prescribed components of V, the reaction R = M (V - V_start) / dt_k - F of each
+        and its time-centred work (stages/motion.py's), per body and DOF."""
+        mask = self.s.bodies.motion_mask[b]
+        kick = impulse_time(self.s.step)
+        start = self.s.bodies.velocity_start[b]
+        for d in ti.static(range(3)):
+            if (mask >> d) & 1:
+                v = self.prescribed_rate(b, d, start[d])
+                self.s.bodies.velocity[b][d] = v
+                reaction = self.s.bodies.total_mass[b] * (v - start[d]) / kick - force[d]
+                self.s.bodies.motion_reaction[b][d] = reaction
+                self.energy.body_motion(b, d, kick * reaction * 0.5 * (start[d] + v))
 
     @ti.func
     def turn(self, b, moment, x_c):
@@ -238,7 +274,25 @@ class RigidBodies:
         omega = ti.Vector([0.0, 0.0, 0.0])           # the step's angular velocity, space frame
         omega_before = ti.Vector([0.0, 0.0, 0.0])    # I(R_n)^-1 L before and after the kick
         omega_after = ti.Vector([0.0, 0.0, 0.0])
-        if mode == ROTATION_CONSTRAINED:
+        if mode == ROTATION_HELD:             # held, or turned by a [[motion]]
+            after = ti.Vector([0.0, 0.0, 0.0])
+            if ti.static(self.cfg.loads):
+                mask = self.s.bodies.motion_mask[b]
+                if mask >> 3:
+                    start = self.s.bodies.omega_start[b]
+                    for d in ti.static(range(3)):
+                        if (mask >> (3 + d)) & 1:
+                            omega[d] = self.prescribed_rate(b, 3 + d, start[d])
+                    after = inertia @ omega
+                    kick = impulse_time(self.s.step)
+                    reaction = (after - before) / kick - moment        # the moment the motion exerts
+                    for d in ti.static(range(3)):
+                        if (mask >> (3 + d)) & 1:
+                            self.s.bodies.motion_reaction[b][3 + d] = reaction[d]
+                            self.energy.body_motion(b, 3 + d, kick * reaction[d] * 0.5 * (start[d] + omega[d]))
+                    omega_before, omega_after = start, omega
+                    q = quaternion_product(quaternion_exp(dt * omega), q)
+        elif mode == ROTATION_CONSTRAINED:
             omega_before = constrained_omega(inertia, free, before)
             omega = constrained_omega(inertia, free, after)
             omega_after = omega
@@ -355,7 +409,17 @@ class RigidBodies:
         ti.loop_config(serialize=True)
         for b in range(self.s.bodies.count[None]):
             impulse = self.s.bodies.impulse[b]
-            self.s.bodies.velocity[b] += self.s.bodies.translation_free[b] @ (impulse / self.s.bodies.total_mass[b])
+            change = self.s.bodies.translation_free[b] @ (impulse / self.s.bodies.total_mass[b])
+            if ti.static(self.cfg.loads):     # a prescribed DOF keeps its velocity: its motion takes the impulse
+                mask = self.s.bodies.motion_mask[b]
+                v_mid = 0.5 * (self.s.bodies.velocity_start[b] + self.s.bodies.velocity[b])
+                kick = impulse_time(self.s.step)
+                for d in ti.static(range(3)):
+                    if (mask >> d) & 1:
+                        change[d] = 0.0
+                        self.s.bodies.motion_reaction[b][d] -= impulse[d] / kick
+                        self.energy.body_motion(b, d, -impulse[d] * v_mid[d])
+            self.s.bodies.velocity[b] += change
             v_mid = 0.5 * (self.s.bodies.velocity_start[b] + self.s.bodies.velocity[b])
             self.energy.body(b, -impulse.dot(v_mid))
             self.s.bodies.impulse[b] = ti.Vector([0.0, 0.0, 0.0])
@@ -373,6 +437,16 @@ class RigidBodies:
                     self.energy.body(b, -h.dot(0.5 * (w_before + w_after)))
                     self.s.bodies.angular_momentum[b] = after
                     self.s.bodies.kinetic_rotation[b] = 0.5 * after.dot(w_after)
+                elif ti.static(self.cfg.loads):   # turned by a [[motion]]: it takes the angular impulse
+                    mask = self.s.bodies.motion_mask[b]
+                    if mask >> 3:
+                        w_mid = 0.5 * (self.s.bodies.omega_start[b] + self.s.bodies.omega[b])
+                        kick = impulse_time(self.s.step)
+                        for d in ti.static(range(3)):
+                            if (mask >> (3 + d)) & 1:
+                                self.s.bodies.motion_reaction[b][3 + d] -= h[d] / kick
+                                self.energy.body_motion(b, 3 + d, -h[d] * w_mid[d])
+                        self.energy.body(b, -h.dot(w_mid))
                 self.s.bodies.angular_impulse[b] = ti.Vector([0.0, 0.0, 0.0])
 
     @ti.func
