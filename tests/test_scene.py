@@ -730,6 +730,12 @@ mass_from_nodes = true
 velocity = [0.0, 0.0, 1.0]
 spin = [0.0, 0.5, 0.0]
 fixed = ["ux"]
+[[motion]]
+name = "drive"
+body = "end"
+dofs = ["uz"]
+kind = "velocity"
+value = 1.0
 [[point_mass]]
 name = "weights"
 nodes = "middle"
