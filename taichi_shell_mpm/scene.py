@@ -1239,7 +1239,7 @@ class _SceneParser:
         if not isinstance(value, str):
             raise _Invalid(f"expected a curve name, got {_show(value)}")
         if value not in self.curve_names:
-            raise _Invalid(f"no [curves.{value}]" + _hint(value, self.curve_names, "defined"))
+            raise _Invalid(f"no [curves.{_key(value)}]" + _hint(value, self.curve_names, "defined"))
         return value
 
     def probe_component(self, value: Any) -> str:
@@ -1689,7 +1689,7 @@ class _SceneParser:
                              f"(a line load), got {', '.join(total + line)}")
         elif line:
             if data.get("distribute", "length") != "length":
-                self.error(f"{path}.distribute", f'a line load is distributed by length, got "{data["distribute"]}"')
+                self.error(f"{path}.distribute", f'a line load is distributed by length, got {_show(data["distribute"])}')
             v["distribute"] = "length"
             if v.get("force_per_length") == (0, 0, 0) and v.get("moment_per_length") == (0, 0, 0):
                 self.error(path, "force_per_length and moment_per_length are both zero")
@@ -1757,7 +1757,7 @@ class _SceneParser:
                 self.error(f"{path}.value", f"expected one number or one per DOF ({len(dofs)}), got {len(value)}")
         if solve is not None and kind is not None:
             if solve.kind == "static" and kind != "displacement":
-                self.error(f"{path}.kind", f'a static solve prescribes displacements only, got "{kind}"')
+                self.error(f"{path}.kind", f'a static solve prescribes displacements only, got {_show(kind)}')
             elif solve.kind == "dynamic" and kind == "displacement":
                 if "curve" not in data:
                     self.error(f"{path}.curve", "missing: a displacement in a dynamic run needs a curve "
@@ -1903,9 +1903,14 @@ class _SceneParser:
             if isinstance(element, dict) and element.get("drilling") == "projection":
                 self.error("[solve].solver", '"newton" needs the drilling spring ([element].drilling = "penalty"): the '
                            "projection leaves the drilling rotation without stiffness")
-            for key in ("rigid_body", "wall", "contact"):
-                if key in raw:
+            for key in ("rigid_body", "wall", "contact", "motion", "pressure", "gravity"):
+                if key in raw:       # loads and constraints the element pass of the tangent does not see
                     self.error("[solve].solver", f'"newton" does not handle [{key}] (use "relaxation")')
+            loads = raw.get("load", [])
+            for k, load in enumerate(loads if isinstance(loads, list) else []):
+                if isinstance(load, dict) and (load.get("curve") or load.get("follower")):
+                    self.error(f"[[load]] {k + 1}", '"newton" takes dead loads proportional to the load factor: no '
+                               'curve or follower (use "relaxation")')
         else:
             for key in ("control", "control_nodes", "control_displacement", "arc_length", "max_load_factor",
                         "target_iterations", "max_iterations", "max_cutbacks", "increment_tolerance",

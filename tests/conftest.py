@@ -1,6 +1,7 @@
 """Shared helpers: scene texts, scenes and simulations built in-process, the element harness."""
 from __future__ import annotations
 
+import os
 import textwrap
 from pathlib import Path
 from unittest import mock
@@ -9,12 +10,20 @@ import meshio
 import numpy as np
 import pytest
 import taichi as ti
+from hypothesis import settings
 
 from taichi_shell_mpm.scene import load_scene
 from taichi_shell_mpm.simulation import Simulation, init_taichi
 from taichi_shell_mpm.solvers.stepper import Stepper
 
 ROOT = Path(__file__).resolve().parents[1]
+
+# The fuzz tests (test_scene.py, test_fuzz_run.py) draw the same examples on every run by default,
+# so the suite's verdict does not depend on the draw [choice]; `HYPOTHESIS_PROFILE=explore` draws
+# fresh random examples (with `--hypothesis-seed=N` to replay one) to look for new failures.
+settings.register_profile("repeatable", derandomize=True)
+settings.register_profile("explore", derandomize=False)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "repeatable"))
 
 PLATE = """
 [scene]
