@@ -405,7 +405,7 @@ mass = 0.5
 inertia = [0.01, 0.01, 0.01]
 velocity = [0.0, 0.0, -1.0]
 [[wall]]
-point = [0.7, 0.5, 0.08]
+point = [0.7, 0.5, 0.3]
 normal = {normal}
 moves_with = "striker"
 [solve]
@@ -454,6 +454,6 @@ def test_plate_struck_by_a_rigid_body_keeps_momentum_and_energy(tmp_path):
     spin = float(np.linalg.norm(body["angular_velocity"]))
     print(f"\nmomentum of plate + body vs M V0: {momentum_error:.1e} (the plate took {plate:.3f} of it); energy "
           f"balance {balance:.1e} of the initial KE, wall {energy['wall'][-1] / k0:.3f} of it; body spin {spin:.3f} rad/s")
-    assert plate > 0.05 and spin > 0.01 and energy["wall"][-1] > 0.0      # it struck
-    assert momentum_error < 1e-9            # the VTU's float32 velocities: 1e-7 relative per node
-    assert balance < 0.01
+    assert plate > 0.01 and spin > 0.1 and energy["wall"][-1] > 0.0      # it struck (measured 0.020, 0.77)
+    assert momentum_error < 1e-12           # measured 2.6e-18
+    assert balance < 2e-6                   # measured 1.1e-6
