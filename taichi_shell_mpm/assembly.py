@@ -789,7 +789,8 @@ def _rigid_body(scene: Scene, rb, ids: np.ndarray, points: np.ndarray, node_mass
     r = points[ids] - center
     added = inertia_tensor(rb.inertia)
     rotary = float(node_inertia[ids].sum()) if rb.mass_from_nodes else 0.0
-    inertia = added + rotary * np.eye(3) + np.einsum("c,cij->ij", m, np.einsum("ck,ck->c", r, r)[:, None, None] * np.eye(3) - r[:, :, None] * r[:, None, :])
+    arms = np.einsum("ck,ck->c", r, r)[:, None, None] * np.eye(3) - r[:, :, None] * r[:, None, :]
+    inertia = added + rotary * np.eye(3) + np.einsum("c,cij->ij", m, arms)
     total = rb.mass + float(m.sum())
     if rb.direction is not None:
         d = np.asarray(rb.direction) / np.linalg.norm(rb.direction)
@@ -805,7 +806,8 @@ def _rigid_body(scene: Scene, rb, ids: np.ndarray, points: np.ndarray, node_mass
     if translation_free.any() and not total > 0.0:
         raise SceneError(f"{where}: the body has no mass (its nodes carry none): give mass")
     free = np.diag(rotation_free) > 0
-    if free.any() and not np.linalg.eigvalsh(inertia[np.ix_(free, free)]).min() > 1e-12 * max(np.abs(inertia).max(), 1e-300):
+    scale = max(float(np.abs(inertia).max()), 1e-300)
+    if free.any() and not np.linalg.eigvalsh(inertia[np.ix_(free, free)]).min() > 1e-12 * scale:
         raise SceneError(f"{where}: the inertia about its free rotation axes is singular: give inertia")
     turned = any(m.body == rb.name and set(m.dofs) & set(DOFS[3:]) for m in scene.motions)
     return RigidBodySpec(rb.name, ids, rb.mass, None if d is None else tuple(d), total, v0, center, inertia,

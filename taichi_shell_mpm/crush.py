@@ -201,8 +201,8 @@ def crush_summary(sim) -> dict:
         "specific_energy_absorption_over_reference": [sea * per_length / r if (r and sea is not None) else None
                                                       for r in references],
         "max_penetration_over_thickness": float(s.contact.max_penetration[None]) if s.contact is not None else None,
-        "ram_velocity_final": float(s.bodies.velocity[b].to_numpy() @ (np.asarray(body.direction) if body.direction is not None
-                                                           else axis)),
+        "ram_velocity_final": float(s.bodies.velocity[b].to_numpy()
+                                    @ (np.asarray(body.direction) if body.direction is not None else axis)),
     }
     if spec.folds:
         folds = fold_geometry(sim.model.points, sim.state.fetch("nodes.position"),

@@ -162,7 +162,8 @@ class EnergyLedger:
                         + self.s.step.contact_energy[None] + self.s.step.wall_energy[None] + self.s.step.damped_energy[None])
             error = (self.s.step.kinetic[None] + absorbed + self.s.step.stagger_energy[None] - self.s.step.kinetic_initial[None]
                      - self.s.step.external_work[None] - self.s.step.motion_work[None])
-            scale = ti.max(absorbed, KINETIC_SHARE * shell_kinetic, ROUND_OFF_SHARE * self.s.step.kinetic[None])
+            scale = ti.max(absorbed, KINETIC_SHARE * shell_kinetic,
+                           ROUND_OFF_SHARE * self.s.step.kinetic[None])
             if not (error <= limit * scale) and scale > 0.0:      # also catches NaN
                 self.s.step.status[None] = STATUS_ENERGY
                 self.s.step.status_index[None] = -1

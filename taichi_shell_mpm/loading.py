@@ -252,7 +252,8 @@ def assemble_loading(scene: Scene, points: np.ndarray, elements: np.ndarray, nod
             turned = (held | body_motion_mask[b]) >> 3
             if turned and turned != 0b111:
                 raise SceneError(f"{where}: a body's prescribed rotation needs its other rotations fixed or "
-                                 f"prescribed too (fixed = [...] or dofs), got {', '.join(d for d in DOFS[3:] if (turned >> (DOFS.index(d) - 3)) & 1)}")
+                                 "prescribed too (fixed = [...] or dofs), got "
+                                 + ", ".join(d for i, d in enumerate(DOFS[3:]) if (turned >> i) & 1))
             body_motion[b, [DOFS.index(d) for d in mo.dofs]] = k
             motions.append(MotionSpec(mo.name, np.zeros(0, np.int64), mo.dofs, MOTION_KINDS.index(mo.kind),
                                       index[mo.curve] if mo.curve is not None else -1, value, b))

@@ -1743,7 +1743,8 @@ class _SceneParser:
             bodies = {b["name"]: b for b in (listed if isinstance(listed, list) else [])
                       if isinstance(b, dict) and isinstance(b.get("name"), str)}
             if v.get("body") is not None and v["body"] not in bodies:
-                self.error(f"{path}.body", f"no [[rigid_body]] named {v['body']!r}" + _hint(v["body"], list(bodies), "defined"))
+                self.error(f"{path}.body", f"no [[rigid_body]] named {v['body']!r}"
+                           + _hint(v["body"], list(bodies), "defined"))
             elif v.get("body") is not None and "direction" in bodies[v["body"]]:
                 self.error(f"{path}.body", f"the [[rigid_body]] {v['body']!r} translates along its direction only: "
                                            "a body with a prescribed motion has six DOFs (leave out direction)")

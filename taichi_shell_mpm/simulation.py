@@ -347,7 +347,8 @@ class Simulation:
                         "displacement": x["displacement"].tolist(), "rotation": x["rotation"].tolist(),
                         "rotation_vector": x["rotation_vector"].tolist(), "velocity": x["velocity"].tolist(),
                         "angular_velocity": x["omega"].tolist(), "angular_momentum": x["angular_momentum"].tolist(),
-                        "force": x["force"].tolist(), "moment": x["moment"].tolist(), "kinetic_energy": x["kinetic"]})
+                        "force": x["force"].tolist(), "moment": x["moment"].tolist() if b.rotates else None,
+                        "kinetic_energy": x["kinetic"]})
         return out
 
     def motion_values(self) -> list[float]:

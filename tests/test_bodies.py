@@ -320,6 +320,12 @@ def test_tip_point_mass_sets_the_cantilever_frequency(tmp_path):
     ('[[point_mass]]\nname = "p"\nnodes = "all"\nmass = 1.0\ntotal_mass = 2.0',
      "[[point_mass]][0].mass: give one of mass (each node's) or total_mass"),
     ('[[point_mass]]\nname = "p"\nnodes = "nowhere"\nmass = 1.0', "[[point_mass]][0].nodes"),
+    ('[[rigid_body]]\nname = "b"\nnodes = "all"\nmass = 1.0\ninertia = [1.0, 1.0, 1.0]\n[[motion]]\nname = "m"\n'
+     'body = "b"\ndofs = ["ry"]\nkind = "velocity"\nvalue = 1.0',
+     "[[motion]] 'm': a body's prescribed rotation needs its other rotations fixed or prescribed too"),
+    ('[[rigid_body]]\nname = "b"\nnodes = "all"\nmass = 1.0\ndirection = [0, 0, 1]\n[[motion]]\nname = "m"\n'
+     'body = "b"\ndofs = ["uz"]\nkind = "velocity"\nvalue = 1.0',
+     "[[motion]][0].body: the [[rigid_body]] 'b' translates along its direction only"),
 ])
 def test_body_and_point_mass_input_errors(tmp_path, block, message):
     """Bad bodies and point masses: one line naming the key, exit code 2."""

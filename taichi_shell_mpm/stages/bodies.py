@@ -202,17 +202,18 @@ class RigidBodies:
             kick = impulse_time(self.s.step)
             keep = self.s.step.velocity_keep[None]
             self.s.bodies.velocity_start[b] = keep * self.s.bodies.velocity[b]
-            self.s.bodies.velocity[b] = free @ (keep * self.s.bodies.velocity[b] + kick * force / self.s.bodies.total_mass[b])
+            self.s.bodies.velocity[b] = free @ (keep * self.s.bodies.velocity[b]
+                                                + kick * force / self.s.bodies.total_mass[b])
             if ti.static(self.cfg.loads):
                 if self.s.bodies.motion_mask[b] & 0b111:
-                    self.prescribe_translation(b, force, x_c)
+                    self.prescribe_translation(b, force)
             self.s.bodies.displacement[b] += self.s.step.dt[None] * self.s.bodies.velocity[b]
             # the added mass's weight and the applied force work on the body (the slaves' loads: per
             # node, or here with a rotating body)
             self.energy.body_external(b, (kick * (weight + applied) * 0.5).dot(self.s.bodies.velocity_start[b]
                                                                              + self.s.bodies.velocity[b]))
             if ti.static(self.cfg.body_rotation):
-                omega_mid = self.turn(b, moment, x_c)
+                omega_mid = self.turn(b, moment)
                 v_mid = 0.5 * (self.s.bodies.velocity_start[b] + self.s.bodies.velocity[b])
                 self.energy.body_external(b, kick * (slave_loads.dot(v_mid) + slave_load_moment.dot(omega_mid)))
                 if ti.static(self.cfg.contact):
@@ -236,7 +237,7 @@ class RigidBodies:
         return out
 
     @ti.func
-    def prescribe_translation(self, b, force, x_c):
+    def prescribe_translation(self, b, force):
         """The prescribed components of V, the reaction R = M (V - V_start) / dt_k - F of each
         and its time-centred work (stages/motion.py's), per body and DOF."""
         mask = self.s.bodies.motion_mask[b]
@@ -251,7 +252,7 @@ class RigidBodies:
                 self.energy.body_motion(b, d, kick * reaction * 0.5 * (start[d] + v))
 
     @ti.func
-    def turn(self, b, moment, x_c):
+    def turn(self, b, moment):
         """The rotational kick and drift (module docstring); books the applied moment's work and
         returns the kick's time-centred angular velocity (omega^- + omega^+) / 2."""
         applied = self.s.bodies.applied_moment[b]
