@@ -25,6 +25,14 @@ settings.register_profile("repeatable", derandomize=True)
 settings.register_profile("explore", derandomize=False)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "repeatable"))
 
+# The suite runs in two processes (README: `pytest -n 2 --dist loadfile`, pytest-xdist; the tests
+# of one file stay in one process, so module fixtures and a file's statistics are not split).
+# Each process keeps its own offline kernel cache [choice]: two processes never write or read a
+# half-written cached kernel of the other, at the price of compiling a feature set both meet twice.
+if os.environ.get("PYTEST_XDIST_WORKER"):
+    _cache = os.environ.get("TAICHI_SHELL_MPM_CACHE") or str(Path.home() / ".cache" / "taichi_shell_mpm")
+    os.environ["TAICHI_SHELL_MPM_CACHE"] = str(Path(_cache) / os.environ["PYTEST_XDIST_WORKER"])
+
 PLATE = """
 [scene]
 name = "plate"

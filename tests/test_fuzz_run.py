@@ -419,7 +419,7 @@ def test_run_valid_scenes_with_tiny_step_counts(workdir, data):
         RUN_STATS["invalid"] += 1
         print(r.err.strip())
         return
-    r = cli_run("run", str(path), "--out", str(folder / "out"), "--quiet", timeout=120)
+    r = cli_run("run", str(path), "--out", str(folder / "out"), "--quiet", timeout=600)
     RUN_STATS[f"{shape} exit {r.code}"] += 1
     assert r.code in (0, 2, 3), (r.code, r.err)
     assert_clean_output(r)

@@ -121,7 +121,7 @@ def test_slit_annular_plate_converges(runs):
 
 def validate(tmp_path: Path, *sets: str, scene: str = "hinged_roof.toml") -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "taichi_shell_mpm", "validate", str(ROOT / "scenes" / scene),
-                           *[a for s in sets for a in ("--set", s)]], capture_output=True, text=True, timeout=120)
+                           *[a for s in sets for a in ("--set", s)]], capture_output=True, text=True, timeout=600)
 
 
 @pytest.mark.parametrize("sets, message", [

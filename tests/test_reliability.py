@@ -42,7 +42,7 @@ class Hang(Exception):
     pass
 
 
-def cli_run(*args: str, timeout: int = 120) -> CliResult:
+def cli_run(*args: str, timeout: int = 600) -> CliResult:
     """`python -m taichi_shell_mpm ARGS` in-process: exit code, stdout, stderr; raises Hang
     after `timeout` seconds."""
     out, err = io.StringIO(), io.StringIO()

@@ -181,7 +181,7 @@ def test_study_on_an_existing_scheduler(tmp_path):
             except subprocess.TimeoutExpired:
                 p.kill()
     bad = sweep("--param", "mesh.nx=4,8", "--scheduler", "tcp://127.0.0.1:9", "--out", str(tmp_path / "none"),
-                cwd=tmp_path, timeout=120)
+                cwd=tmp_path, timeout=600)
     assert bad.returncode == 2 and bad.stderr.startswith("error: --scheduler tcp://127.0.0.1:9: cannot start"), \
         bad.stderr
     assert "Traceback" not in bad.stderr
@@ -198,7 +198,7 @@ def test_ctrl_c_stops_the_study_cleanly(tmp_path):
     time.sleep(3)
     t0 = time.perf_counter()
     os.killpg(proc.pid, signal.SIGINT)
-    stdout, stderr = proc.communicate(timeout=120)
+    stdout, stderr = proc.communicate(timeout=600)
     print(first + stdout, stderr, f"stopped {time.perf_counter() - t0:.1f} s after SIGINT")
     assert "local Dask cluster" in first
     assert proc.returncode == 130
