@@ -8,6 +8,9 @@ kernel cache warmed by a first run of its own (not counted), and reads
 ``us_per_element_step`` from summary.json.  Prints each run, then per case the median and
 the minimum of A and of B and their ratios B/A.  A shared machine is noisy: trust ratios within one sitting
 only, and the median and the minimum over the runs (the minimum: the run least disturbed).
+``--cpu`` reads ``cpu_us_per_element_step`` instead: the process's CPU time (all threads) per
+element-step, which counts the work and not the waiting for a core (on a machine loaded by
+other jobs the wall time of a run varied by 2x between identical runs).
 
 Cases (short runs; the step is what is measured):
 
@@ -53,10 +56,12 @@ def main() -> int:
     p.add_argument("--set-a", action="append", default=[], metavar="KEY=VALUE", help="overrides of A only")
     p.add_argument("--set-b", action="append", default=[], metavar="KEY=VALUE", help="overrides of B only")
     p.add_argument("--repeats", type=int, default=3)
+    p.add_argument("--cpu", action="store_true", help="CPU time per element-step instead of wall time")
     a = p.parse_args()
     trees = [t.resolve() for t in (a.tree or [ROOT])]
     trees = (trees * 2)[:2]
     cases = a.case or list(CASES)
+    key, unit = ("cpu_us_per_element_step", "CPU us") if a.cpu else ("us_per_element_step", "us")
     with tempfile.TemporaryDirectory(prefix="step_cost_") as tmp:
         for case in cases:
             scene, overrides = CASES[case]
@@ -67,8 +72,8 @@ def main() -> int:
             for i in range(a.repeats):
                 for label, (tree, sets) in runs.items():
                     s = run(tree, scene, sets, Path(tmp) / label)
-                    values[label].append(s["us_per_element_step"])
-                    print(f"{case:<11} {label} {i + 1}: {s['us_per_element_step']:.3f} us/element-step "
+                    values[label].append(s[key])
+                    print(f"{case:<11} {label} {i + 1}: {s[key]:.3f} {unit}/element-step "
                           f"({s['steps']} steps, {s['elements']} elements)", flush=True)
             ma, mb = statistics.median(values["A"]), statistics.median(values["B"])
             la, lb = min(values["A"]), min(values["B"])

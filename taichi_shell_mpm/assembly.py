@@ -17,41 +17,33 @@ from .loading import Loading, assemble_loading
 from .mesh import Mesh
 from .nodesets import select_nodes
 from .scene import DOFS, Scene, SceneError, inertia_tensor
+from .tools import ToolTable, build_tools
 
 AXES = {"x": 0, "y": 1, "z": 2}
 SYMMETRY_FIXES = {0: ("ux", "ry", "rz"), 1: ("uy", "rx", "rz"), 2: ("uz", "rx", "ry")}
 
 
+KEY_BITS = 21
+"""Bits of one axis in a grid node's hash key (stages/grid.py): stencil bases from -2^20 to
+2^20 - 2 cells, i.e. +-2.6 km at h = 2.5 mm."""
+
+
 @dataclass(frozen=True)
 class GridGeometry:
-    """Background grid: node (i, j, k) sits at (lo + (i, j, k)) * h, lo integer."""
+    """Background grid: node (i, j, k) sits at (i, j, k) * h.  Unbounded [choice, issue 20]:
+    only the grid nodes of the shell's stencils exist (stages/grid.py), so the cells a stencil
+    base may take are limited only by the hash key's range, or by the optional grid box."""
     h: float
-    lo: tuple[int, int, int]
-    dims: tuple[int, int, int]
+    bound_lo: tuple[int, int, int]
+    bound_hi: tuple[int, int, int]
+    """The stencil base cells allowed, inclusive: the [method] grid box, or the key range."""
     planes: tuple[tuple[int, int], ...]
     """Symmetry grid planes as (axis, absolute grid index)."""
+    free_nodes: int
+    """Shell nodes that move through the grid (not prescribed): the grid's size class."""
     slab_axis: int = 0
     """The axis of the mesh's longest extent: P2G bins the shell nodes into grid slabs across
-    it (stages/mapping.py), so the most slabs hold nodes [choice: the mesh's, not the grid
-    box's longest axis -- the tube in a grid 16x its area put its nodes in 24 of the 160
-    x-slabs and stepped 38 % slower]."""
-
-    @property
-    def n_nodes(self) -> int:
-        return int(np.prod(self.dims))
-
-    @property
-    def strides(self) -> tuple[int, int, int]:
-        """Flat-index strides of the grid axes, the slab axis innermost [choice, measured in the
-        note of issue 4]: a shell's longest extent lies along its surface, so its grid nodes
-        then sit in long contiguous runs.  With the slab axis outermost the tube's grid nodes
-        spread over a plane of memory per slab and its P2G + G2P ran 1.8x slower."""
-        inner = [d for d in range(3) if d != self.slab_axis]
-        out = [0, 0, 0]
-        out[self.slab_axis] = 1
-        out[inner[1]] = self.dims[self.slab_axis]
-        out[inner[0]] = self.dims[self.slab_axis] * self.dims[inner[1]]
-        return (out[0], out[1], out[2])
+    it (stages/mapping.py), so the most slabs hold nodes."""
 
 
 @dataclass(frozen=True)
@@ -158,6 +150,8 @@ class MaterialTable:
     rate_filter: bool                       # some material filters its rate (Features.rate_filter)
     curve_strain: np.ndarray                # (points,) plastic strain of each curve point
     curve_stress: np.ndarray                # (points,) its yield stress
+    erosion: bool = False                   # some material's elements can fail (Features.erosion)
+    failure: np.ndarray | None = None       # (nm, 3) materials.failure_row of each (state.sections.failure)
 
     @property
     def plastic(self) -> bool:
@@ -173,6 +167,8 @@ class StepParameters:
     contact_stiffness: float = 0.0      # alpha_c
     contact_damping: float = 0.0
     contact_friction: float = 0.0
+    target_dt: float = 0.0              # selective mass scaling: the step (0: none)
+    added_mass_cap: float = 0.0         # its limit on the added mass (0: none)
 
 
 @dataclass(frozen=True)
@@ -187,7 +183,8 @@ class Model:
     corner_weight: np.ndarray     # (m, 4) CPDI2 weights, frozen (paper eq 15)
     corner_mass: np.ndarray       # (m, 4) w_ea m_e: element e's share of its corners' masses
     corner_inertia: np.ndarray    # (m, 4) w_ea m_e arm_e: its share of their rotary inertias
-    node_mass: np.ndarray         # (n,)
+    mass_factor: np.ndarray       # (m,) f_e >= 1 of selective mass scaling at the start (1: none)
+    node_mass: np.ndarray         # (n,) sum of f_e x the corner shares
     node_inertia: np.ndarray      # (n,) scalar rotary inertia J_c
     node_area: np.ndarray         # (n,) tributary area sum_e w_ea A_e
     node_thickness: np.ndarray    # (n,) the thickest adjacent element's thickness (walls keep half of it)
@@ -206,6 +203,7 @@ class Model:
     rigid_bodies: tuple[RigidBodySpec, ...] = ()
     point_masses: tuple[PointMassSpec, ...] = ()
     walls: tuple[WallSpec, ...] = ()
+    tools: ToolTable | None = None        # rigid tools ([[tool]], tools.py); None: none
     node_body: np.ndarray | None = None   # (n,) rigid body index of each node, -1 = none
     neighbor_start: np.ndarray | None = None   # CSR: nodes sharing an element with node c (incl. c)
     neighbor_nodes: np.ndarray | None = None
@@ -311,24 +309,47 @@ def element_length(points: np.ndarray, elements: np.ndarray, area: np.ndarray) -
     return np.where(quad, area / diag, 4.0 * area / np.sqrt(3.0 * edges_sq))
 
 
-def _grid_geometry(scene: Scene, points: np.ndarray, min_edge: float, planes_xyz) -> GridGeometry:
+def element_steps(points: np.ndarray, elements: np.ndarray, element: "ElementData", dt_safety: float) -> np.ndarray:
+    """Each element's stable step in the configuration `points` with its physical mass: the
+    host twin of stages/timestep.element_limit (quads) and triangle_limit (triangles)."""
+    x = points[np.where(elements >= 0, elements, elements[:, :1])]
+    d13, d24 = x[:, 2] - x[:, 0], x[:, 3] - x[:, 1]
+    area = 0.5 * np.linalg.norm(np.cross(d13, d24), axis=1)
+    longest = np.maximum(np.linalg.norm(d13, axis=1), np.linalg.norm(d24, axis=1))
+    inv = np.maximum(element.wave_speed * longest / area, 0.5 * element.rotational_frequency)
+    tri = elements[:, 3] < 0
+    if tri.any():
+        tri_area = 0.5 * np.linalg.norm(np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), axis=1)
+        inv_tri = element.wave_speed / element_length(points, elements, np.where(tri, tri_area, 1.0))
+        inv_tri = np.sqrt(inv_tri ** 2 + triangle_shear_gain(points, elements) * (0.5 * element.rotational_frequency) ** 2)
+        inv = np.where(tri, inv_tri, inv)
+    return dt_safety / inv
+
+
+def selective_mass_factor(steps: np.ndarray, target_dt: float) -> np.ndarray:
+    """Selective mass scaling [issue 18, as LS-DYNA's DT2MS < 0]: the density factor
+    f_e = (target / dt_e)^2 of each element whose stable step dt_e is below the target (its
+    step, which goes as 1/sqrt(density), becomes the target), 1 for the others."""
+    return np.maximum(1.0, (target_dt / steps) ** 2)
+
+
+def _grid_geometry(scene: Scene, points: np.ndarray, min_edge: float, planes_xyz, free_nodes: int) -> GridGeometry:
     m = scene.method
     h = m.cell_size if m.cell_size is not None else 0.5 * min_edge
     lo_pt, hi_pt = points.min(axis=0), points.max(axis=0)
+    reach = 1 << (KEY_BITS - 1)
+    bound_lo, bound_hi = np.full(3, -reach), np.full(3, reach - 2)
     if m.grid_min is not None:
         gmin, gmax = np.array(m.grid_min), np.array(m.grid_max)
         if np.any(lo_pt < gmin) or np.any(hi_pt > gmax):
             raise SceneError(f"{scene.source.name}: [method].grid_min/grid_max: the grid box does not "
                              f"cover the mesh (mesh spans {lo_pt.round(6).tolist()} .. {hi_pt.round(6).tolist()})")
-    else:
-        pad = m.padding if m.padding is not None else 0.25 * float(np.max(hi_pt - lo_pt))
-        gmin, gmax = lo_pt - pad, hi_pt + pad
-    lo = np.floor(gmin / h).astype(int) - 1
-    hi = np.ceil(gmax / h).astype(int) + 2
-    dims = hi - lo + 1
-    if np.prod(dims) > 60_000_000:
-        raise SceneError(f"{scene.source.name}: [method].cell_size: grid of {dims.tolist()} nodes is too large; "
-                         "use a larger cell_size or a smaller grid box")
+        bound_lo = np.maximum(bound_lo, np.floor(gmin / h))
+        bound_hi = np.minimum(bound_hi, np.floor(gmax / h))
+    if np.any(np.floor(lo_pt / h) < bound_lo) or np.any(np.floor(hi_pt / h) > bound_hi):
+        raise SceneError(f"{scene.source.name}: [method].cell_size: the mesh spans more than the grid's "
+                         f"{reach} cells from the origin on some axis at cell_size {h:g}; use a larger "
+                         "cell_size or move the mesh nearer to the origin")
     planes = []
     for axis, coord in planes_xyz:
         idx = coord / h
@@ -336,8 +357,9 @@ def _grid_geometry(scene: Scene, points: np.ndarray, min_edge: float, planes_xyz
             raise SceneError(f"{scene.source.name}: [[boundary]].symmetry: the {'xyz'[axis]}-symmetry plane at "
                              f"{coord:g} is not a grid plane for cell_size {h:g}; choose a cell size dividing it")
         planes.append((axis, int(round(idx))))
-    return GridGeometry(h=float(h), lo=tuple(int(v) for v in lo), dims=tuple(int(v) for v in dims),
-                        planes=tuple(sorted(set(planes))), slab_axis=int(np.argmax(hi_pt - lo_pt)))
+    return GridGeometry(h=float(h), bound_lo=tuple(int(v) for v in bound_lo), bound_hi=tuple(int(v) for v in bound_hi),
+                        planes=tuple(sorted(set(planes))), free_nodes=int(free_nodes),
+                        slab_axis=int(np.argmax(hi_pt - lo_pt)))
 
 
 def uniform_dt_mass_factor(points: np.ndarray, elements: np.ndarray, area0: np.ndarray) -> np.ndarray:
@@ -399,8 +421,9 @@ def _deck_specs(deck, source: str):
     hardening law, extrapolated beyond its last point as LS-DYNA does, else linear hardening
     H = E E_t / (E - E_t) from the tangent modulus; their Cowper-Symonds C and P (*MAT_003 SRC,
     SRP) the cowper_symonds rate law on the total strain rate (VP = 0, -1) or the plastic strain
-    rate (VP = 1); *SECTION_SHELL thickness T1, NIP Gauss points (QR = 0; NIP = 0 means 2),
-    QR = 1 (trapezoidal) as Lobatto with a note, SHRF."""
+    rate (VP = 1); FAIL (*MAT_003 FS) > 0 the failure strain (one point, LS-DYNA's NUMFIP
+    default), *MAT_024 TDEL the failure step of erosion; *SECTION_SHELL thickness T1, NIP
+    Gauss points (QR = 0; NIP = 0 means 2), QR = 1 (trapezoidal) as Lobatto with a note, SHRF."""
     from .scene import Material, Section
     materials, sections, notes = {}, {}, []
     for mid, card in deck.materials.items():
@@ -426,6 +449,13 @@ def _deck_specs(deck, source: str):
                 notes.append(f"{where}: VP = {vp} is read as VP = 0 (Cowper-Symonds on the total strain rate)")
         if card.kind == "piecewise_linear" and int(v.get("lcsr", 0)) > 0:
             notes.append(f"{where}: the strain-rate scaling curve LCSR {int(v['lcsr'])} is not read")
+        fail = v.get("fs", 0.0) if card.kind == "plastic_kinematic" else v.get("fail", 0.0)
+        if 0.0 < fail < 1e20:                 # LS-DYNA's default 1e21 (and 0): no failure
+            law["failure_strain"] = fail
+        elif fail < 0.0:
+            notes.append(f"{where}: FAIL/FS = {fail:g} (a user failure subroutine) is not read")
+        if card.kind == "piecewise_linear" and v.get("tdel", 0.0) > 0.0:
+            law["failure_min_dt"] = v["tdel"]
         materials[f"mat_{mid}"] = Material(E=E, nu=nu, density=rho, model="j2", **law)
     for secid, card in deck.sections.items():
         points = int(card.nip) if card.nip > 0 else 2             # NIP = 0: LS-DYNA's default, 2
@@ -584,8 +614,23 @@ def _tables(scene: Scene, parts, material_specs: dict, section_specs: dict, fram
         hardening=hardening, rate_laws=rates,
         rate_filter=any(spec.model == "j2" and spec.rate_law != "none" and materials.rate_filter_time(spec) > 0
                         for spec in specs),
-        curve_strain=points[:, 0].copy(), curve_stress=points[:, 1].copy())
+        curve_strain=points[:, 0].copy(), curve_stress=points[:, 1].copy(),
+        erosion=any(materials.erodes(spec) for spec in specs),
+        failure=np.array([materials.failure_row(spec) for spec in specs]))
+    if material_table.erosion and scene.solve.kind == "static":
+        name = next(n for n, spec in zip(material_names, specs) if materials.erodes(spec))
+        raise SceneError(f"{scene.source.name}: material {name!r}: erosion (failure_strain, failure_min_dt; a deck's "
+                         "FAIL, TDEL) needs [solve].kind = \"dynamic\"")
     pairs = tuple(dict.fromkeys((p.section, p.material) for p in parts))
+    for sec, mat in pairs:                    # a layered section (mat None): each ply's material
+        section = section_specs[sec]
+        for name in dict.fromkeys([mat] if mat is not None else [ply.material for ply in section.plies]):
+            spec = material_specs[name]
+            if getattr(spec, "failure_strain", 0.0) > 0.0 and spec.failure_points > section.points:
+                label = "[material]" if name == "material" else f"[materials.{name}]"
+                where = "[section]" if sec == "section" else f"section '{sec}'"
+                raise SceneError(f"{scene.source.name}: {label}.failure_points: expected at most the "
+                                 f"{section.points} through-thickness points of {where}, got {spec.failure_points}")
     layups = [laminate.layup(section_specs[sec], material_specs, mat) for sec, mat in pairs]
     nk = max(len(lay.zeta) for lay in layups)
     zeta, weight, angle = (np.zeros((len(pairs), nk)) for _ in range(3))
@@ -662,6 +707,10 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
     np.add.at(physical_mass, np.where(elements >= 0, elements, 0), weight * element_mass[:, None])
     if scene.solve.kind == "static" and scene.solve.mass_scaling != "none":
         element_mass *= uniform_dt_mass_factor(points, elements, area0)
+    mass_factor = np.ones(m)
+    if scene.solve.kind == "dynamic" and scene.solve.mass_scaling == "selective":
+        mass_factor = selective_mass_factor(element_steps(points, elements, element, scene.solve.dt_safety),
+                                            scene.solve.target_dt)
     node_mass = np.zeros(n)
     node_area = np.zeros(n)
     node_inertia = np.zeros(n)
@@ -679,9 +728,9 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
     corners = np.where(elements >= 0, elements, 0)       # a triangle's 4th weight is 0
     corner_mass = weight * element_mass[:, None]
     corner_inertia = weight * (element_mass * inertia_arm)[:, None]
-    np.add.at(node_mass, corners, corner_mass)
+    np.add.at(node_mass, corners, corner_mass * mass_factor[:, None])      # the order of stages/masses.py
     np.add.at(node_area, corners, weight * area0[:, None])
-    np.add.at(node_inertia, corners, corner_inertia)
+    np.add.at(node_inertia, corners, corner_inertia * mass_factor[:, None])
     node_thickness = np.zeros(n)
     valid = elements >= 0
     np.maximum.at(node_thickness, elements[valid], np.repeat(element.thickness, 4).reshape(-1, 4)[valid])
@@ -744,28 +793,33 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
     names = [b.name for b in bodies]
     walls = tuple(WallSpec(tuple(w.point), tuple(np.asarray(w.normal) / np.linalg.norm(w.normal)),
                            names.index(w.moves_with) if w.moves_with else -1) for w in scene.walls)
+    tools = build_tools(scene.tools, names, list(scene.curves), float(node_thickness.max())) if scene.tools else None
     for d in range(3):                       # supports do not move: no initial velocity there
         velocity0[(fix_mask >> d) & 1 == 1, d] = 0.0
         omega0[(fix_mask >> (3 + d)) & 1 == 1, d] = 0.0
     probes = tuple(ProbeSpec(p.name, nodes_of(p.nodes), p.components) for p in scene.probes)
     min_edge = float(edges.min())
-    grid = _grid_geometry(scene, points, min_edge, planes_xyz) if scene.method.kind == "mpm" else None
+    free = int(np.sum(((fix_mask & 0b111) != 0b111) & (node_body < 0)))
+    grid = _grid_geometry(scene, points, min_edge, planes_xyz, free) if scene.method.kind == "mpm" else None
     contact = scene.contact
     parameters = StepParameters(
         dt_safety=scene.solve.dt_safety, flip_blend=scene.method.flip_blend,
         **({"contact_thickness": contact.thickness or float(element.thickness.max()),
             "contact_stiffness": contact.stiffness, "contact_damping": contact.damping,
-            "contact_friction": contact.friction} if contact is not None else {}))
+            "contact_friction": contact.friction} if contact is not None else {}),
+        **({"target_dt": scene.solve.target_dt,
+            "added_mass_cap": 0.01 * scene.solve.added_mass_limit * float(corner_mass.sum())}
+           if scene.solve.kind == "dynamic" and scene.solve.mass_scaling == "selective" else {}))
     return Model(points=points, elements=elements.astype(np.int32), parts=parts, element=element,
                  parameters=parameters, notes=tuple(notes),
                  sections=sections, materials=material_table, area0=area0, corner_weight=weight, node_mass=node_mass,
-                 corner_mass=corner_mass, corner_inertia=corner_inertia,
+                 corner_mass=corner_mass, corner_inertia=corner_inertia, mass_factor=mass_factor,
                  node_thickness=node_thickness,
                  node_inertia=node_inertia, node_area=node_area, fix_mask=fix_mask, load_force=load_force,
                  load_moment=load_moment, velocity0=velocity0, omega0=omega0,
                  grid=grid, probes=probes, min_edge=min_edge, mean_edge=float(edges.mean()),
                  max_edge=float(edges.max()), rigid_bodies=tuple(bodies), point_masses=tuple(point_masses),
-                 walls=walls, node_body=node_body,
+                 walls=walls, tools=tools, node_body=node_body,
                  loading=loading,
                  **(node_neighbors(elements, n) if scene.contact else {}))
 

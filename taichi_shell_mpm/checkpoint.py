@@ -98,6 +98,7 @@ def save_checkpoint(sim, position: dict, path: Path | None = None) -> Path:
         "launch": sim.cfg.launch,
         "position": position,
         "total_steps": int(sim.total_steps), "run_seconds": float(sim.run_seconds),
+        "run_cpu_seconds": float(sim.run_cpu_seconds),
         "step": int(sim.state.step.step[None]),
         "frames": [[float(k), f] for k, f in (sim.frames.entries if sim.frames else [])],
         "warnings": list(sim.warnings), "hourglass_warned": bool(sim.hourglass_warned),
@@ -210,6 +211,7 @@ def restore_checkpoint(sim, ckpt: Checkpoint) -> list[str]:
     m = ckpt.meta
     sim.total_steps = int(m["total_steps"])
     sim.run_seconds = float(m["run_seconds"])
+    sim.run_cpu_seconds = float(m.get("run_cpu_seconds", 0.0))
     sim.warnings = list(m["warnings"])
     sim.hourglass_warned = bool(m["hourglass_warned"])
     sim.driver_data = m["driver"]
@@ -250,19 +252,24 @@ class RunControl:
         self.stop_requested = False
         self.checkpoints_written = 0
         self.last_checkpoint: Path | None = None
-        self._seconds0 = 0.0
-        self._t0 = time.perf_counter()
-        self._overhead = 0.0
+        self._seconds0 = self._cpu_seconds0 = 0.0
+        self._t0, self._cpu0 = time.perf_counter(), time.process_time()
+        self._overhead = self._cpu_overhead = 0.0
 
     def start(self, sim) -> None:
         """The driver starts (or resumes): run time counts from here, on top of the saved one."""
-        self._seconds0 = sim.run_seconds
-        self._t0 = time.perf_counter()
-        self._overhead = 0.0
+        self._seconds0, self._cpu_seconds0 = sim.run_seconds, sim.run_cpu_seconds
+        self._t0, self._cpu0 = time.perf_counter(), time.process_time()
+        self._overhead = self._cpu_overhead = 0.0
 
     def run_seconds(self) -> float:
         """Wall time of the driver so far, all sessions, without the checkpoint writing."""
         return self._seconds0 + time.perf_counter() - self._t0 - self._overhead
+
+    def run_cpu_seconds(self) -> float:
+        """The process's CPU time (all threads) over the same span: on a shared machine it
+        counts the work, not the waiting (benchmarks/step_cost.py --cpu)."""
+        return self._cpu_seconds0 + time.process_time() - self._cpu0 - self._cpu_overhead
 
     def boundary(self, sim, position: dict) -> None:
         """A safe point between batches: the state and `position` say how to continue."""
@@ -275,13 +282,14 @@ class RunControl:
             raise KeyboardInterrupt
 
     def write(self, sim, position: dict, step: int) -> None:
-        t0 = time.perf_counter()
+        t0, cpu0 = time.perf_counter(), time.process_time()
         sim.driver_data["checkpoint_step"] = step
-        sim.run_seconds = self.run_seconds()
+        sim.run_seconds, sim.run_cpu_seconds = self.run_seconds(), self.run_cpu_seconds()
         with deferred_interrupt():
             self.last_checkpoint = save_checkpoint(sim, position)
         self.checkpoints_written += 1
         self._overhead += time.perf_counter() - t0
+        self._cpu_overhead += time.process_time() - cpu0
 
     @contextlib.contextmanager
     def catch_interrupts(self):

@@ -157,11 +157,12 @@ def setup_warnings(scene, model) -> list[str]:
             lines.append(f"{scene.source.name}: [method].kind = \"mpm\": the {pairs} pair{'s' if pairs != 1 else ''} "
                          "of coincident nodes move together (every node moves with the grid velocity at its "
                          "position), so a slit or crack there does not open; use kind = \"fem\" to let it open")
-    if scene.contact is not None and model.grid is not None and model.grid.h > STICKING_CELL_RATIO * model.max_edge:
+    if scene.contact is not None and scene.method.fields == "single" and model.grid is not None \
+            and model.grid.h > STICKING_CELL_RATIO * model.max_edge:
         lines.append(f"{scene.source.name}: [method].cell_size: {model.grid.h:g} is more than "
                      f"{STICKING_CELL_RATIO:g} x the longest element edge ({model.max_edge:.3g}); with [contact], "
                      "shell layers within two cells stick through the grid (docs/crush.md, sticking check): "
-                     "use about half the element size")
+                     "use fields = \"multi\" or about half the element size")
     return lines
 
 
@@ -193,7 +194,7 @@ def _validate(args) -> int:
     note = reference_note(scene)
     for w in (*mesh.warnings, *setup_warnings(scene, model), *([note] if note else [])):
         print(f"warning: {w}")
-    grid = f", grid {model.grid.dims} nodes at h={model.grid.h:g}" if model.grid else ""
+    grid = f", grid cells h={model.grid.h:g}" if model.grid else ""
     triangles = int(mesh.triangles.sum())
     shapes = f" ({triangles} triangles)" if triangles else ""
     print(f"{args.scene}: ok ({len(mesh.points)} nodes, {len(mesh.elements)} elements{shapes}, {scene.method.kind}{grid})")

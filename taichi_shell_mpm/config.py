@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 from .assembly import Model
 from .scene import Scene
+from .tools import TOOL_KINDS
 
 
 @dataclass(frozen=True)
@@ -39,6 +40,9 @@ class Features:
     moving_walls: bool          # a wall moving with a rigid body
     contact: bool               # penalty self-contact (stages/contact.py)
     friction: bool              # contact friction
+    erosion: bool = False       # some material's elements fail (issue 18; stages/masses.py)
+    mass_scaling: bool = False  # selective mass scaling to [solve].target_dt (stages/masses.py)
+    multi_field: bool = False   # a velocity field per shell layer at each grid node (stages/grid.py)
     launch: str = "batched"     # "batched" | "threads" | "gpu" (solvers/stepper.py)
     loads: bool = False         # curve or follower loads, pressure, gravity, prescribed motion
     #                             (stages/loads.py, stages/motion.py): one switch [choice: a
@@ -47,6 +51,12 @@ class Features:
     body_rotation: bool = False  # a rigid body free to rotate (stages/bodies.py): the rotation
     #                             update and the slaves' placement x = x_c + R (X - X_c); a
     #                             translation-only ram compiles the translation alone
+    tool_kinds: tuple[str, ...] = ()   # rigid tool kinds the scene uses (tools.TOOL_KINDS order; stages/tools.py)
+
+    @property
+    def mass_update(self) -> bool:
+        """The nodal masses change during the run (erosion, mass scaling): stages/masses.py."""
+        return self.erosion or self.mass_scaling
 
     @property
     def serial(self) -> bool:
@@ -67,6 +77,17 @@ class Features:
         FLIP needs v- and v+ separately, statics the grid residual; APIC and PIC dynamics
         scatter p + dt f in one field."""
         return self.transfer == "flip" or self.static
+
+    @property
+    def tools(self) -> bool:
+        """Rigid tools (stages/tools.py)."""
+        return bool(self.tool_kinds)
+
+    @property
+    def nodal_normals(self) -> bool:
+        """Whether the shell stage gathers the nodal normals (sum A e3, sum A): the drilling
+        projection and the multi-field grid's layer test use them."""
+        return not self.drilling_spring or self.multi_field
 
     @property
     def plastic(self) -> bool:
@@ -100,5 +121,9 @@ class Features:
             moving_walls=any(w.body >= 0 for w in model.walls),
             contact=scene.contact is not None,
             friction=scene.contact is not None and scene.contact.friction > 0.0,
-            launch=launch, loads=model.loading.loads,
+            tool_kinds=tuple(k for k in TOOL_KINDS if model.tools is not None and k in model.tools.kinds),
+            erosion=model.materials.erosion,
+            mass_scaling=scene.solve.kind == "dynamic" and scene.solve.mass_scaling == "selective",
+            multi_field=model.grid is not None and scene.method.fields == "multi",
+            launch=launch, loads=model.loading.loads or (model.tools is not None and model.tools.prescribed),
             body_rotation=any(b.rotates for b in model.rigid_bodies))

@@ -177,7 +177,7 @@ def crush_summary(sim) -> dict:
     work = crush_work(t, crush, impulse)
     mean, covered = mean_force(crush, work, spec.window)
     e = {name: energy[:, i] for i, name in enumerate(["key", *ENERGY_COLUMNS])}
-    absorbed = e["internal"] + e["hourglass"] + e["drilling"] + e["contact"] + e["wall"]
+    absorbed = e["internal"] + e["hourglass"] + e["drilling"] + e["eroded"] + e["contact"] + e["wall"]
     late = (energy[:, 0] >= energy[-1, 0] / 30.0) & (absorbed > 0)
     balance = np.abs(e["balance_error"][late]) / absorbed[late] if late.any() else np.array([np.nan])
     final_internal = e["internal"][-1]

@@ -12,7 +12,15 @@ sum in a fixed order (the same bits on any number of threads and across a restar
 * per rigid body (``bodies.wall_energy``, ``bodies.external_work``, ``bodies.contact_energy``):
   the work of the walls moving with it on the body, of gravity on its added mass and of loads
   applied to it, and for a rotating body that of the loads and contact forces at its slaves;
-* damped energy (0-d): kinetic energy removed by dynamic relaxation (batched launch only).
+* per rigid tool (``tools.energy``, ``tools.work``): its contact energy, of which ``work`` is
+  booked at the tool's own motion (stages/tools.py; in the ``contact`` column, and for a tool
+  moved by a curve in ``motion_work`` too: the work its driver does);
+* damped energy (0-d): kinetic energy removed by dynamic relaxation (batched launch only);
+* per element (``elements.mass_energy``, issue 18, stages/masses.py): the kinetic energy of
+  its mass shares when it eroded, and the kinetic energy given to its added mass by
+  selective mass scaling.  An eroded element's accumulators stop; :func:`totals` reports
+  its internal, hourglass and drilling energy with that kinetic energy as the eroded
+  energy, the element columns being those of the live elements.
 
 The step keeps 0-d running totals of the same increments for its in-kernel decisions
 (static convergence, the balance guard); what is reported and written comes from the
@@ -43,11 +51,12 @@ in the first step of a suddenly loaded flap, a factor 1-2.4 in a plate spinning 
 motion; what remains is nonlinearity, plasticity's dissipation booking, the double
 mapping's transfer loss and real errors.
 
-Balance.  E_err = KE + E_int + E_hg + E_drill + S + E_damped + E_wall + E_contact - KE_0 - W_ext
-- W_motion (E_int includes the plastic work; W_motion: the work of the prescribed motions).  The guard (:meth:`EnergyLedger.guard`, checked every step
+Balance.  E_err = KE + E_int + E_hg + E_drill + E_eroded + S + E_damped + E_wall + E_contact - KE_0
+- W_ext - W_motion - E_ms (E_int includes the plastic work; W_motion: the work of the prescribed
+motions; E_ms: the kinetic energy given to added mass).  The guard (:meth:`EnergyLedger.guard`, checked every step
 in the kernel of a dynamic run) stops a run once E_err (energy created) exceeds ``limit``
-times the energy the shell has absorbed, A = E_int + E_hg + E_drill + E_contact + E_wall +
-E_damped, or KINETIC_SHARE x the shell's own kinetic energy (the nodes', without rigid
+times the energy the shell has absorbed, A = E_int + E_hg + E_drill + E_eroded + E_contact +
+E_wall + E_damped, or KINETIC_SHARE x the shell's own kinetic energy (the nodes', without rigid
 bodies' added masses) where that is larger, or ROUND_OFF_SHARE x the whole kinetic energy
 (a rigid body tumbling alone absorbs nothing: its kinetic energy's round-off, 1e-14, is no
 instability); the host warns once |E_err| exceeds
@@ -66,9 +75,10 @@ import taichi as ti
 
 from .stages.accumulate import Accumulator
 from .state import STATUS_ENERGY, STATUS_OK
+from .tools import DISPLACEMENT, VELOCITY
 
 ENERGY_COLUMNS = ("kinetic", "internal", "hourglass", "external_work", "damped", "wall", "contact",
-                  "plastic_work", "drilling", "stagger", "motion_work", "balance_error")
+                  "plastic_work", "drilling", "stagger", "motion_work", "eroded", "mass_scaling", "balance_error")
 ELEMENT_PARTS = ("internal", "plastic_work", "hourglass", "drilling", "stagger")   # element_energy components
 NODE_PARTS = ("external_work", "contact", "wall", "motion_work")         # node_energy components
 
@@ -111,7 +121,7 @@ class EnergyLedger:
         self.acc.total(self.s.step.external_work, external)
         if ti.static(self.cfg.loads):
             self.acc.total(self.s.step.motion_work, motion)
-        if ti.static(self.cfg.contact):
+        if ti.static(self.cfg.contact or self.cfg.tools):
             self.acc.total(self.s.step.contact_energy, contact)
         if ti.static(self.cfg.walls):
             self.acc.total(self.s.step.wall_energy, wall)
@@ -160,8 +170,12 @@ class EnergyLedger:
         if ti.static(not self.cfg.static) and limit > 0.0 and self.s.step.status[None] == STATUS_OK:
             absorbed = (self.s.step.internal_energy[None] + self.s.step.hourglass_energy[None] + self.s.step.drilling_energy[None]
                         + self.s.step.contact_energy[None] + self.s.step.wall_energy[None] + self.s.step.damped_energy[None])
+            if ti.static(self.cfg.mass_update):      # eroded elements' energy is in the running totals above
+                absorbed += self.s.step.eroded_kinetic[None]
             error = (self.s.step.kinetic[None] + absorbed + self.s.step.stagger_energy[None] - self.s.step.kinetic_initial[None]
                      - self.s.step.external_work[None] - self.s.step.motion_work[None])
+            if ti.static(self.cfg.mass_update):
+                error -= self.s.step.mass_scaling_energy[None]
             scale = ti.max(absorbed, KINETIC_SHARE * shell_kinetic,
                            ROUND_OFF_SHARE * self.s.step.kinetic[None])
             if not (error <= limit * scale) and scale > 0.0:      # also catches NaN
@@ -181,10 +195,17 @@ def bodies_kinetic_energy(state, model) -> float:
                      for i, b in enumerate(model.rigid_bodies)))
 
 
+def node_masses(state, model) -> tuple[np.ndarray, np.ndarray]:
+    """The nodes' masses and rotary inertias now (they change with erosion and mass scaling)."""
+    if not state.features.mass_update:
+        return model.node_mass, model.node_inertia
+    return state.read(state.nodes.mass, state.n_nodes), state.read(state.nodes.inertia, state.n_nodes)
+
+
 def kinetic_energy(state, model) -> float:
     """KE = 1/2 sum m |v~|^2 + 1/2 sum J |omega|^2 over the nodes that are not rigid-body
     slaves, + 1/2 M_tot V^2 of each rigid body (its slaves and added mass move with V)."""
-    m, inertia = model.node_mass, model.node_inertia
+    m, inertia = node_masses(state, model)
     free = model.node_body < 0 if model.node_body is not None else np.ones(len(m), bool)
     v = state.read(state.nodes.grid_velocity, state.n_nodes)[free]
     w = state.read(state.nodes.omega, state.n_nodes)[free]
@@ -192,13 +213,37 @@ def kinetic_energy(state, model) -> float:
                  + bodies_kinetic_energy(state, model))
 
 
+def eroded_elements(state) -> np.ndarray:
+    """(m,) bool: the elements that have failed (stages/masses.py; none without erosion)."""
+    if not state.features.erosion:
+        return np.zeros(state.n_elements, bool)
+    return state.read(state.elements.eroded, state.n_elements) != 0
+
+
+def mass_energies(state) -> np.ndarray:
+    """(m, 2) per element: the kinetic energy its erosion took out of the nodes, and that
+    its added mass was given (stages/masses.py); zeros without either."""
+    if not state.features.mass_update:
+        return np.zeros((state.n_elements, 2))
+    return state.read(state.elements.mass_energy, state.n_elements)
+
+
 def totals(state, model, initial_kinetic: float) -> dict[str, float]:
     """Every column of ENERGY_COLUMNS from the per-entity accumulators (a fixed summation
-    order: restart-exact and independent of the number of threads)."""
-    element = state.read(state.elements.energy, state.n_elements).sum(axis=0)
+    order: restart-exact and independent of the number of threads).  The element columns
+    (internal, plastic work, hourglass, drilling) are those of the live elements; an eroded
+    element's internal, hourglass and drilling energy, and the kinetic energy of its mass
+    shares, are the eroded energy (stages/masses.py); mass_scaling is the kinetic energy
+    given to the added mass."""
+    per_element = state.read(state.elements.energy, state.n_elements)
+    gone = eroded_elements(state)
+    element = per_element[~gone].sum(axis=0)
     node = state.read(state.nodes.energy, state.n_nodes).sum(axis=0)
     e = {name: float(element[i]) for i, name in enumerate(ELEMENT_PARTS)}
     e.update({name: float(node[i]) for i, name in enumerate(NODE_PARTS)})
+    moved = mass_energies(state)
+    e["eroded"] = float(per_element[gone][:, [0, 2, 3]].sum() + moved[:, 0].sum())
+    e["mass_scaling"] = float(moved[:, 1].sum())
     if model.rigid_bodies:
         e["wall"] += float(state.read(state.bodies.wall_energy, len(model.rigid_bodies)).sum())
         e["external_work"] += float(state.read(state.bodies.external_work, len(model.rigid_bodies)).sum())
@@ -206,15 +251,21 @@ def totals(state, model, initial_kinetic: float) -> dict[str, float]:
             e["motion_work"] += float(state.read(state.bodies.motion_work, len(model.rigid_bodies)).sum())
         if state.features.body_rotation and state.features.contact:
             e["contact"] += float(state.read(state.bodies.contact_energy, len(model.rigid_bodies)).sum())
+    if model.tools is not None:        # the tools' work at their own motion (stages/tools.py)
+        work = state.read(state.tools.work, len(model.tools.names))
+        e["contact"] += float(work.sum())
+        prescribed = (model.tools.motion == VELOCITY) | (model.tools.motion == DISPLACEMENT)
+        e["motion_work"] += float(work[prescribed].sum())
     e["kinetic"] = kinetic_energy(state, model)
     e["kinetic_bodies"] = bodies_kinetic_energy(state, model)      # (not a column: the guard's scale)
     e["damped"] = float(state.step.damped_energy[None])
     e["balance_error"] = (e["kinetic"] + absorbed(e) + e["stagger"] - initial_kinetic - e["external_work"]
-                          - e["motion_work"])
+                          - e["motion_work"] - e["mass_scaling"])
     return e
 
 
-PART_COLUMNS = ("kinetic", "internal", "plastic_work", "hourglass", "drilling")   # parts.csv
+PART_COLUMNS = ("kinetic", "internal", "plastic_work", "hourglass", "drilling", "eroded", "mass_scaling")
+"""The energies of each part (parts.csv, with its added mass; summary.json)."""
 
 
 def part_names(model) -> list[str]:
@@ -232,13 +283,22 @@ def part_energies(state, model) -> np.ndarray:
     body's slave node moving with the body (V + omega x r, omega); the kinetic energy of a
     body's added mass (and of point masses on its slaves) is the body's own row -- of a
     rotating body, what its kinetic energy has beyond its slaves' shares; a [[point_mass]]'s
-    row is that of its mass and rotary inertia at its free nodes."""
+    row is that of its mass and rotary inertia at its free nodes. With erosion and mass scaling, as :func:`totals`: the element columns of
+    the live elements, the eroded and mass-scaling energy of each element to its part, and a
+    node's mass shares of the live elements times their density factors (a slave node's
+    mass is the body's and does not change)."""
     element = state.read(state.elements.energy, state.n_elements)
+    gone = eroded_elements(state)
+    moved = mass_energies(state)
     part = model.element.part
     nb, n_parts = len(model.rigid_bodies), len(model.parts)
     out = np.zeros((n_parts + nb + len(model.point_masses), len(PART_COLUMNS)))
-    for j, name in enumerate(PART_COLUMNS[1:], start=1):
-        out[:n_parts, j] = np.bincount(part, weights=element[:, ELEMENT_PARTS.index(name)], minlength=n_parts)
+    for j, name in enumerate(PART_COLUMNS[1:5], start=1):
+        out[:n_parts, j] = np.bincount(part, weights=np.where(gone, 0.0, element[:, ELEMENT_PARTS.index(name)]),
+                                       minlength=n_parts)
+    eroded = np.where(gone, element[:, 0] + element[:, 2] + element[:, 3], 0.0) + moved[:, 0]
+    out[:n_parts, 5] = np.bincount(part, weights=eroded, minlength=n_parts)
+    out[:n_parts, 6] = np.bincount(part, weights=moved[:, 1], minlength=n_parts)
     v = state.read(state.nodes.grid_velocity, state.n_nodes)
     w = state.read(state.nodes.omega, state.n_nodes)
     if nb:
@@ -252,8 +312,12 @@ def part_energies(state, model) -> np.ndarray:
         w[slave] = spin[body]
     v2, w2 = np.sum(v ** 2, axis=1), np.sum(w ** 2, axis=1)
     corners = np.where(model.elements >= 0, model.elements, 0)
-    kinetic = 0.5 * (model.corner_mass * v2[corners] + model.corner_inertia * w2[corners]).sum(axis=1)
-    out[:n_parts, 0] = np.bincount(part, weights=kinetic, minlength=n_parts)
+    share = np.ones(model.corner_mass.shape)
+    if state.features.mass_update:            # slaves: the shares of the assembly
+        live = mass_factors(state, model) * ~gone
+        share = np.where(model.node_body[corners] >= 0, model.mass_factor[:, None], live[:, None])
+    corner_kinetic = 0.5 * (model.corner_mass * share * v2[corners] + model.corner_inertia * share * w2[corners])
+    out[:n_parts, 0] = np.bincount(part, weights=corner_kinetic.sum(axis=1), minlength=n_parts)
     node_body = model.node_body if model.node_body is not None else np.full(len(v2), -1)
     for k, p in enumerate(model.point_masses):
         free = p.nodes[node_body[p.nodes] < 0]
@@ -263,7 +327,7 @@ def part_energies(state, model) -> np.ndarray:
     for i, b in enumerate(model.rigid_bodies):
         if b.rotates:       # the body's kinetic energy less its slaves' shares of the parts'
             mine = np.isin(corners, b.nodes) & (model.elements >= 0)
-            shares = 0.5 * float(np.sum((model.corner_mass * v2[corners] + model.corner_inertia * w2[corners])[mine]))
+            shares = float(np.sum(corner_kinetic[mine]))
             out[n_parts + i, 0] = 0.5 * b.total_mass * float(speed[i] @ speed[i]) + float(rotation[i]) - shares
         else:
             on_slaves = sum(p.mass * int(np.count_nonzero(node_body[p.nodes] == i)) for p in model.point_masses)
@@ -271,10 +335,22 @@ def part_energies(state, model) -> np.ndarray:
     return out
 
 
+def mass_factors(state, model) -> np.ndarray:
+    """(m,) the elements' density factors f_e of selective mass scaling now (1 without)."""
+    if not state.features.mass_scaling:
+        return model.mass_factor
+    return state.read(state.elements.mass_factor, state.n_elements)
+
+
+def added_mass(state, model) -> np.ndarray:
+    """(m,) the mass selective mass scaling has added to each element, (f_e - 1) m_e."""
+    return (mass_factors(state, model) - 1.0) * model.corner_mass.sum(axis=1)
+
+
 def absorbed(e: dict) -> float:
     """Energy taken up by the shell and its constraints: internal (incl. plastic), hourglass,
-    drilling, contact, walls and dynamic-relaxation damping."""
-    return e["internal"] + e["hourglass"] + e["drilling"] + e["contact"] + e["wall"] + e["damped"]
+    drilling, eroded, contact, walls and dynamic-relaxation damping."""
+    return e["internal"] + e["hourglass"] + e["drilling"] + e["eroded"] + e["contact"] + e["wall"] + e["damped"]
 
 
 def balance_ratio(e: dict) -> float:

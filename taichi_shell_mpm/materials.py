@@ -24,6 +24,10 @@ lambda2 = 2 G, lambda_min; then the J2 flow stress sigma_y(ebar) R(rate) (issue 
 An orthotropic material (docs/laminates.md) fills E = E1, nu = nu12, density, its
 plane-stress stiffness in its own axes c11 = Q11, c22 = Q22, c12 = Q12, c33 = Q66 = G12, and
 the transverse shear moduli shear_13 = G13, shear_23 = G23.
+
+Erosion (issue 18) has a small table of its own (:func:`failure_row`, state.sections.failure,
+read only when a scene erodes): the failure strain (0: none), the number of
+through-thickness points that must reach it, and the element's failure step (0: none).
 """
 from __future__ import annotations
 
@@ -99,6 +103,19 @@ def parameter_row(spec, width: int, hardening: tuple[str, ...] | None = None, ra
     for name, value in values.items():
         row[COL[name]] = value
     return row
+
+
+def erodes(spec) -> bool:
+    """Whether elements of the material can fail (Features.erosion)."""
+    return getattr(spec, "failure_strain", 0.0) > 0.0 or getattr(spec, "failure_min_dt", 0.0) > 0.0
+
+
+FAILURE_COLUMNS = ("failure_strain", "failure_points", "failure_min_dt")
+
+
+def failure_row(spec) -> np.ndarray:
+    """The material's row of the erosion table (FAILURE_COLUMNS; zeros: it never fails)."""
+    return np.array([float(getattr(spec, name, 0.0)) for name in FAILURE_COLUMNS])
 
 
 def plane_stress_stiffness(spec) -> np.ndarray:

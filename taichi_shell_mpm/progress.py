@@ -161,8 +161,9 @@ def summary_rows(summary: dict) -> list[tuple[str, str]]:
     for key, label in (("kinetic", "kinetic energy"), ("internal", "internal energy"),
                        ("hourglass", "hourglass energy"), ("drilling", "drilling energy"),
                        ("external_work", "external work"), ("motion_work", "motion work"),
-                       ("damped", "damped energy"), ("balance_error", "balance error")):
-        if key in e and (key not in ("damped", "motion_work") or e[key]):
+                       ("damped", "damped energy"), ("eroded", "eroded energy"),
+                       ("mass_scaling", "mass scaling energy"), ("balance_error", "balance error")):
+        if key in e and (key not in ("damped", "motion_work", "eroded", "mass_scaling") or e[key]):
             rows.append((label, _num(e[key])))
     for b in summary.get("rigid_bodies", []):
         force = ", ".join(_num(c) for c in b["force"])
@@ -171,6 +172,12 @@ def summary_rows(summary: dict) -> list[tuple[str, str]]:
     for m in summary.get("motions", []):
         reaction = ", ".join(f"{d} {_num(v)}" for d, v in m["reaction"].items())
         rows.append((f"motion {m['name']}", f"reaction {reaction}; work {_num(m['work'])}"))
+    if "erosion" in summary:
+        rows.append(("eroded elements", f"{summary['erosion']['eroded_elements']}"))
+    if "mass_scaling" in summary:
+        ms = summary["mass_scaling"]
+        rows.append(("added mass", f"{_num(ms['added_mass'])} ({ms['added_mass_percent']:.3g} % of the shell, "
+                                   f"{ms['scaled_elements']} elements)"))
     parts = [p for p in summary.get("parts", []) if "material" in p]
     if len(parts) > 1:
         for p in parts:

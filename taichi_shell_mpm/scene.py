@@ -184,6 +184,13 @@ class Material:
     """Time constant of the exponential filter of the rate (0 = unfiltered)."""
     rate_cutoff_frequency: float = 0.0
     """The filter as a cutoff frequency f_c: time constant 1 / (2 pi f_c)."""
+    failure_strain: float = 0.0
+    """Erosion (issue 18): an element fails once failure_points of its through-thickness points
+    reach this equivalent plastic strain (LS-DYNA FAIL; 0 = never)."""
+    failure_points: int = 1
+    """How many points must reach failure_strain (LS-DYNA NUMFIP > 0)."""
+    failure_min_dt: float = 0.0
+    """An element also fails once its stable step falls below this (LS-DYNA TDEL; 0 = never)."""
 
 
 @dataclass(frozen=True)
@@ -295,11 +302,13 @@ class Method:
     """Grid cell size h; None = half the shortest element edge (method.md 2.2)."""
     grid_min: Vec3 | None = None
     grid_max: Vec3 | None = None
-    """Explicit grid box; None = mesh bounding box grown by `padding` on every side."""
-    padding: float | None = None
-    """None = 0.25 x the largest bounding-box extent."""
+    """Optional grid box: a node leaving it stops the run; None = unbounded (the grid follows
+    the shell, stages/grid.py)."""
     transfer: Literal["apic", "pic", "flip"] = "apic"
     flip_blend: float = 0.99
+    fields: Literal["single", "multi"] = "single"
+    """Velocity fields per grid node (stages/grid.py): ``multi`` keeps a field per shell layer
+    at each grid node, ``single`` one velocity."""
 
 
 # ---------------------------------------------------------------- node sets, BCs, loads
@@ -479,6 +488,35 @@ class Wall:
     """Name of a [[rigid_body]] the wall translates with (None = fixed)."""
 
 
+TOOL_KINDS = ("plane", "rectangle", "cylinder", "sphere", "mesh")     # tools.TOOL_KINDS
+
+
+@dataclass(frozen=True)
+class Tool:
+    """A rigid tool (stages/tools.py, docs/scenes.md [[tool]]): penalty contact with the
+    shell's mid-surface at half its thickness, Coulomb friction; fixed, moving with a rigid
+    body, or moved by a velocity or displacement (times a curve)."""
+    name: str
+    kind: Literal["plane", "rectangle", "cylinder", "sphere", "mesh"]
+    center: Vec3 = (0.0, 0.0, 0.0)
+    normal: Vec3 | None = None
+    """plane, rectangle: the side the shell stays on."""
+    axis: Vec3 | None = None
+    """cylinder: its axis; rectangle: the direction of its first side (size[0])."""
+    radius: float | None = None
+    length: float | None = None
+    size: tuple[float, float] | None = None
+    file: Path | None = None
+    scale: float = 1.0
+    stiffness: float = 0.1
+    damping: float = 0.1
+    friction: float = 0.0
+    moves_with: str | None = None
+    velocity: Vec3 | None = None
+    displacement: Vec3 | None = None
+    curve: str | None = None
+
+
 @dataclass(frozen=True)
 class Contact:
     """Penalty node-to-segment self-contact (method.md 7.3); present table = enabled."""
@@ -527,10 +565,17 @@ class Solve:
     relaxation: Literal["fire", "kinetic"] = "fire"
     """Static solves: dynamic relaxation by FIRE (velocity mixing towards the force) or plain
     kinetic damping (method.md 6.2)."""
-    mass_scaling: Literal["auto", "uniform_dt", "none"] = "auto"
+    mass_scaling: Literal["auto", "uniform_dt", "selective", "none"] = "auto"
     """Static solves: fictitious densities that give every element the same stable step
     (``uniform_dt``, the default of ``auto`` in statics); ``none`` (and ``auto`` in dynamics)
-    keeps the physical masses.  The equilibrium does not depend on the masses."""
+    keeps the physical masses.  The equilibrium does not depend on the masses.  Dynamic
+    solves: ``selective`` adds mass to the elements whose stable step is below target_dt
+    (LS-DYNA DT2MS < 0; stages/timestep.py)."""
+    target_dt: float = 0.0
+    """selective mass scaling: the step every element is given at least (after dt_safety)."""
+    added_mass_limit: float = 5.0
+    """selective mass scaling: the run stops once the added mass exceeds this percentage of
+    the shell's physical mass (0: no limit)."""
     progress_every: float = 2.0
     """Seconds of wall time between progress lines."""
     solver: Literal["relaxation", "newton"] = "relaxation"
@@ -591,6 +636,7 @@ class Scene:
     rigid_bodies: tuple[RigidBody, ...] = ()
     point_masses: tuple[PointMass, ...] = ()
     walls: tuple[Wall, ...] = ()
+    tools: tuple[Tool, ...] = ()
     contact: Contact | None = None
     crush: Crush | None = None
     materials: dict[str, AnyMaterial] = field(default_factory=dict)
@@ -873,6 +919,13 @@ def _nonzero_vec3(value: Any) -> Vec3:
     return vec
 
 
+def _size2(value: Any) -> tuple[float, float]:
+    if not (isinstance(value, list) and len(value) == 2 and all(_is_number(x) and x > 0 and math.isfinite(x)
+                                                                for x in value)):
+        raise _Invalid(f"expected two positive numbers [a, b], got {_show(value)}")
+    return float(value[0]), float(value[1])
+
+
 def _dofs(allow_all: bool) -> Validator:
     """Non-empty list of distinct DOF names (or the string "all" when `allow_all`)."""
     expected = f"a non-empty list of DOFs (some of {', '.join(DOFS)})" + (' or "all"' if allow_all else "")
@@ -1031,8 +1084,15 @@ def _hardening_curve(value: Any) -> tuple[tuple[float, float], ...]:
 # ================================================================ table layout
 _TABLES = ("scene", "mesh", "material", "section", "materials", "sections", "elementsets", "part", "element",
            "method", "nodesets", "boundary", "load", "initial", "probe", "reference", "solve", "output",
-           "rigid_body", "point_mass", "wall", "contact", "crush", "curves", "motion", "pressure", "gravity")
+           "rigid_body", "point_mass", "wall", "tool", "contact", "crush", "curves", "motion", "pressure", "gravity")
 _REQUIRED_TABLES = ("scene", "mesh", "solve")
+# [[tool]] keys of each kind (required, optional); a shape key of another kind is an error
+_TOOL_KEYS = {"plane": (("normal",), ("center",)),
+              "rectangle": (("normal", "size"), ("center", "axis")),
+              "cylinder": (("axis", "radius", "length"), ("center",)),
+              "sphere": (("radius",), ("center",)),
+              "mesh": (("file",), ("center", "scale"))}
+_TOOL_SHAPE_KEYS = ("normal", "axis", "radius", "length", "size", "file", "scale")
 DECK_SUFFIXES = (".k", ".key", ".dyn", ".kw")      # file endings read as LS-DYNA keyword decks (dyna.py)
 _SELECTORS = ("all", "box", "plane", "nearest", "ids")
 
@@ -1046,7 +1106,8 @@ _MATERIAL = {"E": _positive, "nu": _number(-1, 0.5, lo_open=True, hi_open=True),
              "b": _non_negative, "curve": _hardening_curve, "beyond_curve": _choice("flat", "extrapolate"),
              "rate_law": _choice("none", "cowper_symonds", "johnson_cook"), "C": _positive, "p": _positive,
              "c": _non_negative, "reference_rate": _positive, "rate_measure": _choice("total", "plastic"),
-             "rate_filter_time": _positive, "rate_cutoff_frequency": _positive}
+             "rate_filter_time": _positive, "rate_cutoff_frequency": _positive,
+             "failure_strain": _positive, "failure_points": _int(1, 10), "failure_min_dt": _positive}
 # The keys of each hardening and rate law: (required, optional); a key of another law is an error.
 _HARDENING_KEYS = {"linear": (("yield_stress",), ("hardening",)),
                    "swift": (("K", "n"), ("eps0", "yield_stress", "hardening")),
@@ -1070,13 +1131,15 @@ _ELEMENT = {"hourglass": _unit_interval, "w_hourglass": _choice("kirchhoff", "bt
             "drilling": _choice("projection", "penalty"), "drilling_stiffness": _positive,
             "warping": _choice("none", "bwc")}
 _METHOD = {"kind": _choice("mpm", "fem"), "cell_size": _positive, "grid_min": _vec3,
-           "grid_max": _vec3, "padding": _non_negative,
+           "grid_max": _vec3, "fields": _choice("single", "multi"),
            "transfer": _choice("apic", "pic", "flip"), "flip_blend": _unit_interval}
 _SOLVE = {"kind": _choice("static", "dynamic"), "load_steps": _int(1),
           "tolerance": _number(0, 0.1, lo_open=True), "max_steps_per_load_step": _int(1),
           "end_time": _non_negative, "dt_safety": _fraction,
           "dt_rule": _choice("both", "shell"), "rotary_inertia": _choice("scaled", "physical"),
-          "relaxation": _choice("fire", "kinetic"), "mass_scaling": _choice("auto", "uniform_dt", "none"),
+          "relaxation": _choice("fire", "kinetic"),
+          "mass_scaling": _choice("auto", "uniform_dt", "selective", "none"), "target_dt": _positive,
+          "added_mass_limit": _non_negative,
           "progress_every": _non_negative, "solver": _choice("relaxation", "newton"),
           "control": _choice("load", "displacement", "arc_length"), "control_dof": _choice(*DOFS),
           "control_displacement": _number(), "arc_length": _non_negative, "max_load_factor": _positive,
@@ -1306,6 +1369,14 @@ class _SceneParser:
             self.error("[[rigid_body]]", f"expected at most {MAX_BODIES} entries, got {len(bodies)}")
         point_masses = self.array("point_mass", self.point_mass)
         walls = self.array("wall", self.wall)
+        tools = self.array("tool", lambda path, data: self.tool(path, data, solve, curves))
+        names = [t.name for t in tools if t is not None]
+        for i, name in enumerate(names):
+            if name in names[:i]:
+                self.error("[[tool]]", f"duplicate tool name {name!r}")
+        from .tools import MAX_TOOLS
+        if len(tools) > MAX_TOOLS:
+            self.error("[[tool]]", f"expected at most {MAX_TOOLS} tools, got {len(tools)}")
         contact = self.table_object("[contact]", self.raw["contact"], Contact, {
             "thickness": _positive, "stiffness": _number(0, 1, lo_open=True), "friction": _non_negative,
             "damping": _unit_interval}) if "contact" in self.raw else None
@@ -1316,6 +1387,9 @@ class _SceneParser:
                 if spec is not None and getattr(spec, "rate_law", "none") != "none":
                     self.error(f"{path}.rate_law", "a static solve has no physical time: a rate law needs "
                                                    "[solve].kind = \"dynamic\"")
+                for key in ("failure_strain", "failure_min_dt"):
+                    if spec is not None and getattr(spec, key, 0.0) > 0.0:
+                        self.error(f"{path}.{key}", "erosion needs [solve].kind = \"dynamic\"")
         motions = self.array("motion", lambda path, data: self.motion(path, data, solve, curves))
         names = [m.name for m in motions if m is not None]
         for i, name in enumerate(names):
@@ -1333,7 +1407,7 @@ class _SceneParser:
                      nodesets=tuple(nodesets), boundaries=tuple(boundaries), loads=tuple(loads),
                      initial=tuple(initial), probes=tuple(probes), reference=reference,
                      rigid_bodies=tuple(bodies), point_masses=tuple(point_masses), walls=tuple(walls),
-                     contact=contact, crush=crush,
+                     tools=tuple(tools), contact=contact, crush=crush,
                      materials=materials, sections=sections, elementsets=tuple(elementsets), parts=tuple(parts),
                      curves=curves, motions=tuple(motions), pressures=tuple(pressures), gravity=gravity)
 
@@ -1412,6 +1486,11 @@ class _SceneParser:
             if "rate_filter_time" in data and "rate_cutoff_frequency" in data:
                 self.error(f"{path}.rate_cutoff_frequency", "give the rate filter either as rate_filter_time or "
                                                             "as rate_cutoff_frequency, not both")
+        if "failure_strain" in data and values.get("model") == "elastic":
+            self.error(f"{path}.failure_strain", "only for model = \"j2\" (the equivalent plastic strain); "
+                                                 "failure_min_dt erodes elements of any model")
+        if "failure_points" in data and "failure_strain" not in data:
+            self.error(f"{path}.failure_points", "only with failure_strain")
         return self.build(mark, Material, values)
 
     def law_keys(self, path: str, data: dict, key: str, law: str, table: dict) -> None:
@@ -1822,6 +1901,68 @@ class _SceneParser:
                        + _hint(v["moves_with"], bodies, "defined"))
         return self.build(mark, Wall, v)
 
+    def tool(self, path: str, data: Any, solve: Solve | None, curves: dict[str, Curve]) -> Tool | None:
+        """A [[tool]]: its kind's keys (a key of another kind is an error), at most one way to
+        move, a surface mesh read here (so that an unusable file is a scene error)."""
+        mark = len(self.messages)
+        v = self.read(path, data, {"name": _identifier, "kind": _choice(*TOOL_KINDS), "center": _vec3,
+                                   "normal": _nonzero_vec3, "axis": _nonzero_vec3, "radius": _positive,
+                                   "length": _positive, "size": _size2, "file": self.file, "scale": _positive,
+                                   "stiffness": _number(0, 1, lo_open=True), "damping": _unit_interval,
+                                   "friction": _non_negative, "moves_with": _identifier, "velocity": _vec3,
+                                   "displacement": _vec3, "curve": self.curve_name}, Tool)
+        if v is None:
+            return None
+        kind = v.get("kind")
+        if kind in _TOOL_KEYS:
+            required, optional = _TOOL_KEYS[kind]
+            own = (*required, *optional)
+            for name in data:
+                if name in _TOOL_SHAPE_KEYS and name not in own:
+                    self.error(f"{path}.{_key(name)}", f'not used by kind = "{kind}" (its keys: {", ".join(own)})')
+            for name in required:
+                if name not in data:
+                    self.error(f"{path}.{name}", f'missing required key for kind = "{kind}"')
+            if kind == "rectangle" and v.get("axis") is not None and v.get("normal") is not None:
+                (a1, a2, a3), (n1, n2, n3) = v["axis"], v["normal"]
+                cross = math.hypot(a2 * n3 - a3 * n2, a3 * n1 - a1 * n3, a1 * n2 - a2 * n1)
+                if cross <= 1e-9 * math.hypot(a1, a2, a3) * math.hypot(n1, n2, n3):
+                    self.error(f"{path}.axis", "is parallel to normal (it gives the direction of the first side, "
+                                               "in the rectangle's plane)")
+        moving = [key for key in ("moves_with", "velocity", "displacement") if key in data]
+        if len(moving) > 1:
+            self.error(f"{path}.{moving[1]}", f"a tool moves one way: give one of moves_with, velocity, "
+                                              f"displacement, got {', '.join(moving)}")
+        if "curve" in data and not ({"velocity", "displacement"} & set(data)):
+            self.error(f"{path}.curve", "only with velocity or displacement (the curve scales them)")
+        if v.get("moves_with") is not None:
+            listed = self.raw.get("rigid_body", [])
+            bodies = [b["name"] for b in (listed if isinstance(listed, list) else [])
+                      if isinstance(b, dict) and isinstance(b.get("name"), str)]
+            if v["moves_with"] not in bodies:
+                self.error(f"{path}.moves_with", f"no [[rigid_body]] named {v['moves_with']!r}"
+                           + _hint(v["moves_with"], bodies, "defined"))
+        if solve is not None and solve.kind == "static" and ({"velocity", "displacement"} & set(data)):
+            self.error(f"{path}.{'velocity' if 'velocity' in data else 'displacement'}",
+                       'a tool moved by a curve needs [solve].kind = "dynamic"')
+        if "displacement" in data and len(self.messages) == mark:
+            if "curve" not in data:
+                self.error(f"{path}.curve", "missing: a displacement needs a curve (a constant displacement "
+                                            "would jump at t = 0)")
+            elif v.get("curve") in curves:
+                from .curves import evaluate
+                start = evaluate(curves[v["curve"]], 0.0)
+                if start != 0.0:
+                    self.error(f"{path}.curve", f"the displacement curve {v['curve']!r} is {start:g} at t = 0, "
+                                                "not 0 (the tool would jump at t = 0)")
+        if kind == "mesh" and v.get("file") is not None and len(self.messages) == mark:
+            from .tools import ToolMeshError, read_surface
+            try:
+                read_surface(v["file"], v.get("scale", 1.0))
+            except ToolMeshError as exc:
+                self.error(f"{path}.file", str(exc))
+        return self.build(mark, Tool, v)
+
     def crush(self, data: Any, solve: Solve | None) -> Crush | None:
         mark = len(self.messages)
         v = self.read("[crush]", data, {"axis": _nonzero_vec3, "window": _window, "body": _identifier,
@@ -1904,7 +2045,7 @@ class _SceneParser:
             if isinstance(element, dict) and element.get("drilling") == "projection":
                 self.error("[solve].solver", '"newton" needs the drilling spring ([element].drilling = "penalty"): the '
                            "projection leaves the drilling rotation without stiffness")
-            for key in ("rigid_body", "wall", "contact", "motion", "pressure", "gravity"):
+            for key in ("rigid_body", "wall", "tool", "contact", "motion", "pressure", "gravity"):
                 if key in raw:       # loads and constraints the element pass of the tangent does not see
                     self.error("[solve].solver", f'"newton" does not handle [{key}] (use "relaxation")')
             loads = raw.get("load", [])
@@ -1938,8 +2079,18 @@ class _SceneParser:
             else:
                 self.error("[solve].end_time", "missing required key (a dynamic solve needs end_time > 0)")
         if v.get("kind") == "dynamic" and v.get("mass_scaling") == "uniform_dt":
-            self.error("[solve].mass_scaling", 'expected "auto" or "none" for a dynamic solve, got "uniform_dt" '
-                       "(fictitious masses change the dynamics; they are for static solves)")
+            self.error("[solve].mass_scaling", 'expected "auto", "selective" or "none" for a dynamic solve, got '
+                       '"uniform_dt" (fictitious masses change the dynamics; they are for static solves)')
+        if v.get("kind") == "static" and v.get("mass_scaling") == "selective":
+            self.error("[solve].mass_scaling", 'expected "auto", "uniform_dt" or "none" for a static solve, got '
+                       '"selective" (selective mass scaling is for dynamic solves)')
+        selective = data.get("mass_scaling") == "selective" if isinstance(data, dict) else False
+        if selective and "target_dt" not in data:
+            self.error("[solve].target_dt", 'missing required key for mass_scaling = "selective"')
+        if isinstance(data, dict) and not selective:
+            for key in ("target_dt", "added_mass_limit"):
+                if key in data:
+                    self.error(f"[solve].{key}", 'only with mass_scaling = "selective"')
         if v.get("kind") == "static" and not any(self.raw.get(k) for k in ("load", "motion", "pressure", "gravity")):
             self.error("[[load]]", "a static solve needs at least one [[load]], [[motion]], [[pressure]] or [gravity]")
         return self.build(mark, Solve, v)

@@ -27,10 +27,11 @@ from .reference import reference_summary
 from .scene import Scene
 from .solvers.stepper import Stepper
 from .stages.timestep import DT_UNSET, initial_dt
-from .state import (CANDIDATES_PER_NODE, STATUS_CONTACT_FULL, STATUS_DT_COLLAPSE, STATUS_ENERGY, STATUS_INVERTED,
-                    STATUS_LEFT_GRID, STATUS_NONFINITE, STATUS_RETURN_FAILED, State)
-from . import energy
-from .energy import ENERGY_COLUMNS, PART_COLUMNS, part_energies, part_names
+from .state import (CANDIDATES_PER_NODE, MAX_FIELDS, STATUS_CONTACT_FULL, STATUS_DT_COLLAPSE, STATUS_ENERGY,
+                    STATUS_INVERTED, STATUS_LEFT_GRID, STATUS_MASS_ADDED, STATUS_NONFINITE, STATUS_RETURN_FAILED,
+                    State)
+from . import energy, frontend
+from .energy import ENERGY_COLUMNS, PART_COLUMNS, added_mass, eroded_elements, part_energies, part_names
 
 ARCHS = {"cpu": "cpu", "cuda": "cuda", "vulkan": "vulkan"}
 
@@ -46,8 +47,9 @@ FAILURES = {
                       "time step too large ([solve].dt_safety), too little hourglass control "
                       "([element].hourglass), or an excessive load"),
     STATUS_LEFT_GRID: ("node {index} left the background grid",
-                       "enlarge [method].grid_min/grid_max or padding, or the shell flies away "
-                       "(a missing support, an excessive load or initial velocity)"),
+                       "it left the [method].grid_min/grid_max box (leave them out: the grid follows the "
+                       "shell), or flew 2^20 cells from the origin (a missing support, an excessive load "
+                       "or initial velocity)"),
     STATUS_NONFINITE: ("node {index} got a non-finite or runaway velocity",
                        "numerical instability: time step too large ([solve].dt_safety), an excessive "
                        "load or initial velocity, or a missing support"),
@@ -63,6 +65,9 @@ FAILURES = {
                            "a strain increment far beyond yield in one step (an excessive load or velocity, "
                            "or a time step too large: [solve].dt_safety) or a material table that is not "
                            "physical"),
+    STATUS_MASS_ADDED: ("selective mass scaling added {added} of the shell's mass, above [solve].added_mass_limit",
+                        "the elements are distorted far below [solve].target_dt: lower target_dt, raise "
+                        "added_mass_limit, or refine the mesh where they collapse"),
     STATUS_ENERGY: ("the energy balance error reached {ratio} of the energy absorbed (energy was created)",
                     "an instability that creates energy (time step too large: [solve].dt_safety; contact "
                     "too stiff: [contact].stiffness) or a constraint that works on the shell; --energy-limit "
@@ -108,6 +113,7 @@ def init_taichi(arch: str = "cpu", quiet: bool = False) -> str:
     reports the fallback)."""
     import contextlib
     import io
+    frontend.speed_up()
     level = ti.WARN if arch == "cpu" else ti.ERROR
     with contextlib.redirect_stdout(io.StringIO()) if quiet else contextlib.nullcontext():
         ti.init(arch=getattr(ti, ARCHS[arch]), default_fp=ti.f64, default_ip=ti.i32, offline_cache=True,
@@ -176,6 +182,7 @@ class Simulation:
         self.frames: FrameWriter | None = None
         self.total_steps = 0
         self.run_seconds = 0.0
+        self.run_cpu_seconds = 0.0          # the process's CPU time over the run (all threads)
         self.reporter = Progress(quiet, scene.solve.progress_every)
         self.warnings: list[str] = []
         self.hourglass_warned = False
@@ -186,12 +193,12 @@ class Simulation:
 
     # ------------------------------------------------------------------ set-up helpers
     def _initial_geometry(self) -> None:
-        """State before the first step: for the drilling projection (method.md 2.3) the nodal
-        normals (sum A e3) and the initial omega without its drilling part; the first
-        stable dt."""
+        """State before the first step: for the drilling projection (method.md 2.3) and the
+        multi-field grid the nodal normals (sum A e3); for the projection the initial omega
+        without its drilling part; the first stable dt."""
         pts, elements = self.model.points, self.model.elements
         w = self.model.omega0
-        if not self.cfg.drilling_spring:
+        if self.cfg.nodal_normals:
             # a triangle's corner 4 read as its corner 1: (x3 - x1) x (x1 - x2) = (x2 - x1) x (x3 - x1)
             x = pts[np.where(elements >= 0, elements, elements[:, :1])]
             element_normal = 0.5 * np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])     # A e3
@@ -202,6 +209,7 @@ class Simulation:
             np.add.at(area, elements[corner], np.repeat(np.linalg.norm(element_normal, axis=1)[:, None], 4, axis=1)[corner])
             self.state.put("nodes.normal_sum", normal)
             self.state.put("nodes.area_sum", area)
+        if not self.cfg.drilling_spring:
             unit = normal / np.maximum(np.linalg.norm(normal, axis=1), 1e-300)[:, None]
             w = w - np.sum(w * unit, axis=1)[:, None] * unit
         self.state.put("nodes.omega", w)
@@ -273,6 +281,10 @@ class Simulation:
             used = np.arange(sections.points)[None, :] < sections.point_count[data.section][:, None]
             out["plastic_strain_max"] = np.where(used, ep, -np.inf).max(axis=1)
             out["plastic_strain_mean"] = np.sum(ep * w, axis=1) / w.sum(axis=1)
+        if self.cfg.erosion:
+            out["eroded"] = eroded_elements(self.state).astype(np.int32)
+        if self.cfg.mass_scaling:
+            out["added_mass"] = added_mass(self.state, self.model)
         return out
 
     # ------------------------------------------------------------------ recording
@@ -280,11 +292,11 @@ class Simulation:
         self.history.probe_rows.append([key] + self.probe_values())
         e = self.energies()
         self.history.energy_rows.append([key] + [e[k] for k in ENERGY_COLUMNS])
-        self.history.part_rows.append([key] + part_energies(self.state, self.model).ravel().tolist())
+        self.history.part_rows.append([key] + self.part_values().ravel().tolist())
         st = self.state.step
         self.history.force_rows.append([key] + st.reaction[None].to_numpy().tolist()
                                        + st.reaction_impulse[None].to_numpy().tolist()
-                                       + self.body_values() + self.motion_values())
+                                       + self.body_values() + self.motion_values() + self.tool_values())
         if frame:
             self.write_frame(key)
 
@@ -373,6 +385,23 @@ class Simulation:
                 out += [float(reaction[m.nodes, d].sum()) for d in dofs] + [float(work[m.nodes][:, dofs].sum())]
         return out
 
+    def tool_values(self) -> list[float]:
+        """force.csv's tool columns (:meth:`tool_columns`): each tool's force on the shell (this
+        step's), its contact energy and the part of it booked at the tool's motion."""
+        tt = self.model.tools
+        if tt is None:
+            return []
+        k = len(tt.names)
+        force = self.state.read(self.state.tools.force, k)
+        energy_ = self.state.read(self.state.tools.energy, k)
+        work = self.state.read(self.state.tools.work, k)
+        return [float(x) for i in range(k) for x in (*force[i], energy_[i], work[i])]
+
+    def tool_columns(self) -> list[str]:
+        tt = self.model.tools
+        return [] if tt is None else [f"{name}.{c}" for name in tt.names
+                                      for c in ("force_x", "force_y", "force_z", "energy", "work")]
+
     def motion_columns(self) -> list[str]:
         return [f"{m.name}.{c}" for m in self.model.loading.motions for c in
                 [f"reaction_{d}" for d in m.dofs] + ["work"]]
@@ -386,21 +415,12 @@ class Simulation:
                           self.element_results())
 
     def _compile(self) -> None:
-        """Compile (or load from the offline cache) the step kernel before the clock of the
-        run starts.  The batched kernel compiles on a zero-step launch; the parallel one has
-        no such launch, so it takes one step and every field is put back as it was.
-        Newton statics (issue 19) never step: their own kernels are compiled by
-        solvers/newton.ShellEquations.compiled instead."""
+        """Compile (or load from the offline cache) the step kernels before the clock of the
+        run starts (Stepper.compile).  Newton statics (issue 19) never step: their own
+        kernels are compiled by solvers/newton.ShellEquations.compiled instead."""
         if self.scene.solve.kind == "static" and self.scene.solve.solver == "newton":
             return
-        if self.stepper.batched:
-            self.stepper.advance(0)
-        else:
-            saved = self.state.arrays()        # the scratch fields are rewritten before they are read
-            if self.stepper.contact is not None:
-                self.stepper.rebuild_contact()
-            self.stepper.advance_one()
-            self.state.restore(saved)
+        self.stepper.compile()
         ti.sync()
 
     def _compile_readers(self) -> None:
@@ -408,6 +428,7 @@ class Simulation:
         before the run clock (reads only), not inside the first history record."""
         self.probe_values()
         self.energies()
+        part_energies(self.state, self.model)
         self.displacements()
         self.element_results()
         self.state.step.reaction[None].to_numpy()
@@ -415,6 +436,7 @@ class Simulation:
         self.state.fetch("nodes.grid_velocity")
         self.body_values()
         self.motion_values()
+        self.tool_values()
         self.where()
         ti.sync()
 
@@ -459,6 +481,10 @@ class Simulation:
                 code, index = STATUS_NONFINITE, int(np.argmax(bad))
             elif code != STATUS_NONFINITE:
                 inside_out, length = self.element_distortion(x)
+                if self.cfg.erosion:              # an eroded element may be anything (stages/masses.py)
+                    gone = eroded_elements(self.state)
+                    inside_out &= ~gone
+                    length = np.where(gone, np.inf, length)
                 if inside_out.any():
                     code, index = STATUS_INVERTED, int(np.argmax(inside_out))
                 elif code == STATUS_DT_COLLAPSE:
@@ -466,7 +492,9 @@ class Simulation:
         if code in FAILURES:
             what, cause = FAILURES[code]
             ratio = energy.balance_ratio(self.energies())
-            raise SimulationError(f"{what.format(index=index, ratio=f'{100 * ratio:.3g}%')} at {self.where()}: {cause}")
+            added = f"{100 * self.added_mass_fraction():.3g}%"
+            raise SimulationError(f"{what.format(index=index, ratio=f'{100 * ratio:.3g}%', added=added)} at "
+                                  f"{self.where()}: {cause}")
         self.check_hourglass()
         self.check_balance()
 
@@ -539,7 +567,7 @@ class Simulation:
         tables = [("probes.csv", self.history.probe_header, self.history.probe_rows),
                   ("energy.csv", [key, *ENERGY_COLUMNS], self.history.energy_rows),
                   ("force.csv", self.force_header(), self.history.force_rows),
-                  ("parts.csv", [key, "part", *PART_COLUMNS], self.part_table())]
+                  ("parts.csv", [key, "part", *PART_COLUMNS, "added_mass"], self.part_table())]
         failed = None
         for name, header, rows in tables:
             try:
@@ -551,12 +579,28 @@ class Simulation:
 
     def force_header(self) -> list[str]:
         return ([self.history.probe_header[0], "support_x", "support_y", "support_z", "support_impulse_x",
-                 "support_impulse_y", "support_impulse_z"] + self.body_columns() + self.motion_columns())
+                 "support_impulse_y", "support_impulse_z"] + self.body_columns() + self.motion_columns()
+                + self.tool_columns())
+
+    def part_added_mass(self) -> np.ndarray:
+        """The mass selective mass scaling has added to each part so far (0 for rigid bodies and point masses)."""
+        out = np.zeros(len(self.model.parts) + len(self.model.rigid_bodies) + len(self.model.point_masses))
+        out[:len(self.model.parts)] = np.bincount(self.model.element.part, weights=added_mass(self.state, self.model),
+                                                  minlength=len(self.model.parts))
+        return out
+
+    def part_values(self) -> np.ndarray:
+        """(parts + bodies + point masses, PART_COLUMNS + added mass): one output point's rows of parts.csv."""
+        return np.concatenate([part_energies(self.state, self.model), self.part_added_mass()[:, None]], axis=1)
+
+    def added_mass_fraction(self) -> float:
+        """The added mass of selective mass scaling over the shell's physical mass."""
+        return float(added_mass(self.state, self.model).sum() / self.model.corner_mass.sum())
 
     def part_table(self) -> list[list]:
         """parts.csv rows (long format: one row per part and output point), from the history."""
         names = part_names(self.model)
-        width = len(PART_COLUMNS)
+        width = len(PART_COLUMNS) + 1
         return [[row[0], name, *row[1 + i * width:1 + (i + 1) * width]]
                 for row in self.history.part_rows for i, name in enumerate(names)]
 
@@ -567,11 +611,15 @@ class Simulation:
         element = self.model.element
         density = self.model.materials.rows[self.model.sections.point_material[element.section, 0], COL["density"]]
         mass = density * element.thickness * self.model.area0          # physical (not the statics' scaled) mass
+        added = self.part_added_mass()
+        gone = eroded_elements(self.state)
         out = []
         for i, p in enumerate(self.model.parts):
             t = element.thickness[p.elements]
             out.append({"name": p.name, "material": p.material, "section": p.section, "elements": int(len(p.elements)),
                         "thickness": [float(t.min()), float(t.max())], "mass": float(mass[p.elements].sum()),
+                        **({"eroded_elements": int(gone[p.elements].sum())} if self.cfg.erosion else {}),
+                        **({"added_mass": float(added[i])} if self.cfg.mass_scaling else {}),
                         "energies": {k: float(energies[i, j]) for j, k in enumerate(PART_COLUMNS)}})
         for i, b in enumerate(self.model.rigid_bodies):
             out.append({"name": f"rigid_body:{b.name}", "mass": b.added_mass,
@@ -580,6 +628,19 @@ class Simulation:
         for i, p in enumerate(self.model.point_masses):
             out.append({"name": f"point_mass:{p.name}", "mass": p.mass * len(p.nodes), "nodes": int(len(p.nodes)),
                         "energies": {k: float(energies[first + i, j]) for j, k in enumerate(PART_COLUMNS)}})
+        return out
+
+    def grid_summary(self) -> dict:
+        """The grid's memory (stages/grid.py): slots taken now and in the pool, grid-node
+        bytes, collections so far; with the multi-field grid, joins of a full grid node."""
+        g = self.state.grid
+        per_node = 8 * (4 + 3 * self.cfg.grid_force) * (MAX_FIELDS if self.cfg.multi_field else 1)
+        out = {"slots_used": int(g.slot_count[None]), "slots": int(self.state.grid_slots),
+               "bytes": int(self.state.grid_slots * (per_node + 12 * 4 + 4 * MAX_FIELDS * self.cfg.multi_field)),
+               "collections": int(g.collections[None])}
+        if self.cfg.multi_field:
+            out["fields"] = MAX_FIELDS
+            out["field_overflow"] = int(g.field_overflow[None])
         return out
 
     def write_results(self, extra: dict | None = None) -> dict:
@@ -602,11 +663,15 @@ class Simulation:
             "steps": self.total_steps, "compile_seconds": self.compile_seconds,
             "compile_cpu_seconds": self.compile_cpu_seconds, "run_seconds": self.run_seconds,
             "us_per_element_step": 1e6 * self.run_seconds / max(1, self.total_steps * len(self.model.elements)),
+            "run_cpu_seconds": self.run_cpu_seconds,
+            "cpu_us_per_element_step": 1e6 * self.run_cpu_seconds / max(1, self.total_steps * len(self.model.elements)),
             "energies": e, "parts": self.part_summary(),
             "mesh_warnings": list(self.mesh.warnings), "warnings": list(self.warnings),
         }
         if extra:
             summary.update(extra)
+        if self.state.grid is not None:
+            summary["grid"] = self.grid_summary()
         if self.model.loading.motions:
             values = self.motion_values()
             columns = self.motion_columns()
@@ -617,6 +682,22 @@ class Simulation:
                  "work": values[columns.index(f"{m.name}.work")]} for k, m in enumerate(self.model.loading.motions)]
         if self.model.rigid_bodies:
             summary["rigid_bodies"] = self.body_summary()
+        if self.model.tools is not None:
+            values, tt = self.tool_values(), self.model.tools
+            contacts = self.state.read(self.state.tools.contacts, len(tt.names))
+            moves = {0: "fixed", 1: "body", 2: "velocity", 3: "displacement"}
+            summary["tools"] = [
+                {"name": name, "kind": tt.kinds[i], "motion": moves[int(tt.motion[i])],
+                 "force": values[5 * i:5 * i + 3], "energy": values[5 * i + 3], "work": values[5 * i + 4],
+                 "nodes_in_contact": int(contacts[i])} for i, name in enumerate(tt.names)]
+        if self.cfg.erosion:
+            summary["erosion"] = {"eroded_elements": int(eroded_elements(self.state).sum())}
+        if self.cfg.mass_scaling:
+            summary["mass_scaling"] = {
+                "target_dt": self.model.parameters.target_dt, "added_mass": float(added_mass(self.state, self.model).sum()),
+                "added_mass_percent": 100.0 * self.added_mass_fraction(),
+                "scaled_elements": int((added_mass(self.state, self.model) > 0.0).sum()),
+                "added_mass_limit_percent": self.scene.solve.added_mass_limit}
         if self.state.contact is not None:
             summary["contact"] = {"max_penetration_over_thickness": float(self.state.contact.max_penetration[None]),
                                   "pairs_last_step": int(self.state.contact.pairs[None])}

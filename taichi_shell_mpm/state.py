@@ -58,14 +58,19 @@ import taichi as ti
 from .curves import COLUMNS as CURVE_COLUMNS
 from .materials import MATERIAL_PARAMETERS
 from .scene import MAX_BODIES, MAX_CURVES, MAX_MOTIONS
+from .tools import MAX_TOOLS
 
 (STATUS_OK, STATUS_CONVERGED, STATUS_INVERTED, STATUS_LEFT_GRID, STATUS_NONFINITE, STATUS_DT_COLLAPSE,
- STATUS_CONTACT_FULL, STATUS_ENERGY, STATUS_RETURN_FAILED) = range(9)
+ STATUS_CONTACT_FULL, STATUS_ENERGY, STATUS_RETURN_FAILED, STATUS_MASS_ADDED) = range(10)
 ROTATION_HELD, ROTATION_CONSTRAINED, ROTATION_FREE = range(3)    # bodies.rotation_mode (stages/bodies.py)
 CANDIDATES_PER_NODE = 64     # capacity of the contact candidate lists, on average per node
 
 CAPACITY_MIN = 16384         # the smallest size class of a per-entity field (4^7)
-GRID_CAPACITY_MIN = 1 << 20  # the smallest size class of a grid (4^10 nodes: 32-56 MB)
+GRID_CAPACITY_MIN = 1 << 16  # the smallest size class of the grid's slots (4^8: 2-3.5 MB)
+GRID_SLOTS_PER_NODE = 16     # grid slots per free shell node: twice the most its stencils can hold
+NO_CELL = -(1 << 30)         # node_base of a node whose grid slots are not looked up yet
+MAX_FIELDS = 4               # velocity fields per grid node of the multi-field grid (stages/grid.py)
+FIELD_RADIUS_CELLS = 4.0     # shell nodes this many cells apart in the reference state are other layers
 MAX_MATERIALS = 64
 MAX_SECTIONS = 64
 MAX_WALLS = 16
@@ -73,11 +78,10 @@ MAX_SLAB_PLANES = 1 << 16
 
 
 def grid_capacity(nodes: int) -> int:
-    """The size class of the grid: a power of 4, at least GRID_CAPACITY_MIN (zero nodes, fem
-    mode: the minimal size).  Only the nodes around the shell are touched, so a larger class
-    costs address space and one zeroing, not time per step."""
-    if nodes <= 0:
-        return CAPACITY_MIN
+    """The size class of the grid's slot pool for `nodes` grid nodes: a power of 4, at least
+    GRID_CAPACITY_MIN.  The shell's stencils hold at most 8 grid nodes per free shell node,
+    so GRID_SLOTS_PER_NODE = 16 per node leaves half the pool for the slots of cells the
+    shell has left, until a collection (stages/grid.py) hands them out again."""
     out = GRID_CAPACITY_MIN
     while out < nodes:
         out *= 4
@@ -196,8 +200,10 @@ class State:
         g.entity("affine", ti.Matrix.field(3, 3, f64), n,   # C_c (method.md 2.2)
                  used=fx.transfer == "apic" and fx.method == "mpm")
         # sum_e A_e e3 and sum_e A_e: the nodal normal of the drilling projection (method.md 2.3)
-        g.entity("normal_sum", ti.Vector.field(3, f64), n, used=not fx.drilling_spring)
-        g.entity("area_sum", ti.field(f64), n, used=not fx.drilling_spring)
+        # and of the multi-field grid's layer test (stages/grid.py)
+        g.entity("normal_sum", ti.Vector.field(3, f64), n, used=fx.nodal_normals)
+        g.entity("area_sum", ti.field(f64), n, used=fx.nodal_normals)
+        g.entity("part", ti.field(i32), n, used=fx.multi_field)      # the lowest part of its elements
         # prescribed motion (stages/motion.py): DOF bits ux .. rz a [[motion]] prescribes, and the
         # motion of each DOF (-1: none)
         g.entity("motion_mask", ti.field(i32), n, used=fx.loads)
@@ -227,8 +233,17 @@ class State:
         gathered = fx.launch != "batched"
         g.entity("corner_loads", ti.Vector.field(10, f64), m, (4,), persistent=False,
                  used=gathered)
-        g.entity("node_slot_start", ti.field(i32), n + 1, used=gathered)
-        g.entity("node_slots", ti.field(i32), 4 * m, used=gathered)
+        g.entity("node_slot_start", ti.field(i32), n + 1, used=gathered or fx.mass_update)
+        g.entity("node_slots", ti.field(i32), 4 * m, used=gathered or fx.mass_update)
+        # erosion and selective mass scaling (issue 18; stages/masses.py): failed (1) or not;
+        # density factor f_e >= 1; the element's physical shares of its corners' masses and
+        # rotary inertias; kinetic energy its erosion took out of the nodes, and that its
+        # added mass was given (energy.py)
+        g.entity("eroded", ti.field(i32), m, used=fx.erosion)
+        g.entity("mass_factor", ti.field(f64), m, used=fx.mass_scaling)
+        g.entity("corner_mass", ti.Vector.field(4, f64), m, used=fx.mass_update)
+        g.entity("corner_inertia", ti.Vector.field(4, f64), m, used=fx.mass_update)
+        g.entity("mass_energy", ti.Vector.field(2, f64), m, used=fx.mass_update)
 
         # --- section and material data of each element, and the tables they index
         g = self.sections = Group("sections")
@@ -250,6 +265,8 @@ class State:
                 used=fx.oriented)
         g.table("material_kind", ti.field(i32), (MAX_MATERIALS,))              # index into Features.materials
         g.table("material", ti.field(f64), (MAX_MATERIALS, MATERIAL_PARAMETERS))   # parameters (stages/material.py)
+        g.table("failure", ti.Vector.field(3, f64), (MAX_MATERIALS,),          # erosion (materials.failure_row)
+                used=fx.erosion)
         # tabulated hardening curves, all materials' one after the other (a row holds its first
         # point and count): plastic strain and yield stress of each point
         curve_points = len(model.materials.curve_strain)
@@ -272,7 +289,8 @@ class State:
                             ("dt_safety", f64), ("length_ref", f64), ("mass_floor", f64), ("runaway_speed", f64),
                             ("flip_blend", f64), ("dilatational_speed", f64), ("curve_argument", f64),
                             ("motion_work", f64), ("constraint_sq", f64), ("tolerance_sq", f64),
-                            ("motion_ramp", f64)):
+                            ("motion_ramp", f64), ("eroded_kinetic", f64), ("mass_scaling_energy", f64),
+                            ("added_mass", f64), ("added_mass_cap", f64), ("target_dt", f64)):
             g.table(name, ti.field(dtype), ())
         # restart_factor: 0.5 on a central-difference restart from rest, else 1; velocity_keep:
         # 0 right after a kinetic-damping reset, else 1; fire_*: FIRE state and scratch
@@ -282,7 +300,10 @@ class State:
         # the step's run-time parameters; curve_argument: the curves' argument at the end of the
         # last step (time, or the load factor in a static run; stages/motion.py); motion_work: the
         # running total of energy.py; constraint_sq, tolerance_sq: a static run's prescribed-DOF
-        # forces (their norm^2) and tolerance^2, the residual's scale under displacement control
+        # forces (their norm^2) and tolerance^2, the residual's scale under displacement control;
+        # eroded_kinetic, mass_scaling_energy: running totals (energy.py); added_mass: by selective
+        # mass scaling since the start, added_mass_cap: its limit (0: none), target_dt: its step
+        # (stages/masses.py)
         g.table("reaction", ti.Vector.field(3, f64), ())           # force the supports exert on the shell
         g.table("reaction_impulse", ti.Vector.field(3, f64), ())   # its time integral since the start
 
@@ -379,6 +400,50 @@ class State:
         g.table("motion_rate", ti.field(f64), (MAX_MOTIONS,), nm, persistent=False, used=on)
         g.table("motion_mean", ti.field(f64), (MAX_MOTIONS,), nm, used=on)
 
+        # --- rigid tools ([[tool]]; tools.py, stages/tools.py)
+        g = self.tools = Group("tools")
+        tt = model.tools
+        on = fx.tools
+        nt = len(tt.names) if tt is not None else 0
+        g.table("count", ti.field(i32), (), persistent=False)
+        g.table("slip_speed", ti.field(f64), (), persistent=False, used=on)   # v_eps of the friction law
+        g.table("reach", ti.field(f64), (), persistent=False, used=on)        # how far behind a mesh nodes are caught
+        for name, dtype in (("kind", i32), ("motion", i32), ("body", i32), ("curve", i32)):
+            g.table(name, ti.field(dtype), (MAX_TOOLS,), nt, persistent=False, used=on)
+        for name in ("origin", "size", "value", "coefficients"):
+            g.table(name, ti.Vector.field(3, f64), (MAX_TOOLS,), nt, persistent=False, used=on)
+        g.table("frame", ti.Matrix.field(3, 3, f64), (MAX_TOOLS,), nt, persistent=False, used=on)
+        # this step's pose at t^n (centre, frame rows) and velocity of the tool's points (its
+        # mean over the step for a prescribed motion; V^(n-1/2) of its body)
+        g.table("centre", ti.Vector.field(3, f64), (MAX_TOOLS,), nt, persistent=False, used=on)
+        g.table("axes", ti.Matrix.field(3, 3, f64), (MAX_TOOLS,), nt, persistent=False, used=on)
+        g.table("velocity", ti.Vector.field(3, f64), (MAX_TOOLS,), nt, persistent=False, used=on)
+        # force and moment (about the centre) the tool exerts on the shell this step; nodes touching
+        g.table("force", ti.Vector.field(3, f64), (MAX_TOOLS,), nt, used=on)
+        g.table("moment", ti.Vector.field(3, f64), (MAX_TOOLS,), nt, used=on)
+        g.table("contacts", ti.field(i32), (MAX_TOOLS,), nt, used=on)
+        # energy: the contact energy booked so far (energy.py); work: the part of it booked at
+        # the tool's own motion, kick F . V_tool (the work its driver or body put in)
+        g.table("energy", ti.field(f64), (MAX_TOOLS,), nt, used=on)
+        g.table("work", ti.field(f64), (MAX_TOOLS,), nt, used=on)
+        # each node's force from each tool, and their sum (this step's)
+        g.entity("node_force", ti.Vector.field(3, f64), n, (MAX_TOOLS,), persistent=False, used=on, host=False)
+        g.entity("total_force", ti.Vector.field(3, f64), n, persistent=False, used=on, host=False)
+        # surface meshes (tools.ToolTable): triangles in the tool's frame, their normals, buckets
+        meshes = "mesh" in fx.tool_kinds
+        ntri = len(tt.triangles) if meshes else 0
+        g.table("tri_first", ti.field(i32), (MAX_TOOLS,), nt, persistent=False, used=meshes)
+        g.table("bucket_first", ti.field(i32), (MAX_TOOLS,), nt, persistent=False, used=meshes)
+        g.table("grid_lo", ti.Vector.field(3, f64), (MAX_TOOLS,), nt, persistent=False, used=meshes)
+        g.table("grid_h", ti.field(f64), (MAX_TOOLS,), nt, persistent=False, used=meshes)
+        g.table("grid_dims", ti.Vector.field(3, i32), (MAX_TOOLS,), nt, persistent=False, used=meshes)
+        g.entity("triangles", ti.Matrix.field(3, 3, f64), ntri, persistent=False, used=meshes)
+        g.entity("tri_normal", ti.Vector.field(3, f64), ntri, persistent=False, used=meshes)
+        g.entity("bucket_start", ti.field(i32), len(tt.bucket_start) if meshes else 0, persistent=False,
+                 used=meshes)
+        g.entity("bucket_items", ti.field(i32), len(tt.bucket_items) if meshes else 0, persistent=False,
+                 used=meshes)
+
         # --- self-contact (method.md 7.3), used only when the scene asks for it
         g = contact = Group("contact")
         self.contact = g if fx.contact else None
@@ -425,39 +490,66 @@ class State:
         g.entity("strain_rate", ti.field(f64), m, (nk,),       # the filtered strain rate of the rate law
                  used=fx.rate_filter)
 
-        # --- background grid (mpm), flattened; only the nodes around shell nodes are written,
-        # read and cleared.  Last in the tree: its layout depends on Features.grid_force.
+        # --- background grid (mpm): hashed, unbounded (stages/grid.py).  Only the grid nodes of
+        # the shell nodes' stencils exist: a hash table maps a grid node's integer coordinates
+        # to a slot of the dense storage below, whose size class follows the shell's free nodes.
+        # Last in the tree: its layout depends on Features.grid_force.
         g = grid = Group("grid")
         self.grid = g if model.grid is not None else None
         on = model.grid is not None
+        free = model.grid.free_nodes if on else 0
+        slots = grid_capacity(GRID_SLOTS_PER_NODE * free) if on else CAPACITY_MIN
+        self.grid_slots = slots
         for name in ("h", "inv_h"):
             g.table(name, ti.field(f64), (), used=on)
-        for name in ("lo", "dims", "strides"):
-            g.table(name, ti.Vector.field(3, i32), (), used=on)
-        g.table("slab_stride", ti.field(i32), (), used=on)        # stride and size of the slab axis
-        g.table("slab_dim", ti.field(i32), (), used=on)
+        g.table("bound_lo", ti.Vector.field(3, i32), (), used=on)    # the cells a stencil base may take:
+        g.table("bound_hi", ti.Vector.field(3, i32), (), used=on)    # the grid box, or the key range
+        g.table("slab_axis", ti.field(i32), (), used=on)
         g.table("planes", ti.field(i32), (), used=on)                 # symmetry grid planes: count,
         g.table("plane_axis", ti.field(i32), (3,), used=on)           # their axes
         g.table("plane_index", ti.field(i32), (3,), used=on)          # and absolute grid indices
+        # the hash table (open addressing, linear probing; key + 1, 0 = empty) and its slot pool
+        g.table("slot_count", ti.field(i32), (), used=on, persistent=False)   # slots handed out
+        g.table("slot_capacity", ti.field(i32), (), used=on)
+        g.table("table_bits", ti.field(i32), (), used=on)
+        g.table("collections", ti.field(i32), (), used=on, persistent=False)  # full re-hashes so far
+        g.entity("table_key", ti.field(ti.i64), 2 * slots if on else 0, used=on, host=False)
+        g.entity("table_slot", ti.field(i32), 2 * slots if on else 0, used=on, host=False)
+        # per shell node: the stencil base cell its addresses were found for, and the 8 slots
+        # (corner (i, j, k) at 4 i + 2 j + k); on_grid 0 for prescribed nodes; the nodes whose
+        # base changed this step (found in parallel, hashed serially)
+        g.entity("node_base", ti.Vector.field(3, i32), n, used=on, host=False)
+        g.entity("node_slots", ti.field(i32), n, (8,), used=on, host=False)   # scalars: no dynamic
+        #                                                   index into a vector (a stack slot per use)
+        g.entity("on_grid", ti.field(i32), n, used=on, host=False)
+        g.table("moved_count", ti.field(i32), (), used=on, persistent=False)
+        g.entity("moved_nodes", ti.field(i32), n, used=on, host=False)
         # P2G order (stages/mapping.py): the free nodes binned by the grid plane of their
         # stencil's base across the slab axis (counting sort, rebuilt every step); scratch
-        g.entity("node_cell", ti.field(i32), n, used=on, host=False)   # -1: not on the grid
+        g.table("slab_low", ti.field(i32), (), used=on, persistent=False)
+        g.table("slab_high", ti.field(i32), (), used=on, persistent=False)
         g.table("slab_start", ti.field(i32), (MAX_SLAB_PLANES + 1,), used=False)
         g.table("slab_fill", ti.field(i32), (MAX_SLAB_PLANES,), used=False)
         g.entity("slab_nodes", ti.field(i32), n, used=on, host=False)
+        # multi-field grid (stages/grid.py): per grid node, the shell node + 1 that opened each
+        # of its fields (0: none; zero between steps); per shell node, the field of each of
+        # its 8 corners (2 bits each; bits 16-23: decided, GPU claim rounds)
+        multi = on and fx.multi_field
+        g.table("field_radius_sq", ti.field(f64), (), used=multi)         # (FIELD_RADIUS_CELLS h)^2
+        g.table("field_overflow", ti.field(i32), (), used=multi, persistent=False)   # joins of a full node
+        g.entity("anchor", ti.field(i32), slots if multi else 0, (MAX_FIELDS,), used=multi, host=False)
+        g.entity("node_fields", ti.field(i32), n, used=multi, host=False)
         # mass, momentum (without grid_force: p + dt f, stages/grid.py), force: an array of
-        # structures, one grid node's data in one cache line (the grid is much larger than the
-        # cache and is touched at scattered places).  Never read or written by the host: zero
-        # between steps.
+        # structures, one grid node's data in one cache line.  Never read or written by the
+        # host: zero between steps.
         g.mass = ti.field(f64)
         g.momentum = ti.Vector.field(3, f64)
         placed = [g.mass, g.momentum]
         if fx.grid_force:
             g.force = ti.Vector.field(3, f64)
             placed.append(g.force)
-        cells = model.grid.n_nodes if on else 0
-        g._builder.dense(ti.i, grid_capacity(cells)).place(*placed)
-        for group in (self.nodes, self.elements, self.sections, self.step, self.bodies, self.loads, contact,
+        g._builder.dense(ti.i, slots * (MAX_FIELDS if multi else 1)).place(*placed)
+        for group in (self.nodes, self.elements, self.sections, self.step, self.bodies, self.loads, self.tools, contact,
                       self.points, grid):
             group.finalize()
     
@@ -498,10 +590,21 @@ class State:
         nm = len(mats.names)
         w(sec.material_kind, np.concatenate([mats.kind, np.zeros(MAX_MATERIALS - nm, np.int32)]))
         w(sec.material, np.concatenate([mats.rows, np.zeros((MAX_MATERIALS - nm, MATERIAL_PARAMETERS))]))
+        if self.features.erosion:
+            w(sec.failure, np.concatenate([mats.failure, np.zeros((MAX_MATERIALS - nm, 3))]))
         if "tabulated" in self.features.hardening:
             w(sec.curve_strain, mats.curve_strain)
             w(sec.curve_stress, mats.curve_stress)
-        if self.features.launch != "batched":
+        if self.features.mass_update:
+            w(el.corner_mass, model.corner_mass)
+            w(el.corner_inertia, model.corner_inertia)
+        if self.features.mass_scaling:
+            w(el.mass_factor, model.mass_factor)
+            p = model.parameters
+            st.target_dt[None] = p.target_dt
+            st.added_mass_cap[None] = p.added_mass_cap
+            st.added_mass[None] = float(np.dot(model.mass_factor - 1.0, model.corner_mass.sum(axis=1)))
+        if self.features.launch != "batched" or self.features.mass_update:
             flat = model.elements.ravel()
             slots = np.argsort(np.where(flat >= 0, flat, n), kind="stable")[:int((flat >= 0).sum())]
             w(el.node_slots, slots.astype(np.int32))
@@ -531,6 +634,7 @@ class State:
         for i, wall in enumerate(model.walls):
             bd.wall_point[i], bd.wall_normal[i], bd.wall_body[i] = wall.point, wall.normal, wall.body
         self._load_loading(model.loading)
+        self._load_tools(model.tools)
         # the step's run-time parameters
         p = model.parameters
         c_max = float(data.wave_speed.max())
@@ -541,6 +645,7 @@ class State:
         st.restart_factor[None] = 1.0
         st.velocity_keep[None] = 1.0
         st.time_limit[None] = np.inf
+        self.tools.slip_speed[None] = 1e-6 * c_max if self.features.tools else 0.0
         if self.contact is not None:
             ct = self.contact
             w(ct.neighbor_start, model.neighbor_start)
@@ -555,13 +660,37 @@ class State:
         if self.grid is not None:
             gg, geo = self.grid, model.grid
             gg.h[None], gg.inv_h[None] = geo.h, 1.0 / geo.h
-            gg.lo[None], gg.dims[None], gg.strides[None] = geo.lo, geo.dims, geo.strides
-            gg.slab_stride[None] = geo.strides[geo.slab_axis]
-            gg.slab_dim[None] = geo.dims[geo.slab_axis]
+            gg.bound_lo[None], gg.bound_hi[None] = geo.bound_lo, geo.bound_hi
+            gg.slab_axis[None] = geo.slab_axis
             gg.planes[None] = len(geo.planes)
             for i, (axis, index) in enumerate(geo.planes):
                 gg.plane_axis[i], gg.plane_index[i] = axis, index
+            gg.slot_capacity[None] = self.grid_slots
+            gg.table_bits[None] = int(np.log2(gg.table_key.shape[0]))
+            w(gg.node_base, np.full((n, 3), NO_CELL, np.int32))      # every node looks its slots up
+            if self.features.multi_field:
+                gg.field_radius_sq[None] = (FIELD_RADIUS_CELLS * geo.h) ** 2
+                part = np.full(n, np.iinfo(np.int32).max, np.int64)
+                np.minimum.at(part, model.elements[model.elements >= 0],
+                              np.repeat(model.element.part, 4)[model.elements.ravel() >= 0])
+                w(nd.part, part.astype(np.int32))
             st.dilatational_speed[None] = model.materials.dilatational_speed
+
+    def _load_tools(self, tt) -> None:
+        """The tables of tools.ToolTable."""
+        g, w = self.tools, self.write
+        g.count[None] = len(tt.names) if tt is not None else 0
+        if not self.features.tools:
+            return
+        for name in ("kind", "motion", "body", "curve", "origin", "size", "value", "coefficients", "frame"):
+            w(getattr(g, name), getattr(tt, name))
+        w(g.axes, tt.frame)
+        g.reach[None] = tt.reach
+        w(g.centre, tt.origin)
+        if "mesh" in self.features.tool_kinds:
+            for name in ("tri_first", "bucket_first", "grid_lo", "grid_h", "grid_dims", "triangles", "tri_normal",
+                         "bucket_start", "bucket_items"):
+                w(getattr(g, name), getattr(tt, name))
 
     def _load_loading(self, ld) -> None:
         """The tables of loading.Loading (curves, load entries, pressure, gravity, motions)."""
@@ -595,7 +724,7 @@ class State:
         return {name: g for name, g in (("nodes", self.nodes), ("elements", self.elements),
                                         ("sections", self.sections), ("points", self.points),
                                         ("step", self.step), ("bodies", self.bodies), ("loads", self.loads),
-                                        ("contact", self.contact), ("grid", self.grid)) if g is not None}
+                                        ("tools", self.tools), ("contact", self.contact), ("grid", self.grid)) if g is not None}
 
     @staticmethod
     def read(field, size: int) -> np.ndarray:

@@ -154,10 +154,10 @@ def simulation(scene, tmp_path: Path) -> Simulation:
 
 
 def unwarmed_simulation(scene, tmp_path: Path) -> Simulation:
-    """A Simulation whose full step is not compiled (Simulation.__init__ warms it up with
-    advance(0), which tests driving one stage alone never call and which would triple their
-    cold time)."""
-    with mock.patch.object(Stepper, "advance", lambda self, max_steps: 0):
+    """A Simulation whose full step is not compiled (Simulation.__init__ compiles it with
+    Stepper.compile, which tests driving one stage alone never need and which would triple
+    their cold time)."""
+    with mock.patch.object(Stepper, "compile", lambda self: None):
         return simulation(scene, tmp_path)
 
 

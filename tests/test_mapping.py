@@ -41,7 +41,7 @@ def test_partition_of_unity_and_linear_completeness(tmp_path):
             for i, j, k in ti.static(ti.ndrange(2, 2, 2)):
                 w, grad = mapping.weight(w_axis, i, j, k)
                 total += w
-                node = ti.cast(base + ti.Vector([i, j, k]) + sim.state.grid.lo[None], ti.f64) * sim.state.grid.h[None]
+                node = ti.cast(base + ti.Vector([i, j, k]), ti.f64) * sim.state.grid.h[None]
                 first += w * node
                 grad_sum += grad
                 grad_first += node.outer_product(grad)
@@ -108,7 +108,7 @@ def test_fine_grid_reproduces_fem(tmp_path):
         d = tmp_path / method
         d.mkdir()
         scene = plate_scene(d, lx=4.0, ly=1.0, nx=4, ny=1, E=1e5, t=0.1, method=method,
-                            method_extra="cell_size = 0.25\npadding = 2.0",
+                            method_extra="cell_size = 0.25",
                             extra="[nodesets.clamp]\nplane = {point=[0,0,0], normal=[1,0,0]}\n"
                                   "[nodesets.tip]\nplane = {point=[4,0,0], normal=[1,0,0]}\n"
                                   "[[boundary]]\nnodes='clamp'\nfix='all'\n"

@@ -56,7 +56,6 @@ kind = "fem"
 cell_size = 0.25
 grid_min = [-1, -1, -1]
 grid_max = [11, 1, 8]
-padding = 0.5
 transfer = "flip"
 flip_blend = 0.95
 
@@ -192,7 +191,7 @@ def test_full_scene_parses_into_expected_dataclasses(scene_dir):
     assert scene.section == Section(thickness=0.1, points=5, rule="gauss", shear_factor=0.8)
     assert scene.element == ElementOptions(hourglass=0.1)
     assert scene.method == Method(kind="fem", cell_size=0.25, grid_min=(-1.0, -1.0, -1.0),
-                                  grid_max=(11.0, 1.0, 8.0), padding=0.5, transfer="flip",
+                                  grid_max=(11.0, 1.0, 8.0), transfer="flip",
                                   flip_blend=0.95)
     assert scene.nodesets == (
         NodeSet(name="clamped", kind="plane", point=(0.0, 0.0, 0.0), normal=(1.0, 0.0, 0.0), tol=1e-5),
@@ -419,8 +418,8 @@ def test_cross_checks(scene_dir):
         "(n_around x n_meridian), got 3,000,000,000", base=HEMISPHERE_SCENE)
     one({"mesh.n_length": 10**6}, "[mesh].n_length: expected at most 10,000,000 elements "
         "(4 (n_flat + n_corner) x n_length), got 12,000,000", base=TUBE_SCENE)
-    one({"solve.mass_scaling": "uniform_dt"}, '[solve].mass_scaling: expected "auto" or "none" for a dynamic '
-        'solve, got "uniform_dt" (fictitious masses change the dynamics; they are for static solves)',
+    one({"solve.mass_scaling": "uniform_dt"}, '[solve].mass_scaling: expected "auto", "selective" or "none" for a '
+        'dynamic solve, got "uniform_dt" (fictitious masses change the dynamics; they are for static solves)',
         base=TUBE_SCENE)
     one({"mesh.path": "meshes/none.vtk"}, "[mesh].path: file not found: "
         f"{str(scene_dir / 'meshes/none.vtk')!r}", base=FILE_MESH)
@@ -1006,3 +1005,48 @@ def test_every_scene_key_is_documented(scene_dir, monkeypatch):
         missing += [f"{path}.{key}" for key in sorted(keys) if f"`{key}`" not in text]
     print(f"\n{len(seen)} tables, {sum(len(k) for k in seen.values())} keys checked")
     assert not missing, f"keys not documented in their docs/scenes.md section: {missing}"
+
+
+@pytest.mark.parametrize("material, solve, expected", [
+    ({"model": "elastic", "yield_stress": None, "failure_strain": 0.2},
+     {}, ['[material].failure_strain: only for model = "j2" (the equivalent plastic strain); failure_min_dt '
+          'erodes elements of any model']),
+    ({"failure_points": 2}, {}, ["[material].failure_points: only with failure_strain"]),
+    ({"failure_strain": 0.0}, {}, ["[material].failure_strain: expected a number > 0, got 0.0"]),
+    ({"failure_strain": 0.3, "failure_points": 11}, {},
+     ["[material].failure_points: expected an integer in [1, 10], got 11"]),
+    ({}, {"mass_scaling": "selective"}, ['[solve].target_dt: missing required key for mass_scaling = "selective"']),
+    ({}, {"target_dt": 1e-4, "added_mass_limit": 2.0},
+     ['[solve].target_dt: only with mass_scaling = "selective"',
+      '[solve].added_mass_limit: only with mass_scaling = "selective"']),
+    ({}, {"mass_scaling": "selective", "target_dt": -1.0}, ["[solve].target_dt: expected a number > 0, got -1.0"]),
+    ({}, {"mass_scaling": "selective", "target_dt": 1e-4, "added_mass_limit": -5.0},
+     ["[solve].added_mass_limit: expected a number >= 0, got -5.0"]),
+])
+def test_erosion_and_mass_scaling_key_errors(scene_dir, material, solve, expected):
+    """[material] failure keys and [solve] selective mass scaling keys: one line per mistake."""
+    raw = raw_of(TUBE_SCENE)
+    raw["material"] = {k: v for k, v in {**J2, **material}.items() if v is not None}
+    raw["solve"].update(solve)
+    assert errors(raw, scene_dir) == [f"case.toml: {line}" for line in expected]
+
+
+def test_erosion_and_selective_mass_scaling_parse(scene_dir):
+    raw = raw_of(TUBE_SCENE)
+    raw["material"] = {**J2, "failure_strain": 0.3, "failure_points": 2, "failure_min_dt": 1e-6}
+    raw["solve"].update(mass_scaling="selective", target_dt=2e-4, added_mass_limit=3.0)
+    scene = parse_scene(raw, scene_dir / "case.toml")
+    m, s = scene.material, scene.solve
+    assert (m.failure_strain, m.failure_points, m.failure_min_dt) == (0.3, 2, 1e-6)
+    assert (s.mass_scaling, s.target_dt, s.added_mass_limit) == ("selective", 2e-4, 3.0)
+
+
+def test_erosion_and_selective_mass_scaling_need_a_dynamic_solve(scene_dir):
+    raw = raw_of(HEMISPHERE_SCENE)
+    raw["solve"].update(mass_scaling="selective", target_dt=1e-3)
+    assert errors(raw, scene_dir) == [
+        'case.toml: [solve].mass_scaling: expected "auto", "uniform_dt" or "none" for a static solve, got "selective" '
+        '(selective mass scaling is for dynamic solves)']
+    raw = raw_of(HEMISPHERE_SCENE)           # (a [solve] with an error is not checked against the materials)
+    raw["material"].update(model="j2", yield_stress=1e5, failure_strain=0.3)
+    assert errors(raw, scene_dir) == ['case.toml: [material].failure_strain: erosion needs [solve].kind = "dynamic"']

@@ -58,6 +58,6 @@ def run_dynamic(sim: Simulation, control: RunControl | None = None) -> dict:
             i, started = i + 1, False
             control.boundary(sim, {"event": i, "started": False})
     finally:
-        sim.run_seconds = control.run_seconds()
+        sim.run_seconds, sim.run_cpu_seconds = control.run_seconds(), control.run_cpu_seconds()
         reporter.close()
     return {}

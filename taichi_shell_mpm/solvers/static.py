@@ -158,6 +158,6 @@ def run_static(sim: Simulation, control: RunControl | None = None) -> dict:
             sim.total_steps += steps
         raise
     finally:
-        sim.run_seconds = control.run_seconds()
+        sim.run_seconds, sim.run_cpu_seconds = control.run_seconds(), control.run_cpu_seconds()
         reporter.close()
     return {"load_steps": n_levels, "steps_per_load_step": list(level_steps)}

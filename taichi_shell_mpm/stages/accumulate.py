@@ -66,7 +66,8 @@ class Accumulator:
 @ti.data_oriented
 class CornerLoads:
     """Element -> node loads of the shell stage: resisting force, moment, and (only for the
-    drilling projection, ``normals``) the A e3 and A sums of the nodal normal (method.md 2.3).
+    drilling projection and the multi-field grid, ``normals``) the A e3 and A sums of the nodal
+    normal (method.md 2.3).
 
     Batched (serial) launch: plain adds into the node fields, which the node update zeroes
     after use.  Parallel launches: each element writes its corners' loads to slots of its
@@ -76,7 +77,7 @@ class CornerLoads:
     def __init__(self, state, serial: bool, normals: bool):
         self.s = state
         self.serial = serial
-        self.normals = normals          # the drilling projection needs the nodal normals
+        self.normals = normals          # the drilling projection and the multi-field grid need them
 
     @ti.func
     def add(self, e, a, node, force, moment, normal, area):

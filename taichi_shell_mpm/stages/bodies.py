@@ -120,6 +120,7 @@ class RigidBodies:
     def __init__(self, state, cfg, energy, loads):
         self.s = state
         self.cfg = cfg
+        self.tools = None               # stages/tools.RigidTools (set by the Stepper; None without tools)
         self.energy = energy            # energy.EnergyLedger
         self.loads = loads              # stages/loads.ExternalLoads
         self.acc = Accumulator(cfg.serial)
@@ -183,6 +184,8 @@ class RigidBodies:
                 f = external - self.s.nodes.force_int[c]
                 if ti.static(self.cfg.contact):
                     f += self.s.contact.force[c]
+                if ti.static(self.cfg.tools):
+                    f += self.s.tools.total_force[c]
                 force += f
                 if ti.static(self.cfg.body_rotation):
                     r = self.s.nodes.position[c] - x_c
@@ -192,6 +195,11 @@ class RigidBodies:
                     if ti.static(self.cfg.contact):
                         contact += self.s.contact.force[c]
                         contact_moment += r.cross(self.s.contact.force[c])
+            if ti.static(self.cfg.tools):        # the tools moving with it are pushed back
+                reaction, reaction_moment = self.tools.on_body(b, x_c)
+                force += reaction
+                if ti.static(self.cfg.body_rotation):
+                    moment += reaction_moment
             applied = self.s.bodies.applied_force[b]
             force += applied
             self.s.bodies.applied_force[b] = ti.Vector([0.0, 0.0, 0.0])

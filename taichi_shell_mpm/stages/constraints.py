@@ -28,10 +28,11 @@ def drop_fixed(vec, mask, first_bit: ti.template()):
 
 @ti.data_oriented
 class NodeUpdate:
-    def __init__(self, state: State, cfg, bodies, energy, loads, motion):
+    def __init__(self, state: State, cfg, bodies, energy, loads, motion, tools):
         self.s = state
         self.cfg = cfg
         self.bodies = bodies
+        self.tools = tools              # stages/tools.RigidTools (None without tools)
         self.energy = energy            # energy.EnergyLedger
         self.loads = loads              # stages/loads.ExternalLoads
         self.motion = motion            # stages/motion.PrescribedMotion
@@ -52,6 +53,15 @@ class NodeUpdate:
         return (self.held(c) & FIXED_TRANSLATION) == FIXED_TRANSLATION or self.s.nodes.body[c] >= 0
 
     @ti.func
+    def is_idle(self, c):
+        """Prescribed, or without mass (every element around it eroded, stages/masses.py):
+        skipped by P2G/G2P and the explicit-FE update, it keeps a zero velocity."""
+        out = self.is_prescribed(c)
+        if ti.static(self.cfg.mass_update):
+            out = out or self.s.nodes.mass[c] <= 0.0
+        return out
+
+    @ti.func
     def drill_normal(self, c):
         """Unit nodal normal and whether the drilling projection applies (not at kinks; never
         with the drilling spring of stages/drilling.py, which keeps the drilling rotation)."""
@@ -64,12 +74,22 @@ class NodeUpdate:
         return n, ok
 
     @ti.func
+    def contact_force(self, c):
+        """f_con: the self-contact's and the rigid tools' force on node c this step."""
+        f = ti.Vector([0.0, 0.0, 0.0])
+        if ti.static(self.cfg.contact):
+            f += self.s.contact.force[c]
+        if ti.static(self.cfg.tools):
+            f += self.s.tools.total_force[c]
+        return f
+
+    @ti.func
     def residual_force(self, c):
         """Out-of-balance nodal force f_ext - f_int (+ f_con) with fixed and prescribed components dropped."""
         force, _ = self.loads.at_node(c)
         r = force - self.s.nodes.force_int[c]
-        if ti.static(self.cfg.contact):
-            r += self.s.contact.force[c]
+        if ti.static(self.cfg.contact or self.cfg.tools):
+            r += self.contact_force(c)
         return drop_fixed(r, self.held(c), 0)
 
     @ti.func
@@ -123,8 +143,8 @@ class NodeUpdate:
         if (mask & FIXED_TRANSLATION) == FIXED_TRANSLATION:
             # support reaction R = f_int - f_ext - f_con (method.md 2.5a)
             reaction = self.s.nodes.force_int[c] - force_ext
-            if ti.static(self.cfg.contact):
-                reaction -= self.s.contact.force[c]
+            if ti.static(self.cfg.contact or self.cfg.tools):
+                reaction -= self.contact_force(c)
             self.acc.total(self.s.step.reaction, reaction)
         elif ti.static(self.cfg.walls):
             if not rigid and (moved & FIXED_TRANSLATION) == 0:      # walls leave prescribed nodes alone
@@ -154,6 +174,9 @@ class NodeUpdate:
                 w = self.bodies.slave_omega(c)
         if ti.static(self.cfg.loads):
             w = self.motion.prescribed(c, w, w_start, 3)
+        if ti.static(self.cfg.mass_update):
+            if self.s.nodes.inertia[c] <= 0.0:      # a node without mass (stages/masses.py)
+                w = ti.Vector([0.0, 0.0, 0.0])
         self.s.nodes.omega[c] = w
         self.rotate_orientation(c, dt * w)
         if ti.static(self.cfg.body_rotation):
@@ -175,10 +198,13 @@ class NodeUpdate:
         force = force_ext - self.s.nodes.force_int[c]
         if ti.static(self.cfg.contact):
             contact = -kick * self.s.contact.force[c].dot(v_mid)
-            force += self.s.contact.force[c]
         if ti.static(self.cfg.body_rotation):
-            if rigid:           # a rotating body books its slaves' load and contact work (stages/bodies.py)
+            if rigid:           # a rotating body books its slaves' load and self-contact work (stages/bodies.py)
                 external, contact = 0.0, 0.0
+        if ti.static(self.cfg.tools):
+            contact += self.tools.book_node(c, v_mid, kick)
+        if ti.static(self.cfg.contact or self.cfg.tools):
+            force += self.contact_force(c)
         wall = -self.s.nodes.mass[c] * (vg - before_walls).dot(v_mid)     # minus the walls' impulse . v_mid
         motion = 0.0
         if ti.static(self.cfg.loads):
@@ -192,7 +218,7 @@ class NodeUpdate:
         if ti.static(self.cfg.serial):          # parallel launches overwrite them (CornerLoads.gather)
             self.s.nodes.force_int[c] = ti.Vector([0.0, 0.0, 0.0])
             self.s.nodes.moment_int[c] = ti.Vector([0.0, 0.0, 0.0])
-            if ti.static(not self.cfg.drilling_spring):
+            if ti.static(self.cfg.nodal_normals):
                 self.s.nodes.normal_sum[c] = ti.Vector([0.0, 0.0, 0.0])
                 self.s.nodes.area_sum[c] = 0.0
 
@@ -223,7 +249,7 @@ class NodeUpdate:
         """``fem`` mode: v~ += dt (f_ext - f_int)/m at the nodes (central difference)."""
         for c in range(self.s.nodes.count[None]):
             v = ti.Vector([0.0, 0.0, 0.0])
-            if not self.is_prescribed(c):
+            if not self.is_idle(c):
                 r = self.residual_force(c)
                 self.acc.total(self.s.step.residual_sq, r.norm_sqr())
                 v = self.s.step.velocity_keep[None] * self.s.nodes.grid_velocity[c] + self.velocity_gain(self.s.nodes.mass[c]) * r

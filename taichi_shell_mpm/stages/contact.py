@@ -3,7 +3,7 @@ with a [contact] table.
 
 Segments are the element faces split into triangles (1,2,3), (1,3,4) (a triangular element
 is one segment), both sides active, contact thickness t_c.  Excluded: elements touching the
-node's one-ring of nodes.  Each
+node's one-ring of nodes, and eroded elements and nodes without mass (stages/masses.py).  Each
 node takes its single closest penetrating segment [choice: no double counting where
 segments meet]; the force k g + c g' along the closest-point direction (so edges and
 vertices are handled too) goes to the node and, with the barycentric weights, back to the
@@ -77,6 +77,15 @@ def closest_point_on_triangle(p, a, b, c):
         w = vc * denom
         bary = ti.Vector([1.0 - v - w, v, w])
     return bary[0] * a + bary[1] * b + bary[2] * c, bary
+
+
+@ti.func
+def coulomb_friction(mu, f_n, v_rel, normal, slip_speed):
+    """Coulomb friction regularised by the tangential slip speed [choice: needs no per-pair
+    history]: -mu |F_n| v_t / sqrt(|v_t|^2 + v_eps^2), v_t the relative velocity's part
+    normal to `normal`; the self-contact's and the rigid tools' (stages/tools.py) law."""
+    slip = v_rel - v_rel.dot(normal) * normal
+    return -(mu * f_n / ti.sqrt(slip.norm_sqr() + slip_speed ** 2)) * slip
 
 
 def skin_width(t_c: float, min_edge: float) -> float:
@@ -277,8 +286,15 @@ class SelfContact:
         best_e = -1
         best_point = ti.Vector([0.0, 0.0, 0.0])
         best_w = ti.Vector([0.0, 0.0, 0.0, 0.0])
-        for i in range(self.s.contact.candidate_start[c], self.s.contact.candidate_start[c + 1]):
+        start, stop = self.s.contact.candidate_start[c], self.s.contact.candidate_start[c + 1]
+        if ti.static(self.cfg.mass_update):
+            if self.s.nodes.mass[c] <= 0.0:     # a node of eroded elements only (stages/masses.py)
+                stop = start
+        for i in range(start, stop):
             e = self.s.contact.candidate_elements[i]
+            if ti.static(self.cfg.erosion):     # an eroded element is no contact segment
+                if self.s.elements.eroded[e] != 0:
+                    continue
             corners = self.segment_corners(e)
             p0, p1 = self.s.nodes.position[corners[0]], self.s.nodes.position[corners[1]]
             p2, p3 = self.s.nodes.position[corners[2]], self.s.nodes.position[corners[3]]
@@ -325,8 +341,8 @@ class SelfContact:
             f_n = ti.max(0.0, k * gap + self.s.contact.damping[None] * 2.0 * ti.sqrt(k * m_eff) * closing)
             force = f_n * normal
             if ti.static(self.cfg.friction):
-                slip = v_rel - v_rel.dot(normal) * normal
-                force -= (self.s.contact.friction[None] * f_n / ti.sqrt(slip.norm_sqr() + self.s.contact.slip_speed[None] ** 2)) * slip
+                force += coulomb_friction(self.s.contact.friction[None], f_n, v_rel, normal,
+                                          self.s.contact.slip_speed[None])
             self.s.contact.pair_force[c] = force
             self.s.contact.pair_weight[c] = best_w
             self.acc.maximum(self.s.contact.max_penetration, gap / t_c)

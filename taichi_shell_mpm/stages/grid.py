@@ -1,48 +1,238 @@
-"""Grid update (stage S3; paper eq 5-7; method.md 2.4): v- = p/m and v+ = v- + dt f/m of a
-grid node, with the symmetry grid planes (normal parts of p and f removed), and clearing.
+"""The background grid (stage S3; paper eq 5-7; method.md 1, 2.4): where its nodes live, the
+grid update v- = p/m and v+ = v- + dt f/m with the symmetry grid planes (normal parts of p
+and f removed), and clearing.
+
+Unbounded and sparse [choice, issue 20]: grid node (i, j, k) sits at (i, j, k) h for any
+integers within the hash key's range (assembly.KEY_BITS); only the nodes of the shell nodes'
+stencils exist.  A hash table (open addressing, linear probing) maps a grid node's key to a
+slot of dense storage, whose size is a class of the free shell nodes' count
+(state.grid_capacity), so the grid's memory follows the shell's area and no empty space
+costs anything.  Each shell node keeps the base cell of its stencil and its 8 slots; the
+hash is asked only when the base cell changes (a node crosses a cell every h / (v dt)
+steps: every ~280 steps in the tube), found in parallel and looked up serially (Taichi has
+no compare-and-swap to claim a table entry concurrently).  Slots of cells the shell has left
+stay taken until the pool runs dry; then the table is emptied and every node's slots are
+looked up again (a collection).  The pool holds twice the most the stencils can use
+(8 per node), so collections are rare and memory stays constant however far the shell
+travels.
+
+Measured against the dense box it replaces (a flat array over the grid box, addressed by
+strides; benchmarks/step_cost.py, one sitting each, alternated pairs on a loaded 2-core
+machine): the tube's µs per element-step median B/A 1.039, min 0.995 (3 pairs); the
+hemisphere's median 0.810 (3 pairs).  The dense box was not kept: it was not faster.
+Results are bit-for-bit those of the box (the sums per grid node keep their order).
+
+Why not Taichi's sparse SNodes (not measured here): a pointer/bitmasked tree still has a
+fixed virtual box, and its SNode tree is part of what the offline cache keys kernels by;
+dense fields of a run-time size class keep one compiled configuration for every scene.
+
+Multi-field grid ([method].fields = "multi", Bardenhagen et al. 2001; Homel & Herbold
+2017): every grid node has MAX_FIELDS velocity fields, stored field-major (field f of slot
+g at f * capacity + g).  In P2G each shell node takes, at each of its 8 grid nodes, the
+first field opened by a node of its layer (:meth:`same_layer`: same part, reference
+positions within FIELD_RADIUS_CELLS cells, nodal normals on one side), else opens a free
+one; G2P and the clear read the same fields.  Layers closer than a cell thus keep their
+own velocities; they interact only through [contact] (the penalty forces enter P2G as
+nodal forces), not through a grid contact condition.  The per-node indices are scalar
+fields (node_slots[c, q], anchor[g, f]): with vector fields indexed at run time, the
+multi-field step segfaulted in its first batch on Taichi 1.7 (CPU), in debug mode too.
 
 The update is evaluated where G2P reads a node (:meth:`GridUpdate.velocities`) rather
 than in a loop of its own over a list of touched nodes [choice, measured in the note of
 issue 4]: it costs a division per read instead of a list, and lets P2G run in parallel
-without atomics.  Only the nodes around shell nodes are ever written, read or cleared,
-so the empty grid costs nothing.
+without atomics.
 
 Without FLIP and outside statics (StepConfig.grid_force false) only v+ is read, so P2G
 scatters the momentum and the force impulse into one field, p~_I = sum N (m (v + C dx) +
 dt f), and v+ = p~/m [choice, measured in the note of issue 4]: 4 doubles per grid node
-instead of 7, the same v+ up to rounding; P2G + G2P + clear of the tube at 10.75 ms cost
-754-802 us per step instead of 883-1027 (two pairs of runs, benchmarks/stage_times.py).
+instead of 7, the same v+ up to rounding.
 """
 
 import taichi as ti
 
-from ..state import State
+from ..assembly import KEY_BITS
+from ..state import MAX_FIELDS, State
 from .timestep import impulse_time
+
+HASH_PRIMES = (73856093, 19349663, 83492791)
 
 
 @ti.data_oriented
 class GridUpdate:
-    """The grid's geometry (h, lo, dims, strides, symmetry planes) and mass floor are run-time
-    data (state.grid, state.step.mass_floor)."""
+    """The grid's geometry (h, bounds, symmetry planes), hash table and mass floor are
+    run-time data (state.grid, state.step.mass_floor)."""
 
     def __init__(self, state: State, cfg):
         self.s = state
         self.cfg = cfg
 
+    # ------------------------------------------------------------------ where grid nodes live
+    @ti.func
+    def key(self, idx):
+        """The hash key of grid node idx (integer coordinates) plus 1 (0 marks an empty entry)."""
+        off = 1 << (KEY_BITS - 1)
+        return (((ti.cast(idx[0] + off, ti.i64) << (2 * KEY_BITS)) | (ti.cast(idx[1] + off, ti.i64) << KEY_BITS)
+                 | ti.cast(idx[2] + off, ti.i64)) + 1)
+
+    @ti.func
+    def slot_of(self, idx):
+        """The storage slot of grid node idx, handed out from the pool when the node is new;
+        -1 when the pool is dry (the caller collects).  Serial callers only."""
+        k = self.key(idx)
+        mask = (1 << self.s.grid.table_bits[None]) - 1
+        # the spatial hash of Teschner et al. (2003): coordinates below 2^21 times primes below
+        # 2^27 never overflow an i64 (an overflow is undefined behaviour in LLVM)
+        off = 1 << (KEY_BITS - 1)
+        h = ((ti.cast(idx[0] + off, ti.i64) * HASH_PRIMES[0]) ^ (ti.cast(idx[1] + off, ti.i64) * HASH_PRIMES[1])
+             ^ (ti.cast(idx[2] + off, ti.i64) * HASH_PRIMES[2]))
+        e = ti.cast(h & mask, ti.i32)
+        slot = -2
+        while slot == -2:
+            stored = self.s.grid.table_key[e]
+            if stored == k:
+                slot = self.s.grid.table_slot[e]
+            elif stored == 0:
+                slot = -1
+                if self.s.grid.slot_count[None] < self.s.grid.slot_capacity[None]:
+                    slot = self.s.grid.slot_count[None]
+                    self.s.grid.slot_count[None] = slot + 1
+                    self.s.grid.table_key[e] = k
+                    self.s.grid.table_slot[e] = slot
+            else:
+                e = (e + 1) & mask
+        return slot
+
+    @ti.func
+    def look_up(self, c):
+        """Find node c's 8 slots for the base cell in node_base; False when the pool ran dry.
+        (Loops, not unrolled: each copy of a loop body is compile time.)"""
+        base = self.s.grid.node_base[c]
+        ok = True
+        for q in range(8):
+            slot = self.slot_of(base + ti.Vector([q >> 2, (q >> 1) & 1, q & 1]))
+            self.s.grid.node_slots[c, q] = slot
+            if slot < 0:
+                ok = False
+        return ok
+
+    @ti.func
+    def assign_slots(self):
+        """Serially, the slots of the nodes whose base cell changed this step (moved_nodes);
+        when the pool runs dry, a collection: empty the table and look every node up again."""
+        dry = 0
+        ti.loop_config(serialize=True)
+        for i in range(self.s.grid.moved_count[None]):
+            if dry == 0:
+                if not self.look_up(self.s.grid.moved_nodes[i]):
+                    dry = 1
+        if dry == 1:
+            self.s.grid.collections[None] += 1
+            for e in range(self.s.grid.table_key.shape[0]):
+                self.s.grid.table_key[e] = 0
+            self.s.grid.slot_count[None] = 0
+            ti.loop_config(serialize=True)
+            for c in range(self.s.nodes.count[None]):
+                if self.s.grid.on_grid[c] == 1:
+                    self.look_up(c)
+
+    @ti.func
+    def corner(self, c, i: ti.template(), j: ti.template(), k: ti.template()):
+        """The slot of corner (i, j, k) in {0,1}^3 of node c's stencil."""
+        return self.s.grid.node_slots[c, 4 * i + 2 * j + k]
+
+    # ------------------------------------------------------------------ the fields of a grid node
+    @ti.func
+    def address(self, g, f):
+        """Storage index of field f of the grid node in slot g: field-major, so a grid node
+        that only one layer reaches uses the first block, as a single-field grid would."""
+        out = g
+        if ti.static(self.cfg.multi_field):
+            out = f * self.s.grid.slot_capacity[None] + g
+        return out
+
+    @ti.func
+    def same_layer(self, c, a):
+        """Whether shell nodes c and a are one layer where they reach a grid node: the same
+        part, reference positions within FIELD_RADIUS_CELLS cells, normals on one side."""
+        d = self.s.nodes.position_ref[c] - self.s.nodes.position_ref[a]
+        near = d.norm_sqr() < self.s.grid.field_radius_sq[None]
+        facing = self.s.nodes.normal_sum[c].dot(self.s.nodes.normal_sum[a]) > 0.0
+        return near and facing and self.s.nodes.part[c] == self.s.nodes.part[a]
+
+    @ti.func
+    def claim(self, c):
+        """The fields of node c at its 8 grid nodes (2 bits each, node_fields), where no other
+        thread writes those grid nodes (CPU launches): at each, the first field opened by a
+        node of c's layer, else the first free one (c opens it), else the last (a full grid
+        node: field_overflow)."""
+        fields = 0
+        for q in range(8):
+            g = self.s.grid.node_slots[c, q]
+            f = -1
+            for s in ti.static(range(MAX_FIELDS)):
+                if f < 0:
+                    a = self.s.grid.anchor[g, s] - 1
+                    if a < 0:
+                        self.s.grid.anchor[g, s] = c + 1
+                        f = s
+                    elif self.same_layer(c, a):
+                        f = s
+            if f < 0:
+                f = MAX_FIELDS - 1
+                ti.atomic_add(self.s.grid.field_overflow[None], 1)
+            fields |= f << (2 * q)
+        self.s.grid.node_fields[c] = fields
+
+    @ti.func
+    def claim_rounds(self):
+        """The fields of every node's corners with atomics (GPU): in round s the highest
+        undecided node at a grid node opens field s there, and the undecided nodes of its
+        layer join it; the last round puts the rest in the last field (field_overflow).
+        Decided corners are flagged in bits 16-23 of node_fields."""
+        for c in range(self.s.nodes.count[None]):
+            self.s.grid.node_fields[c] = 0
+        for s in ti.static(range(MAX_FIELDS)):
+            for c in range(self.s.nodes.count[None]):
+                if self.s.grid.on_grid[c] == 1:
+                    for q in range(8):
+                        if (self.s.grid.node_fields[c] >> (16 + q)) & 1 == 0:
+                            ti.atomic_max(self.s.grid.anchor[self.s.grid.node_slots[c, q], s], c + 1)
+            for c in range(self.s.nodes.count[None]):
+                if self.s.grid.on_grid[c] == 1:
+                    bits = self.s.grid.node_fields[c]
+                    for q in range(8):
+                        if (bits >> (16 + q)) & 1 == 0:
+                            a = self.s.grid.anchor[self.s.grid.node_slots[c, q], s] - 1
+                            if a == c or self.same_layer(c, a):
+                                bits |= (s << (2 * q)) | (1 << (16 + q))
+                            elif ti.static(s == MAX_FIELDS - 1):
+                                bits |= (s << (2 * q)) | (1 << (16 + q))
+                                ti.atomic_add(self.s.grid.field_overflow[None], 1)
+                    self.s.grid.node_fields[c] = bits
+
+    @ti.func
+    def field_of(self, c, q: ti.template()):
+        """The field of node c at its corner q (4 i + 2 j + k), as P2G chose it."""
+        f = 0
+        if ti.static(self.cfg.multi_field):
+            f = (self.s.grid.node_fields[c] >> (2 * q)) & (MAX_FIELDS - 1)
+        return f
+
+    # ------------------------------------------------------------------ the grid update
     @ti.func
     def velocities(self, g, idx):
-        """(v-, v+, f, 1/m or 0 when massless) of grid node g at local index idx (method.md 2.4).
-        Without a grid force field (see the module docstring) v- is v+ and f is zero."""
+        """(v-, v+, f, 1/m or 0 when massless) of the grid node in slot g at integer
+        coordinates idx (method.md 2.4).  Without a grid force field (see the module
+        docstring) v- is v+ and f is zero."""
         m = self.s.grid.mass[g]
         p = self.s.grid.momentum[g]
         f = ti.Vector([0.0, 0.0, 0.0])
         if ti.static(self.cfg.grid_force):
             f = self.s.grid.force[g]
         if ti.static(self.cfg.grid_planes):
-            lo = self.s.grid.lo[None]
             for q in range(self.s.grid.planes[None]):
                 for axis in ti.static(range(3)):
-                    if self.s.grid.plane_axis[q] == axis and idx[axis] + lo[axis] == self.s.grid.plane_index[q]:
+                    if self.s.grid.plane_axis[q] == axis and idx[axis] == self.s.grid.plane_index[q]:
                         p[axis] = 0.0
                         f[axis] = 0.0
         v_minus = ti.Vector([0.0, 0.0, 0.0])
@@ -57,16 +247,14 @@ class GridUpdate:
         return v_minus, v_plus, f, inv_mass
 
     @ti.func
-    def corner_node(self, cell, strides, i: ti.template(), j: ti.template(), k: ti.template()):
-        """Flat index of the cell corner (i, j, k) in {0,1}^3 of the stencil whose base node
-        has flat index `cell` (GridGeometry.strides)."""
-        return cell + i * strides[0] + j * strides[1] + k * strides[2]
-
-    @ti.func
-    def clear(self, cell, strides):
-        """Zero the 8 grid nodes of the stencil whose base node has flat index `cell`."""
+    def clear(self, c):
+        """Zero the 8 grid nodes of node c's stencil (the fields it used, and the openers)."""
         for i, j, k in ti.static(ti.ndrange(2, 2, 2)):
-            g = self.corner_node(cell, strides, i, j, k)
+            slot = self.corner(c, i, j, k)
+            g = self.address(slot, self.field_of(c, 4 * i + 2 * j + k))
+            if ti.static(self.cfg.multi_field):
+                for s in ti.static(range(MAX_FIELDS)):
+                    self.s.grid.anchor[slot, s] = 0
             self.s.grid.mass[g] = 0.0
             self.s.grid.momentum[g] = ti.Vector([0.0, 0.0, 0.0])
             if ti.static(self.cfg.grid_force):

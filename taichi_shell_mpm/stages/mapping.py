@@ -6,10 +6,13 @@ trilinear functions and back.  Transfer (compile-time): ``apic`` (affine corner
 velocity C_c, conserves angular momentum; default), ``pic``, or ``flip`` blended with
 PIC by ``flip_blend``.
 
+Each free node finds its stencil's 8 grid nodes through the grid's hash
+(stages/grid.py) only when its base cell changes; P2G, G2P and the clear address them
+through the node's 8 stored slots.
+
 P2G order [choice, measured in the note of issue 4]: on the CPU the free nodes are
 binned every step by the grid plane of their stencil's base across the mesh's longest
-axis (a counting sort; that axis is innermost in the grid's memory,
-GridGeometry.strides), and scattered plane by plane, first the even planes, then the
+axis (a counting sort), and scattered plane by plane, first the even planes, then the
 odd ones.  Two planes of the same parity share no grid node, so the planes of a pass
 run in parallel with plain adds (an f64 atomic add costs ~13 ns on the CPU against
 ~1 ns), and the sums do not depend on the number of threads.  On a GPU the nodes scatter
@@ -20,7 +23,7 @@ instead of alternating single planes gained nothing (note of issue 4).
 
 import taichi as ti
 
-from ..state import STATUS_LEFT_GRID, State
+from ..state import MAX_SLAB_PLANES, STATUS_LEFT_GRID, State
 from .accumulate import Accumulator
 from .constraints import NodeUpdate
 from .grid import GridUpdate
@@ -39,28 +42,28 @@ class Mapping:
 
     @ti.func
     def stencil(self, x):
-        """Base grid index (local), fractional position and validity for trilinear weights."""
+        """Base grid node (integer coordinates), fractional position and validity (within the
+        grid's bounds) for trilinear weights."""
         r = x * self.s.grid.inv_h[None]
-        base_abs = ti.floor(r, ti.i32)
-        frac = r - base_abs
-        base = base_abs - self.s.grid.lo[None]
-        dims = self.s.grid.dims[None]
+        base = ti.floor(r, ti.i32)
+        frac = r - base
         inside = True
+        lo, hi = self.s.grid.bound_lo[None], self.s.grid.bound_hi[None]
         for d in ti.static(range(3)):
-            if base[d] < 0 or base[d] > dims[d] - 2:
+            if not (r[d] >= lo[d] and r[d] < hi[d] + 1):       # also catches a NaN position
                 inside = False
         return base, frac, inside
 
     @ti.func
-    def flat(self, idx):
-        """Flat index of local grid index idx (slab axis innermost: GridGeometry.strides)."""
-        strides = self.s.grid.strides[None]
-        return idx[0] * strides[0] + idx[1] * strides[1] + idx[2] * strides[2]
-
-    @ti.func
-    def plane_of(self, cell):
-        """Index across the slab axis of the flat grid index `cell`."""
-        return (cell // self.s.grid.slab_stride[None]) % self.s.grid.slab_dim[None]
+    def plane_of(self, c):
+        """Node c's stencil base across the slab axis."""
+        base = self.s.grid.node_base[c]
+        axis = self.s.grid.slab_axis[None]
+        plane = base[0]
+        for d in ti.static(range(1, 3)):
+            if axis == d:
+                plane = base[d]
+        return plane
 
     @ti.func
     def axis_weights(self, frac):
@@ -78,41 +81,58 @@ class Mapping:
 
     @ti.func
     def locate(self):
-        """The stencil base of every free node (node_cell, -1 for prescribed nodes); a node
-        outside the grid stops the run."""
+        """The stencil base of every free node (on_grid 0 for prescribed nodes and nodes without
+        mass, NodeUpdate.is_idle; a node outside the grid's bounds stops the run), the span of the bases across the slab axis, and the
+        grid slots of the nodes whose base changed (GridUpdate.assign_slots)."""
+        self.s.grid.moved_count[None] = 0
+        self.s.grid.slab_low[None] = 1 << 30
+        self.s.grid.slab_high[None] = -(1 << 30)
         for c in range(self.s.nodes.count[None]):
-            cell = -1
-            if not self.nodes.is_prescribed(c):
+            on = 0
+            if not self.nodes.is_idle(c):
                 base, _, inside = self.stencil(self.s.nodes.position[c])
                 if inside:
-                    cell = self.flat(base)
+                    on = 1
+                    if (base != self.s.grid.node_base[c]).any():
+                        self.s.grid.node_base[c] = base
+                        self.s.grid.moved_nodes[ti.atomic_add(self.s.grid.moved_count[None], 1)] = c
+                    plane = self.plane_of(c)
+                    self.acc.minimum(self.s.grid.slab_low, plane)
+                    self.acc.maximum(self.s.grid.slab_high, plane)
                 else:
                     self.s.step.status[None] = STATUS_LEFT_GRID
                     self.s.step.status_index[None] = c
-            self.s.grid.node_cell[c] = cell
+            self.s.grid.on_grid[c] = on
+        self.grid.assign_slots()
 
     @ti.func
     def bin_nodes(self):
-        """Counting sort of the located nodes by plane (serial: a few ns per node)."""
-        n_planes = self.s.grid.slab_dim[None] - 1
+        """Counting sort of the located nodes by plane, relative to the lowest one, modulo
+        MAX_SLAB_PLANES (even: planes in two bins of one parity are never neighbours);
+        serial, a few ns per node."""
+        n_bins = ti.min(self.s.grid.slab_high[None] - self.s.grid.slab_low[None] + 1, MAX_SLAB_PLANES)
         ti.loop_config(serialize=True)
-        for p in range(n_planes + 1):
+        for p in range(n_bins + 1):
             self.s.grid.slab_start[p] = 0
         ti.loop_config(serialize=True)
         for c in range(self.s.nodes.count[None]):
-            if self.s.grid.node_cell[c] >= 0:
-                p = self.plane_of(self.s.grid.node_cell[c])
+            if self.s.grid.on_grid[c] == 1:
+                p = self.bin_of(c)
                 self.s.grid.slab_start[p + 1] += 1
         ti.loop_config(serialize=True)
-        for p in range(n_planes):
+        for p in range(n_bins):
             self.s.grid.slab_fill[p] = self.s.grid.slab_start[p]
             self.s.grid.slab_start[p + 1] += self.s.grid.slab_start[p]
         ti.loop_config(serialize=True)
         for c in range(self.s.nodes.count[None]):
-            if self.s.grid.node_cell[c] >= 0:
-                p = self.plane_of(self.s.grid.node_cell[c])
+            if self.s.grid.on_grid[c] == 1:
+                p = self.bin_of(c)
                 self.s.grid.slab_nodes[self.s.grid.slab_fill[p]] = c
                 self.s.grid.slab_fill[p] += 1
+
+    @ti.func
+    def bin_of(self, c):
+        return (self.plane_of(c) - self.s.grid.slab_low[None]) % MAX_SLAB_PLANES
 
     @ti.func
     def scatter(self, c):
@@ -122,7 +142,6 @@ class Mapping:
         corner (i, j, k) and fractional position r: one product per node, additions per corner."""
         _base, frac, _inside = self.stencil(self.s.nodes.position[c])
         w = self.axis_weights(frac)
-        cell = self.s.grid.node_cell[c]
         mass = self.s.nodes.mass[c]
         keep = self.s.step.velocity_keep[None]
         force = self.nodes.residual_force(c)
@@ -137,10 +156,11 @@ class Mapping:
         if ti.static(not self.cfg.grid_force):
             momentum += impulse_time(self.s.step) * force      # p + dt f (stages/timestep.py)
         affine_m = mass * affine_h
-        strides = self.s.grid.strides[None]
+        if ti.static(self.cfg.multi_field and not self.cfg.atomic_scatter):
+            self.grid.claim(c)
         for i, j, k in ti.static(ti.ndrange(2, 2, 2)):
             n, _ = self.weight(w, i, j, k)
-            g = self.grid.corner_node(cell, strides, i, j, k)
+            g = self.grid.address(self.grid.corner(c, i, j, k), self.grid.field_of(c, 4 * i + 2 * j + k))
             p = momentum
             if ti.static(self.cfg.transfer == "apic"):
                 for d, on in ti.static(enumerate((i, j, k))):
@@ -156,14 +176,16 @@ class Mapping:
         """S2 over all free nodes (order: see the module docstring)."""
         self.locate()
         if ti.static(self.cfg.atomic_scatter):
+            if ti.static(self.cfg.multi_field):
+                self.grid.claim_rounds()
             for c in range(self.s.nodes.count[None]):
-                if self.s.grid.node_cell[c] >= 0:
+                if self.s.grid.on_grid[c] == 1:
                     self.scatter(c)
         else:
             self.bin_nodes()
-            n_planes = self.s.grid.slab_dim[None] - 1
+            n_bins = ti.min(self.s.grid.slab_high[None] - self.s.grid.slab_low[None] + 1, MAX_SLAB_PLANES)
             for parity in ti.static(range(2)):
-                for q in range((n_planes + 1 - parity) // 2):
+                for q in range((n_bins + 1 - parity) // 2):
                     p = 2 * q + parity
                     for i in range(self.s.grid.slab_start[p], self.s.grid.slab_start[p + 1]):
                         self.scatter(self.s.grid.slab_nodes[i])
@@ -175,18 +197,16 @@ class Mapping:
         the node-level BCs, position and rotation update (:meth:`NodeUpdate.finish`)."""
         for c in range(self.s.nodes.count[None]):
             v_grid = ti.Vector([0.0, 0.0, 0.0])
-            if self.s.grid.node_cell[c] >= 0:
+            if self.s.grid.on_grid[c] == 1:
                 base, frac, _inside = self.stencil(self.s.nodes.position[c])
                 w = self.axis_weights(frac)
-                cell = self.s.grid.node_cell[c]
                 mass = self.s.nodes.mass[c]
                 v_delta = ti.Vector([0.0, 0.0, 0.0])
                 affine = ti.Matrix.zero(ti.f64, 3, 3)
                 massive_grad = ti.Vector([0.0, 0.0, 0.0])
-                strides = self.s.grid.strides[None]
                 for i, j, k in ti.static(ti.ndrange(2, 2, 2)):
                     n, grad = self.weight(w, i, j, k)
-                    g = self.grid.corner_node(cell, strides, i, j, k)
+                    g = self.grid.address(self.grid.corner(c, i, j, k), self.grid.field_of(c, 4 * i + 2 * j + k))
                     v_minus, v_plus, f, inv_mass = self.grid.velocities(g, base + ti.Vector([i, j, k]))
                     massive = inv_mass > 0.0
                     v_grid += n * v_plus
@@ -220,5 +240,5 @@ class Mapping:
     def clear_grid(self):
         """Zero the grid nodes written this step (those around the located nodes)."""
         for c in range(self.s.nodes.count[None]):
-            if self.s.grid.node_cell[c] >= 0:
-                self.grid.clear(self.s.grid.node_cell[c], self.s.grid.strides[None])
+            if self.s.grid.on_grid[c] == 1:
+                self.grid.clear(c)

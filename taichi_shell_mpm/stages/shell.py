@@ -19,6 +19,7 @@ from .accumulate import Accumulator, CornerLoads
 from .material import ConstitutiveUpdate
 from .drilling import DrillingSpring
 from .hourglass import Hourglass
+from .masses import MassUpdate
 from .timestep import element_limit
 from .triangle import TriangleElement
 
@@ -120,8 +121,9 @@ class ShellElement:
         self.hourglass = Hourglass(state, cfg.kirchhoff_w_hourglass)
         self.drilling = DrillingSpring(state)
         self.acc = Accumulator(cfg.serial)
-        self.loads = CornerLoads(state, cfg.serial, normals=not cfg.drilling_spring)
+        self.loads = CornerLoads(state, cfg.serial, normals=cfg.nodal_normals)
         self.triangle = TriangleElement(self) if cfg.triangles else None
+        self.masses = MassUpdate(state, cfg)
 
     @ti.func
     def gather(self, c, corners: ti.template()):
@@ -139,14 +141,66 @@ class ShellElement:
     @ti.func
     def element_pass(self):
         for e in range(self.s.elements.count[None]):
-            if ti.static(self.cfg.triangles):       # a mesh with triangles: stages/triangle.py
-                if self.s.elements.corners[e][3] < 0:
-                    self.triangle.update(e)
+            if ti.static(self.cfg.erosion):          # stages/masses.py
+                if self.s.elements.eroded[e] == 0:
+                    self.element(e)
                 else:
-                    self.update(e)
+                    self.eroded(e)
+            else:
+                self.element(e)
+        self.loads.gather()
+
+    @ti.func
+    def element(self, e):
+        """Element e's step: the quad's :meth:`update` or the triangle's (stages/triangle.py)."""
+        if ti.static(self.cfg.triangles):       # a mesh with triangles: stages/triangle.py
+            if self.s.elements.corners[e][3] < 0:
+                self.triangle.update(e)
             else:
                 self.update(e)
-        self.loads.gather()
+        else:
+            self.update(e)
+
+    @ti.func
+    def eroded(self, e):
+        """An eroded element's step (stages/masses.py): zero loads and a zero stagger term."""
+        zero = ti.Vector([0.0, 0.0, 0.0])
+        c = self.s.elements.corners[e]
+        for a in ti.static(range(4)):
+            if c[a] >= 0:
+                self.loads.add(e, a, c[a], zero, zero, zero, 0.0)
+        self.energy.element(e, 0.0, 0.0, 0.0, 0.0, 0.0)
+
+    @ti.func
+    def step_limit(self, e, c, v, w, limit, corners: ti.template()):
+        """Element e's stable step `limit` (physical mass) with selective mass scaling, and
+        whether the element fails now (erosion; then its stress, hourglass and drilling
+        resultants are zeroed and the caller writes zero loads): stages/masses.py.  A failing
+        element sets no step."""
+        step = limit
+        if ti.static(self.cfg.mass_scaling):
+            step = self.masses.scale(e, c, v, w, limit, corners)
+        erode = False
+        if ti.static(self.cfg.erosion):
+            erode = self.fails(e, step)
+            if erode:
+                self.masses.erode(e, c, v, w, corners)
+                for k in ti.static(range(self.cfg.points)):
+                    self.s.points.stress[e, k] = ti.Vector.zero(ti.f64, 5)
+                self.s.elements.hourglass_resultant[e] = ti.Vector.zero(ti.f64, 5)
+                if ti.static(self.cfg.drilling_spring):
+                    self.s.elements.drilling_moment[e] = ti.Vector.zero(ti.f64, 4)
+        if not erode:
+            self.acc.minimum(self.s.step.dt_next, step)
+        return erode
+
+    @ti.func
+    def quad_limit(self, e, x, area):
+        """The quad's stable step (stages/timestep.element_limit) with the longest diagonal of
+        its corners x."""
+        d13 = ti.Vector([x[2, 0] - x[0, 0], x[2, 1] - x[0, 1], x[2, 2] - x[0, 2]]).norm()
+        d24 = ti.Vector([x[3, 0] - x[1, 0], x[3, 1] - x[1, 1], x[3, 2] - x[1, 2]]).norm()
+        return element_limit(self.s, self.cfg, e, area, ti.max(d13, d24))
 
     @ti.func
     def section_response(self, e, t, kappa, dt, membrane_rate, curvature_rate, shear_rate):
@@ -217,7 +271,25 @@ class ShellElement:
         return n_res, m_res, q_res, power, plastic_work
 
     @ti.func
+    def fails(self, e, limit):
+        """Whether element e fails now (erosion, stages/masses.py): failure_points of its points
+        have reached their material's failure strain (a run-time loop: a layered section's
+        points each with their ply's material), or its stable step `limit` is below the
+        failure step; failure_points and the failure step are those of its first point's
+        material (state.sections.failure)."""
+        section = self.s.sections.section[e]
+        failed = 0
+        if ti.static(self.cfg.plastic):
+            for k in range(self.s.sections.point_count[section]):
+                strain = self.s.sections.failure[self.s.sections.point_material[section, k]][0]
+                if strain > 0.0 and self.s.points.plastic_strain[e, k] >= strain:
+                    failed += 1
+        first = self.s.sections.failure[self.s.sections.point_material[section, 0]]
+        return (failed > 0 and failed >= ti.cast(first[1], ti.i32)) or limit < first[2]
+
+    @ti.func
     def update(self, e):
+        """The quad's step (paper eq 17-29, 37)."""
         t = self.s.sections.thickness[e]
         kappa = self.s.sections.shear_factor[e]
         dt = self.s.step.dt[None]
@@ -276,6 +348,10 @@ class ShellElement:
             f += fd
             m += md
             drill_energy = dt * 0.5 * (drill_old + drill_new).dot(drill_rate)
+        if ti.static(self.cfg.erosion):              # erosion (stages/masses.py): decided before the
+            if self.step_limit(e, c, v, w, self.quad_limit(e, x, area), 4):    # scatter, as a failing
+                f = ti.Matrix.zero(ti.f64, 4, 3)                               # element writes no loads
+                m = ti.Matrix.zero(ti.f64, 4, 3)
         # --- to global (paper eq 37) and scatter
         fg = f @ rot
         mg = m @ rot
@@ -289,7 +365,8 @@ class ShellElement:
             element_power += fg[a, d] * v[a, d] + mg[a, d] * w[a, d]
         self.energy.element(e, dt * area_m * 0.5 * t * power, area_m * 0.5 * t * plastic_work,
                             dt * 0.5 * (q_old + q_new).dot(q_rate), drill_energy, -0.5 * dt * element_power)
-        # --- element time-step limit (method.md 5, stages/timestep.element_limit)
-        d13 = ti.Vector([x[2, 0] - x[0, 0], x[2, 1] - x[0, 1], x[2, 2] - x[0, 2]]).norm()
-        d24 = ti.Vector([x[3, 0] - x[1, 0], x[3, 1] - x[1, 1], x[3, 2] - x[1, 2]]).norm()
-        self.acc.minimum(self.s.step.dt_next, element_limit(self.s, self.cfg, e, area, ti.max(d13, d24)))
+        # --- element time-step limit (method.md 5), with selective mass scaling (stages/masses.py)
+        # [choice: after the scatter without erosion, where it was before issue 18: Taichi's fast
+        # math schedules the kernel by the source order, and plain scenes keep their bits]
+        if ti.static(not self.cfg.erosion):
+            self.step_limit(e, c, v, w, self.quad_limit(e, x, area), 4)

@@ -81,13 +81,6 @@ def triangle_limit(s: ti.template(), cfg: ti.template(), e, length, gain):
     return s.step.dt_safety[None] / inv
 
 
-def element_limit_host(model, area: np.ndarray, longest: np.ndarray) -> np.ndarray:
-    """numpy twin of :func:`element_limit` (per element of `model`)."""
-    inv = model.element.wave_speed * longest / area
-    inv = np.maximum(inv, 0.5 * model.element.rotational_frequency)
-    return model.parameters.dt_safety / inv
-
-
 def contact_step(stiffness: float) -> float:
     """Largest approach per step, in contact thicknesses, for the penalty stiffness
     k = alpha_c m* / dt^2 (issue 16, item 2).  The contact is found once a node is within
@@ -154,22 +147,12 @@ class TimeStep:
 
 def initial_dt(model, velocity: np.ndarray, cfg) -> float:
     """The same rules evaluated on the initial configuration of `model` (numpy, before the
-    first step; triangles: stages/shell.py's length, assembly.element_length)."""
-    from ..assembly import element_length, triangle_shear_gain
-    points, elements = model.points, model.elements
-    x = points[np.where(elements >= 0, elements, elements[:, :1])]
-    d13, d24 = x[:, 2] - x[:, 0], x[:, 3] - x[:, 1]
-    area = 0.5 * np.linalg.norm(np.cross(d13, d24), axis=1)
-    longest = np.maximum(np.linalg.norm(d13, axis=1), np.linalg.norm(d24, axis=1))
-    limit = element_limit_host(model, area, longest)
-    tri = elements[:, 3] < 0
-    if tri.any():                      # triangle_limit's host twin
-        tri_area = 0.5 * np.linalg.norm(np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), axis=1)
-        inv = model.element.wave_speed / element_length(points, elements, np.where(tri, tri_area, 1.0))
-        inv = np.sqrt(inv ** 2 + triangle_shear_gain(points, elements) * (0.5 * model.element.rotational_frequency) ** 2)
-        limit = np.where(tri, model.parameters.dt_safety / inv, limit)
-    dt = float(np.min(limit))
+    first step; the element rule: assembly.element_steps, with the initial mass factors of
+    selective mass scaling)."""
+    from ..assembly import element_steps
     p = model.parameters
+    dt = float(np.min(element_steps(model.points, model.elements, model.element, p.dt_safety)
+                      * np.sqrt(model.mass_factor)))
     if cfg.grid_rule:
         dt = min(dt, p.dt_safety * model.grid.h / (model.materials.dilatational_speed
                                                    + float(np.max(np.abs(velocity)))))

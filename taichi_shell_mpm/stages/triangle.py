@@ -182,6 +182,17 @@ class TriangleElement:
         self.quad = quad
 
     @ti.func
+    def limit(self, e, x, xh, yh, area):
+        """The triangle's stable step, L_e = 4A / sqrt(3 sum l^2) (module docstring;
+        timestep.triangle_limit)."""
+        edges_sq = ((corner(x, 1) - corner(x, 0)).norm_sqr() + (corner(x, 2) - corner(x, 1)).norm_sqr()
+                    + (corner(x, 0) - corner(x, 2)).norm_sqr())
+        gain = 1.0
+        if ti.static(self.cfg.physical_rotary_inertia):
+            gain = shear_gain(xh, yh, area)
+        return triangle_limit(self.s, self.cfg, e, 4.0 * area / ti.sqrt(3.0 * edges_sq), gain)
+
+    @ti.func
     def update(self, e):
         t = self.s.sections.thickness[e]
         kappa = self.s.sections.shear_factor[e]
@@ -217,6 +228,10 @@ class TriangleElement:
             f += fd
             m += md
             drill_energy = dt * 0.5 * (drill_old + drill_new).dot(drill_rate)
+        if ti.static(self.cfg.erosion):              # erosion: before the scatter (ShellElement.update)
+            if self.quad.step_limit(e, c, v, w, self.limit(e, x, xh, yh, area), 3):
+                f = ti.Matrix.zero(ti.f64, 3, 3)
+                m = ti.Matrix.zero(ti.f64, 3, 3)
         # --- to global and scatter
         fg = f @ rot
         mg = m @ rot
@@ -229,11 +244,7 @@ class TriangleElement:
             element_power += fg[a, d] * v[a, d] + mg[a, d] * w[a, d]
         self.quad.energy.element(e, dt * area_m * 0.5 * t * power, area_m * 0.5 * t * plastic_work, 0.0,
                                  drill_energy, -0.5 * dt * element_power)
-        # --- time-step limit, L_e = 4A / sqrt(3 sum l^2) (module docstring; timestep.triangle_limit)
-        edges_sq = ((corner(x, 1) - corner(x, 0)).norm_sqr() + (corner(x, 2) - corner(x, 1)).norm_sqr()
-                    + (corner(x, 0) - corner(x, 2)).norm_sqr())
-        gain = 1.0
-        if ti.static(self.cfg.physical_rotary_inertia):
-            gain = shear_gain(xh, yh, area)
-        self.quad.acc.minimum(self.s.step.dt_next,
-                              triangle_limit(self.s, self.cfg, e, 4.0 * area / ti.sqrt(3.0 * edges_sq), gain))
+        # --- time-step limit, with selective mass scaling (shell.ShellElement.step_limit; after the
+        # scatter without erosion, as ShellElement.update)
+        if ti.static(not self.cfg.erosion):
+            self.quad.step_limit(e, c, v, w, self.limit(e, x, xh, yh, area), 3)

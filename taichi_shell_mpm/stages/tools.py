@@ -1,0 +1,325 @@
+"""Rigid tools ([[tool]]; stage S1 with the self-contact, docs/scenes.md): planes, finite
+rectangles, capped cylinders, spheres and triangulated surface meshes, fixed, moving with a
+rigid body or moved by a velocity or displacement curve; penalty contact with Coulomb
+friction, the force and energy of each tool.  Compiled only for the kinds a scene uses
+(``Features.tool_kinds``, a ti.static loop); every size, pose and coefficient is run-time data
+(state.tools).
+
+Contact [choice: the self-contact's law, stages/contact.py, so both behave alike and the
+step stays stable at any dt].  A node's mid-surface point x is in contact with a tool when
+its signed distance d to the tool's surface (positive on the outer side) is below half the
+node's thickness h/2 (the shell's face touches the surface).  The tool pushes it along the
+outward normal n with
+    f_n = max(0, k (h/2 - d) + c 2 sqrt(k m) (v_tool - v) . n),   k = alpha m / dt_stable^2,
+(m: the node's mass, alpha the tool's ``stiffness``, c its ``damping`` fraction of critical;
+dt_stable, not a step shortened to land on an output time), plus the regularised Coulomb
+friction of stages/contact.coulomb_friction on the slip v - v_tool.  The forces act at
+x^n (the start of the step) like every other load, so m (v^(n+1/2) - v^(n-1/2)) = dt f.
+
+Geometry, in the tool's frame (q = F (x - c), tools.py): d and n of
+* plane: d = q3 (one-sided: a node behind the plane is pushed out, however deep);
+* rectangle (half sides a, b): over it (|q1| <= a, |q2| <= b) as the plane; beside it, on the
+  front side (q3 >= 0), the distance to the nearest rim point (a rounded rim); behind and
+  beside it, no contact [choice: a finite plate has a front only];
+* cylinder (radius R, half length L), capped [choice: a solid with flat ends, the exact
+  signed distance: outside, the distance to the nearest point of the solid, n along it;
+  inside, the depth below the nearer of the mantle and the cap];
+* sphere: d = |q| - R, n = q / |q| (solid);
+* mesh: the nearest facet within reach among those of the node's bucket (tools.bucket_grid);
+  d = +-|q - p| (p: the nearest point of that facet), the sign that of (q - p) . n_facet
+  [choice: one-sided by the facet normal, so a closed surface with outward normals is a
+  solid and an open one (a die) has a front; n = +-(q - p)/|q - p|, the facet normal where p
+  lies inside the facet].  Nodes more than ``reach`` (the thickest shell) behind the surface
+  are not found.
+
+Energy (energy.py).  The work done against each tool's forces is booked at the node with its
+time-centred velocity, -dt f . v_mid (the node's ``contact`` column), and at the tool's own
+motion, dt F . V_tool (F = sum f, V_tool the tool's mean velocity over the step, or its body's
+time-centred velocity): so E_tool = -dt sum f . (v_mid - V_tool), the energy stored in the
+penalty springs plus what damping and friction dissipate.  A tool moved by a curve does the
+work dt F . V_tool on the shell (booked as prescribed-motion work); a body's kinetic energy
+changes by exactly -dt F . V_mid (its velocity update, stages/bodies.py), so a body-driven
+tool closes the balance by itself.
+
+Rigid bodies.  A tool moving with a body is part of it (:meth:`RigidTools.pose`, the one
+place a body's pose is read): centre = x_b + R (origin - X_b), frame rows F0 R^T, its points'
+velocity V + omega x (x - x_b) (:meth:`point_velocity`).  Its force pushes the body back
+(stages/bodies.RigidBodies.update): -F_k at the tool's centre plus the moment -M_k
+(state.tools.moment, about the centre), not booked as the body's external work; :meth:`end`
+books dt (F . V_mid + omega_mid . ((c_k - x_b) x F + M_k)) as the tool's work, which is what the
+body's kinetic energy loses (translation exactly, rotation to the body's own balance).  Nodes
+of that body are not in contact with it.
+"""
+import taichi as ti
+
+from ..tools import BODY, DISPLACEMENT, FIXED, TOOL_KINDS, VELOCITY
+from .accumulate import Accumulator
+from .contact import closest_point_on_triangle, coulomb_friction
+from .timestep import impulse_time
+
+
+@ti.data_oriented
+class RigidTools:
+    def __init__(self, state, cfg, loads, bodies):
+        self.s = state
+        self.bodies = bodies            # stages/bodies.RigidBodies (pose of the tools moving with a body)
+        self.g = state.tools
+        self.cfg = cfg
+        self.loads = loads              # stages/loads.ExternalLoads (curves)
+        self.acc = Accumulator(cfg.serial)
+        self.scatter_acc = Accumulator(not cfg.atomic_scatter)
+
+    # ------------------------------------------------------------------ pose
+    @ti.func
+    def pose(self, k):
+        """Tool k's centre and frame at t^n and the mean velocity of its points over the step
+        (for a body: its centre's V^(n-1/2); the points' in :meth:`point_velocity`).  A tool
+        moving with body b is part of it: centre = x_b + R (origin - X_b) (bodies.place), frame
+        rows F0 R^T (a local direction F q in space is R F0^T q)."""
+        centre = self.g.origin[k]
+        frame = self.g.frame[k]
+        velocity = ti.Vector([0.0, 0.0, 0.0])
+        motion = self.g.motion[k]
+        if ti.static(self.cfg.bodies):
+            if motion == BODY:
+                b = self.g.body[k]
+                centre = self.bodies.place(b, centre)
+                velocity = self.s.bodies.velocity[b]
+                if ti.static(self.cfg.body_rotation):
+                    frame = frame @ self.bodies.rotation_matrix(b).transpose()
+        if ti.static(self.cfg.loads):
+            if motion == VELOCITY or motion == DISPLACEMENT:
+                start = self.s.step.time[None]
+                end = start + self.s.step.dt[None]
+                level0, level1 = 0.0, 0.0
+                if motion == VELOCITY:
+                    level0 = self.loads.curve_or_default(self.g.curve[k], start, 1)
+                    level1 = self.loads.curve_or_default(self.g.curve[k], end, 1)
+                else:
+                    level0 = self.loads.curve_or_default(self.g.curve[k], start, 0)
+                    level1 = self.loads.curve_or_default(self.g.curve[k], end, 0)
+                centre += level0 * self.g.value[k]
+                velocity = (level1 - level0) / self.s.step.dt[None] * self.g.value[k]
+        return centre, frame, velocity
+
+    @ti.func
+    def point_velocity(self, k, x):
+        """Velocity of tool k's point at x: a translating tool's is the same everywhere, a
+        body's tool's V + omega x (x - x_b) (bodies.point_velocity, at t^(n-1/2))."""
+        velocity = self.g.velocity[k]
+        if ti.static(self.cfg.body_rotation):
+            if self.g.motion[k] == BODY:
+                velocity = self.bodies.point_velocity(self.g.body[k], x)
+        return velocity
+
+    # ------------------------------------------------------------------ geometry (tool frame)
+    @ti.func
+    def plane(self, k, q):
+        return q[2], ti.Vector([0.0, 0.0, 1.0]), True
+
+    @ti.func
+    def rectangle(self, k, q):
+        a, b = self.g.size[k][0], self.g.size[k][1]
+        d, n, hit = q[2], ti.Vector([0.0, 0.0, 1.0]), True
+        if ti.abs(q[0]) > a or ti.abs(q[1]) > b:
+            r = q - ti.Vector([ti.min(ti.max(q[0], -a), a), ti.min(ti.max(q[1], -b), b), 0.0])
+            d = r.norm()
+            hit = q[2] >= 0.0
+            n = r / ti.max(d, 1e-300)
+        return d, n, hit
+
+    @ti.func
+    def cylinder(self, k, q):
+        radius, half = self.g.size[k][0], self.g.size[k][1]
+        rho = ti.sqrt(q[0] * q[0] + q[1] * q[1])
+        u = ti.Vector([1.0, 0.0, 0.0])
+        if rho > 0.0:
+            u = ti.Vector([q[0] / rho, q[1] / rho, 0.0])
+        side = 1.0 if q[2] >= 0.0 else -1.0
+        cap = ti.Vector([0.0, 0.0, side])
+        w0, w1 = rho - radius, ti.abs(q[2]) - half
+        d, n = 0.0, u
+        if w0 > 0.0 or w1 > 0.0:
+            e0, e1 = ti.max(w0, 0.0), ti.max(w1, 0.0)
+            d = ti.sqrt(e0 * e0 + e1 * e1)
+            n = (e0 * u + e1 * cap) / d
+        elif w0 > w1:
+            d = w0
+        else:
+            d, n = w1, cap
+        return d, n, True
+
+    @ti.func
+    def sphere(self, k, q):
+        r = q.norm()
+        n = ti.Vector([0.0, 0.0, 1.0])
+        if r > 0.0:
+            n = q / r
+        return r - self.g.size[k][0], n, True
+
+    @ti.func
+    def mesh(self, k, q):
+        """The nearest facet of the node's bucket (module docstring)."""
+        d, n, hit = 0.0, ti.Vector([0.0, 0.0, 1.0]), False
+        cell = ti.floor((q - self.g.grid_lo[k]) / self.g.grid_h[k], ti.i32)
+        dims = self.g.grid_dims[k]
+        inside = True
+        for a in ti.static(range(3)):
+            if cell[a] < 0 or cell[a] >= dims[a]:
+                inside = False
+        if inside:
+            bucket = self.g.bucket_first[k] + cell[0] + dims[0] * (cell[1] + dims[1] * cell[2])
+            best = 1e300
+            best_r = ti.Vector([0.0, 0.0, 0.0])
+            best_t = -1
+            for i in range(self.g.bucket_start[bucket], self.g.bucket_start[bucket + 1]):
+                t = self.g.bucket_items[i]
+                x = self.g.triangles[t]
+                p, _ = closest_point_on_triangle(q, ti.Vector([x[0, 0], x[0, 1], x[0, 2]]),
+                                                 ti.Vector([x[1, 0], x[1, 1], x[1, 2]]),
+                                                 ti.Vector([x[2, 0], x[2, 1], x[2, 2]]))
+                r = q - p
+                if r.norm_sqr() < best:
+                    best, best_r, best_t = r.norm_sqr(), r, t
+            if best_t >= 0:
+                facet = self.g.tri_normal[best_t]
+                sign = 1.0 if best_r.dot(facet) >= 0.0 else -1.0
+                length = ti.sqrt(best)
+                d = sign * length
+                n = facet
+                if length > 1e-12 * self.g.grid_h[k]:
+                    n = sign * best_r / length
+                hit = d > -self.g.reach[None]
+        return d, n, hit
+
+    @ti.func
+    def distance(self, k, q):
+        """Signed distance, outward normal (tool frame) and whether tool k can touch q."""
+        d, n, hit = 0.0, ti.Vector([0.0, 0.0, 1.0]), False
+        kind = self.g.kind[k]
+        if ti.static("plane" in self.cfg.tool_kinds):
+            if kind == ti.static(TOOL_KINDS.index("plane")):
+                d, n, hit = self.plane(k, q)
+        if ti.static("rectangle" in self.cfg.tool_kinds):
+            if kind == ti.static(TOOL_KINDS.index("rectangle")):
+                d, n, hit = self.rectangle(k, q)
+        if ti.static("cylinder" in self.cfg.tool_kinds):
+            if kind == ti.static(TOOL_KINDS.index("cylinder")):
+                d, n, hit = self.cylinder(k, q)
+        if ti.static("sphere" in self.cfg.tool_kinds):
+            if kind == ti.static(TOOL_KINDS.index("sphere")):
+                d, n, hit = self.sphere(k, q)
+        if ti.static("mesh" in self.cfg.tool_kinds):
+            if kind == ti.static(TOOL_KINDS.index("mesh")):
+                d, n, hit = self.mesh(k, q)
+        return d, n, hit
+
+    # ------------------------------------------------------------------ the stage
+    @ti.func
+    def begin(self):
+        """Each tool's pose and velocity at t^n; this step's force sums cleared (serial)."""
+        ti.loop_config(serialize=True)
+        for k in range(self.g.count[None]):
+            centre, frame, velocity = self.pose(k)
+            self.g.centre[k], self.g.axes[k], self.g.velocity[k] = centre, frame, velocity
+            self.g.force[k] = ti.Vector([0.0, 0.0, 0.0])
+            self.g.moment[k] = ti.Vector([0.0, 0.0, 0.0])
+            self.g.contacts[k] = 0
+
+    @ti.func
+    def node_force(self, k, c):
+        """Force of tool k on node c at x^n (module docstring)."""
+        x = self.s.nodes.position[c]
+        frame = self.g.axes[k]
+        d, n_local, hit = self.distance(k, frame @ (x - self.g.centre[k]))
+        force = ti.Vector([0.0, 0.0, 0.0])
+        gap = 0.5 * self.s.nodes.thickness[c] - d
+        if hit and gap > 0.0 and self.s.step.dt[None] > 0.0:
+            n = frame.transpose() @ n_local
+            coefficients = self.g.coefficients[k]            # alpha, damping, mu
+            m = self.s.nodes.mass[c]
+            stiffness = coefficients[0] * m / (self.s.step.dt_stable[None] ** 2)
+            v_rel = self.s.nodes.grid_velocity[c] - self.point_velocity(k, x)
+            f_n = ti.max(0.0, stiffness * gap - coefficients[1] * 2.0 * ti.sqrt(stiffness * m) * v_rel.dot(n))
+            force = f_n * n + coulomb_friction(coefficients[2], f_n, v_rel, n, self.g.slip_speed[None])
+        return force
+
+    @ti.func
+    def forces(self):
+        """Every node's force from every tool (parallel over nodes), then each tool's sums in
+        node order (serial on the CPU: the same bits on any number of threads, so a body
+        pushed by its tool moves the same)."""
+        for c in range(self.s.nodes.count[None]):
+            total = ti.Vector([0.0, 0.0, 0.0])
+            own = -2
+            if ti.static(self.cfg.bodies):
+                own = self.s.nodes.body[c]
+            for k in range(self.g.count[None]):
+                f = ti.Vector([0.0, 0.0, 0.0])
+                if not (self.g.motion[k] == BODY and self.g.body[k] == own):
+                    f = self.node_force(k, c)
+                self.g.node_force[c, k] = f
+                total += f
+            self.g.total_force[c] = total
+        if ti.static(not self.cfg.atomic_scatter):
+            ti.loop_config(serialize=True)
+        for c in range(self.s.nodes.count[None]):
+            for k in range(self.g.count[None]):
+                f = self.g.node_force[c, k]
+                if f.norm_sqr() > 0.0:
+                    self.scatter_acc.add(self.g.force, k, f)
+                    self.scatter_acc.add(self.g.moment, k, (self.s.nodes.position[c] - self.g.centre[k]).cross(f))
+                    self.scatter_acc.add(self.g.contacts, k, 1)
+
+    @ti.func
+    def on_body(self, b, x_b):
+        """The force the tools moving with body b take from the shell (its reaction, -F_k at
+        each tool's centre c_k) and its moment about the body's centre x_b,
+        -(c_k - x_b) x F_k - M_k (M_k: tools.moment, about c_k).  Not booked as external work
+        on the body: :meth:`end` books the same work as the tool's (once)."""
+        out = ti.Vector([0.0, 0.0, 0.0])
+        moment = ti.Vector([0.0, 0.0, 0.0])
+        for k in range(self.g.count[None]):
+            if self.g.motion[k] == BODY and self.g.body[k] == b:
+                out -= self.g.force[k]
+                moment -= (self.g.centre[k] - x_b).cross(self.g.force[k]) + self.g.moment[k]
+        return out, moment
+
+    @ti.func
+    def book_node(self, c, v_mid, kick):
+        """The work done against the tools' forces on node c over the step, -dt f . v_mid,
+        per tool and in all (returned: the node's contact column)."""
+        total = 0.0
+        for k in range(self.g.count[None]):
+            work = -kick * self.g.node_force[c, k].dot(v_mid)
+            if work != 0.0:
+                self.acc.add(self.g.energy, k, work)
+                total += work
+        return total
+
+    @ti.func
+    def end(self):
+        """Book each tool's work at its own motion, dt F . V_tool (module docstring; after the
+        bodies' velocities are final), and a fixed tool's force as support reaction (serial)."""
+        kick = impulse_time(self.s.step)
+        ti.loop_config(serialize=True)
+        for k in range(self.g.count[None]):
+            velocity = self.g.velocity[k]
+            if ti.static(self.cfg.bodies):
+                if self.g.motion[k] == BODY:
+                    b = self.g.body[k]
+                    velocity = 0.5 * (self.s.bodies.velocity_start[b] + self.s.bodies.velocity[b])
+            work = kick * self.g.force[k].dot(velocity)
+            if ti.static(self.cfg.body_rotation):     # sum f . omega_mid x (x - x_b^n)
+                if self.g.motion[k] == BODY:
+                    b = self.g.body[k]
+                    omega_mid = 0.5 * (self.s.bodies.omega_start[b] + self.s.bodies.omega[b])
+                    x_b = self.bodies.center(b) - self.s.step.dt[None] * self.s.bodies.velocity[b]    # t^n
+                    work += kick * omega_mid.dot((self.g.centre[k] - x_b).cross(self.g.force[k]) + self.g.moment[k])
+            self.g.work[k] += work
+            self.g.energy[k] += work
+            self.s.step.contact_energy[None] += work
+            if self.g.motion[k] == VELOCITY or self.g.motion[k] == DISPLACEMENT:
+                self.s.step.motion_work[None] += work
+            if self.g.motion[k] == FIXED:
+                self.s.step.reaction[None] += self.g.force[k]
