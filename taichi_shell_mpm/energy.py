@@ -299,8 +299,8 @@ def part_energies(state, model) -> np.ndarray:
     eroded = np.where(gone, element[:, 0] + element[:, 2] + element[:, 3], 0.0) + moved[:, 0]
     out[:n_parts, 5] = np.bincount(part, weights=eroded, minlength=n_parts)
     out[:n_parts, 6] = np.bincount(part, weights=moved[:, 1], minlength=n_parts)
-    v = state.read(state.nodes.grid_velocity, state.n_nodes)
-    w = state.read(state.nodes.omega, state.n_nodes)
+    v = state.read(state.nodes.grid_velocity, state.n_nodes).copy()     # a slave's velocity is the body's
+    w = state.read(state.nodes.omega, state.n_nodes).copy()
     if nb:
         speed = state.read(state.bodies.velocity, nb)
         slave = model.node_body >= 0
