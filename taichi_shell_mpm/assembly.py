@@ -16,7 +16,7 @@ from . import laminate, materials
 from .loading import Loading, assemble_loading
 from .mesh import Mesh
 from .nodesets import select_nodes
-from .scene import DOFS, Scene, SceneError
+from .scene import DOFS, Scene, SceneError, inertia_tensor
 from .tools import ToolTable, build_tools
 
 AXES = {"x": 0, "y": 1, "z": 2}
@@ -58,9 +58,28 @@ class RigidBodySpec:
     name: str
     nodes: np.ndarray
     added_mass: float
-    direction: tuple[float, float, float]   # unit
-    total_mass: float                       # added + slave nodes
-    velocity0: float                        # initial speed along direction
+    direction: tuple[float, float, float] | None   # unit: translation along it only (rotations held)
+    total_mass: float                       # added + slave nodes (or the scene's, mass_from_nodes = false)
+    velocity0: np.ndarray                   # (3,) initial centre velocity
+    center: np.ndarray                      # (3,) reference centre X_c (the mass centre unless given)
+    inertia: np.ndarray                     # (3, 3) about X_c, global axes at t = 0 (= the body frame)
+    added_inertia: np.ndarray               # (3, 3) the scene's share of it
+    spin0: np.ndarray                       # (3,) initial angular velocity
+    translation_free: np.ndarray            # (3, 3) projector on the free translations (d d^T along a direction)
+    rotation_free: np.ndarray               # (3, 3) projector on the free rotations (diagonal 0/1)
+    turned: bool = False                    # a [[motion]] prescribes its rotations
+
+    @property
+    def rotates(self) -> bool:
+        return bool(self.rotation_free.any()) or self.turned
+
+
+@dataclass(frozen=True)
+class PointMassSpec:
+    name: str
+    nodes: np.ndarray
+    mass: float                             # per node
+    inertia: float                          # rotary, per node
 
 
 @dataclass(frozen=True)
@@ -182,6 +201,7 @@ class Model:
     parameters: StepParameters | None = None
     notes: tuple[str, ...] = ()           # warnings of the assembly (e.g. an LS-DYNA card approximated)
     rigid_bodies: tuple[RigidBodySpec, ...] = ()
+    point_masses: tuple[PointMassSpec, ...] = ()
     walls: tuple[WallSpec, ...] = ()
     tools: ToolTable | None = None        # rigid tools ([[tool]], tools.py); None: none
     node_body: np.ndarray | None = None   # (n,) rigid body index of each node, -1 = none
@@ -746,6 +766,15 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
         velocity0[ids] = np.asarray(ic.velocity) + np.cross(w, points[ids] - np.asarray(ic.center))
         omega0[ids] = w
 
+    point_masses = []
+    for pm in scene.point_masses:
+        ids = nodes_of(pm.nodes)
+        each = pm.mass if pm.mass is not None else pm.total_mass / len(ids)
+        node_mass[ids] += each
+        physical_mass[ids] += each
+        node_inertia[ids] += pm.inertia
+        point_masses.append(PointMassSpec(pm.name, ids, each, pm.inertia))
+
     node_body = np.full(n, -1, dtype=np.int32)
     bodies = []
     for i, rb in enumerate(scene.rigid_bodies):
@@ -757,9 +786,7 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
             raise SceneError(f"{scene.source.name}: [[rigid_body]] '{rb.name}': nodes also have fixed "
                              "translations in a [[boundary]]")
         node_body[ids] = i
-        d = np.asarray(rb.direction) / np.linalg.norm(rb.direction)
-        bodies.append(RigidBodySpec(rb.name, ids, rb.mass, tuple(d), rb.mass + float(node_mass[ids].sum()),
-                                    float(np.mean(velocity0[ids] @ d))))
+        bodies.append(_rigid_body(scene, rb, ids, points, node_mass, node_inertia, velocity0))
     load_force, load_moment, loading = assemble_loading(
         scene, points, elements, node_area, physical_mass, fix_mask, node_body, nodes_of,
         lambda name, path: _element_selection(name, scene, mesh, points, elements, path))
@@ -791,9 +818,54 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
                  node_inertia=node_inertia, node_area=node_area, fix_mask=fix_mask, load_force=load_force,
                  load_moment=load_moment, velocity0=velocity0, omega0=omega0,
                  grid=grid, probes=probes, min_edge=min_edge, mean_edge=float(edges.mean()),
-                 max_edge=float(edges.max()), rigid_bodies=tuple(bodies), walls=walls, tools=tools, node_body=node_body,
+                 max_edge=float(edges.max()), rigid_bodies=tuple(bodies), point_masses=tuple(point_masses),
+                 walls=walls, tools=tools, node_body=node_body,
                  loading=loading,
                  **(node_neighbors(elements, n) if scene.contact else {}))
+
+
+def _rigid_body(scene: Scene, rb, ids: np.ndarray, points: np.ndarray, node_mass: np.ndarray,
+                node_inertia: np.ndarray, velocity0: np.ndarray) -> RigidBodySpec:
+    """Mass, centre and inertia of a [[rigid_body]] (stages/bodies.py): the slave nodes' masses
+    m_c at X_c and rotary inertias J_c, I = sum m_c (|r|^2 1 - r r^T) + J_c 1 (r = X_c - X_centre),
+    plus the added mass (at the centre) and inertia; or the scene's mass and inertia alone
+    (mass_from_nodes = false).  The centre is the slaves' mass centre (their centroid when they
+    carry no mass) unless given; the initial velocity is the scene's, or the mean of the
+    slaves' [[initial]] velocities; the free DOFs' projectors."""
+    where = f"{scene.source.name}: [[rigid_body]] '{rb.name}'"
+    m = node_mass[ids] if rb.mass_from_nodes else np.zeros(len(ids))
+    if rb.center is not None:
+        center = np.asarray(rb.center, dtype=float)
+    elif m.sum() > 0.0:
+        center = (m[:, None] * points[ids]).sum(axis=0) / m.sum()
+    else:
+        center = points[ids].mean(axis=0)
+    r = points[ids] - center
+    added = inertia_tensor(rb.inertia)
+    rotary = float(node_inertia[ids].sum()) if rb.mass_from_nodes else 0.0
+    arms = np.einsum("ck,ck->c", r, r)[:, None, None] * np.eye(3) - r[:, :, None] * r[:, None, :]
+    inertia = added + rotary * np.eye(3) + np.einsum("c,cij->ij", m, arms)
+    total = rb.mass + float(m.sum())
+    if rb.direction is not None:
+        d = np.asarray(rb.direction) / np.linalg.norm(rb.direction)
+        translation_free, rotation_free = np.outer(d, d), np.zeros((3, 3))
+        v0 = float(np.mean(velocity0[ids] @ d)) * d if rb.velocity is None else translation_free @ rb.velocity
+    else:
+        d = None
+        moved = {d for m in scene.motions if m.body == rb.name for d in m.dofs}   # prescribed: held + set
+        translation_free = np.diag([0.0 if dof in rb.fixed else 1.0 for dof in DOFS[:3]])
+        rotation_free = np.diag([0.0 if dof in rb.fixed or dof in moved else 1.0 for dof in DOFS[3:]])
+        v0 = translation_free @ (np.mean(velocity0[ids], axis=0) if rb.velocity is None else np.asarray(rb.velocity))
+    spin = rotation_free @ np.asarray(rb.spin if rb.spin is not None else (0.0, 0.0, 0.0))
+    if translation_free.any() and not total > 0.0:
+        raise SceneError(f"{where}: the body has no mass (its nodes carry none): give mass")
+    free = np.diag(rotation_free) > 0
+    scale = max(float(np.abs(inertia).max()), 1e-300)
+    if free.any() and not np.linalg.eigvalsh(inertia[np.ix_(free, free)]).min() > 1e-12 * scale:
+        raise SceneError(f"{where}: the inertia about its free rotation axes is singular: give inertia")
+    turned = any(m.body == rb.name and set(m.dofs) & set(DOFS[3:]) for m in scene.motions)
+    return RigidBodySpec(rb.name, ids, rb.mass, None if d is None else tuple(d), total, v0, center, inertia,
+                         added, spin, translation_free, rotation_free, turned)
 
 
 def node_neighbors(elements: np.ndarray, n: int) -> dict[str, np.ndarray]:

@@ -327,11 +327,15 @@ def _run(args) -> int:
     from .simulation import Simulation, SimulationError, init_taichi
     from .solvers.dynamic import run_dynamic
     from .solvers.newton import ShellEquations, run_newton
+    from .solvers.tangent import newton_is_serial
     from .solvers.static import run_static
     sim = None
     control = RunControl(args.checkpoint_every, resume=ckpt.position if ckpt else None)
     try:
-        arch = init_taichi(args.arch, quiet=args.quiet)
+        threads = None
+        if scene.solve.kind == "static" and scene.solve.solver == "newton" and newton_is_serial(len(model.elements)):
+            threads = 1             # its kernels are serial: no thread pool (solvers/tangent.newton_is_serial)
+        arch = init_taichi(args.arch, quiet=args.quiet, threads=threads)
         if not args.quiet:
             print("compiling kernels (a configuration's first run takes 15-70 s; later runs load them from "
                   "Taichi's offline cache) ...", flush=True)

@@ -48,7 +48,13 @@ class Features:
     #                             (stages/loads.py, stages/motion.py): one switch [choice: a
     #                             configuration costs 25-60 s to compile, and a scene with any of
     #                             them pays next to nothing for the others' empty loops]
+    body_rotation: bool = False  # a rigid body free to rotate (stages/bodies.py): the rotation
+    #                             update and the slaves' placement x = x_c + R (X - X_c); a
+    #                             translation-only ram compiles the translation alone
     tool_kinds: tuple[str, ...] = ()   # rigid tool kinds the scene uses (tools.TOOL_KINDS order; stages/tools.py)
+    finite_increment: bool = False  # the step is one large increment (Newton's trial,
+    #                             solvers/tangent.py): mid-step shape from the end shapes
+    #                             (stages/shell.mid_geometry)
 
     @property
     def mass_update(self) -> bool:
@@ -122,4 +128,5 @@ class Features:
             erosion=model.materials.erosion,
             mass_scaling=scene.solve.kind == "dynamic" and scene.solve.mass_scaling == "selective",
             multi_field=model.grid is not None and scene.method.fields == "multi",
-            launch=launch, loads=model.loading.loads or (model.tools is not None and model.tools.prescribed))
+            launch=launch, loads=model.loading.loads or (model.tools is not None and model.tools.prescribed),
+            body_rotation=any(b.rotates for b in model.rigid_bodies))

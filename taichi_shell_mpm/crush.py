@@ -164,12 +164,16 @@ def crush_summary(sim) -> dict:
     axis = np.asarray(spec.axis, dtype=float) / np.linalg.norm(spec.axis)
     rows = np.array(sim.history.force_rows)
     energy = np.array(sim.history.energy_rows)
-    nb = len(names)
     t = rows[:, 0]
     support = -rows[:, 1:4] @ axis                    # crush force: the reaction against the motion
     impulse = -rows[:, 4:7] @ axis
-    crush = rows[:, 7 + b] * float(np.dot(body.direction, axis))
-    body_force = rows[:, 7 + nb + b]
+    header = sim.force_header()
+    if body.direction is not None:      # a ram: its displacement and force along its direction
+        crush = rows[:, header.index(f"{body.name}.displacement")] * float(np.dot(body.direction, axis))
+        body_force = rows[:, header.index(f"{body.name}.force")]
+    else:
+        crush = rows[:, [header.index(f"{body.name}.u{c}") for c in "xyz"]] @ axis
+        body_force = rows[:, [header.index(f"{body.name}.force_{c}") for c in "xyz"]] @ axis
     work = crush_work(t, crush, impulse)
     mean, covered = mean_force(crush, work, spec.window)
     e = {name: energy[:, i] for i, name in enumerate(["key", *ENERGY_COLUMNS])}
@@ -197,7 +201,8 @@ def crush_summary(sim) -> dict:
         "specific_energy_absorption_over_reference": [sea * per_length / r if (r and sea is not None) else None
                                                       for r in references],
         "max_penetration_over_thickness": float(s.contact.max_penetration[None]) if s.contact is not None else None,
-        "ram_velocity_final": float(s.bodies.velocity[b]),
+        "ram_velocity_final": float(s.bodies.velocity[b].to_numpy()
+                                    @ (np.asarray(body.direction) if body.direction is not None else axis)),
     }
     if spec.folds:
         folds = fold_geometry(sim.model.points, sim.state.fetch("nodes.position"),

@@ -9,8 +9,9 @@ sum in a fixed order (the same bits on any number of threads and across a restar
   forces, energy taken out by rigid walls, work of the prescribed motions (their constraint
   forces, stages/motion.py) (:meth:`EnergyLedger.node`; per prescribed DOF too,
   :meth:`EnergyLedger.motion`, summed per motion on the host);
-* per rigid body (``bodies.wall_energy``, ``bodies.external_work``): the work of the walls
-  moving with it on the body, and of gravity on its added mass;
+* per rigid body (``bodies.wall_energy``, ``bodies.external_work``, ``bodies.contact_energy``):
+  the work of the walls moving with it on the body, of gravity on its added mass and of loads
+  applied to it, and for a rotating body that of the loads and contact forces at its slaves;
 * per rigid tool (``tools.energy``, ``tools.work``): its contact energy, of which ``work`` is
   booked at the tool's own motion (stages/tools.py; in the ``contact`` column, and for a tool
   moved by a curve in ``motion_work`` too: the work its driver does);
@@ -56,7 +57,9 @@ motions; E_ms: the kinetic energy given to added mass).  The guard (:meth:`Energ
 in the kernel of a dynamic run) stops a run once E_err (energy created) exceeds ``limit``
 times the energy the shell has absorbed, A = E_int + E_hg + E_drill + E_eroded + E_contact +
 E_wall + E_damped, or KINETIC_SHARE x the shell's own kinetic energy (the nodes', without rigid
-bodies' added masses) where that is larger; the host warns once |E_err| exceeds
+bodies' added masses) where that is larger, or ROUND_OFF_SHARE x the whole kinetic energy
+(a rigid body tumbling alone absorbs nothing: its kinetic energy's round-off, 1e-14, is no
+instability); the host warns once |E_err| exceeds
 WARN_FRACTION x limit of the same scale either way (:func:`balance_ratio`).  The kinetic
 floor [choice, measured]: the double mapping's transfer changes the kinetic energy of a
 shell moving through the grid by itself (a free plate spinning through the cells, APIC:
@@ -82,6 +85,7 @@ NODE_PARTS = ("external_work", "contact", "wall", "motion_work")         # node_
 BALANCE_STOP = 0.05          # default limit: |E_err| / absorbed (method.md 8: stop above 5 %)
 WARN_FRACTION = 0.2          # warn at 0.2 x the limit (1 % by default)
 KINETIC_SHARE = 0.5          # the balance scale is at least this x the shell's kinetic energy
+ROUND_OFF_SHARE = 1e-8       # ... and this x the whole kinetic energy (rigid bodies included)
 
 
 @ti.data_oriented
@@ -136,8 +140,21 @@ class EnergyLedger:
         self.s.nodes.motion_work[c, d] += work
 
     @ti.func
+    def body_motion(self, b, d, work):
+        """Work of the prescribed motion of DOF d of rigid body b (stages/bodies.py); serial."""
+        self.s.bodies.motion_work[b][d] += work
+        self.s.step.motion_work[None] += work
+
+    @ti.func
+    def body_contact(self, b, work):
+        """Work done against the contact forces at rotating body b's slaves (stages/bodies.py); serial."""
+        self.s.bodies.contact_energy[b] += work
+        self.s.step.contact_energy[None] += work
+
+    @ti.func
     def body_external(self, b, work):
-        """Work of gravity on rigid body b's added mass (stages/bodies.py); serial."""
+        """Work of gravity on rigid body b's added mass, of the loads applied to it (stages/bodies.py)
+        and, rotating, of the loads at its slaves; serial."""
         self.s.bodies.external_work[b] += work
         self.s.step.external_work[None] += work
 
@@ -159,15 +176,23 @@ class EnergyLedger:
                      - self.s.step.external_work[None] - self.s.step.motion_work[None])
             if ti.static(self.cfg.mass_update):
                 error -= self.s.step.mass_scaling_energy[None]
-            scale = ti.max(absorbed, KINETIC_SHARE * shell_kinetic)
+            scale = ti.max(absorbed, KINETIC_SHARE * shell_kinetic,
+                           ROUND_OFF_SHARE * self.s.step.kinetic[None])
             if not (error <= limit * scale) and scale > 0.0:      # also catches NaN
                 self.s.step.status[None] = STATUS_ENERGY
                 self.s.step.status_index[None] = -1
 
 
 def bodies_kinetic_energy(state, model) -> float:
-    """1/2 M_tot V^2 summed over the rigid bodies (slave nodes and added mass)."""
-    return float(sum(0.5 * b.total_mass * state.bodies.velocity[i] ** 2 for i, b in enumerate(model.rigid_bodies)))
+    """1/2 M_tot |V|^2 + 1/2 L . I^-1 L summed over the rigid bodies (slave nodes, added mass
+    and inertia; the rotational part kept by stages/bodies.py)."""
+    nb = len(model.rigid_bodies)
+    if not nb:
+        return 0.0
+    v = state.read(state.bodies.velocity, nb)
+    rotation = state.read(state.bodies.kinetic_rotation, nb)
+    return float(sum(0.5 * b.total_mass * float(v[i] @ v[i]) + (float(rotation[i]) if b.rotates else 0.0)
+                     for i, b in enumerate(model.rigid_bodies)))
 
 
 def node_masses(state, model) -> tuple[np.ndarray, np.ndarray]:
@@ -222,6 +247,10 @@ def totals(state, model, initial_kinetic: float) -> dict[str, float]:
     if model.rigid_bodies:
         e["wall"] += float(state.read(state.bodies.wall_energy, len(model.rigid_bodies)).sum())
         e["external_work"] += float(state.read(state.bodies.external_work, len(model.rigid_bodies)).sum())
+        if state.features.loads and model.loading.body_motion_mask.any():
+            e["motion_work"] += float(state.read(state.bodies.motion_work, len(model.rigid_bodies)).sum())
+        if state.features.body_rotation and state.features.contact:
+            e["contact"] += float(state.read(state.bodies.contact_energy, len(model.rigid_bodies)).sum())
     if model.tools is not None:        # the tools' work at their own motion (stages/tools.py)
         work = state.read(state.tools.work, len(model.tools.names))
         e["contact"] += float(work.sum())
@@ -240,17 +269,21 @@ PART_COLUMNS = ("kinetic", "internal", "plastic_work", "hourglass", "drilling", 
 
 
 def part_names(model) -> list[str]:
-    """Rows of :func:`part_energies`: the parts, then the added mass of each rigid body."""
-    return [p.name for p in model.parts] + [f"rigid_body:{b.name}" for b in model.rigid_bodies]
+    """Rows of :func:`part_energies`: the parts, the added mass of each rigid body, then each
+    [[point_mass]]."""
+    return ([p.name for p in model.parts] + [f"rigid_body:{b.name}" for b in model.rigid_bodies]
+            + [f"point_mass:{p.name}" for p in model.point_masses])
 
 
 def part_energies(state, model) -> np.ndarray:
-    """(parts + bodies, PART_COLUMNS) energies per part, whose column sums are the totals of
-    :func:`totals`: an element's internal, plastic, hourglass and drilling energy belong to its
-    part; a node's kinetic energy is split among the elements around it in the shares they
-    gave its mass and rotary inertia (Model.corner_mass, corner_inertia), a rigid body's slave
-    node moving with the body's velocity; the kinetic energy of a body's added mass is the
-    body's own row.  With erosion and mass scaling, as :func:`totals`: the element columns of
+    """(parts + bodies + point masses, PART_COLUMNS) energies per part, whose column sums are
+    the totals of :func:`totals`: an element's internal, plastic, hourglass and drilling energy
+    belong to its part; a node's kinetic energy is split among the elements around it in the
+    shares they gave its mass and rotary inertia (Model.corner_mass, corner_inertia), a rigid
+    body's slave node moving with the body (V + omega x r, omega); the kinetic energy of a
+    body's added mass (and of point masses on its slaves) is the body's own row -- of a
+    rotating body, what its kinetic energy has beyond its slaves' shares; a [[point_mass]]'s
+    row is that of its mass and rotary inertia at its free nodes. With erosion and mass scaling, as :func:`totals`: the element columns of
     the live elements, the eroded and mass-scaling energy of each element to its part, and a
     node's mass shares of the live elements times their density factors (a slave node's
     mass is the body's and does not change)."""
@@ -258,30 +291,47 @@ def part_energies(state, model) -> np.ndarray:
     gone = eroded_elements(state)
     moved = mass_energies(state)
     part = model.element.part
-    n_rows = len(model.parts) + len(model.rigid_bodies)
-    out = np.zeros((n_rows, len(PART_COLUMNS)))
+    nb, n_parts = len(model.rigid_bodies), len(model.parts)
+    out = np.zeros((n_parts + nb + len(model.point_masses), len(PART_COLUMNS)))
     for j, name in enumerate(PART_COLUMNS[1:5], start=1):
-        out[:len(model.parts), j] = np.bincount(part, weights=np.where(gone, 0.0, element[:, ELEMENT_PARTS.index(name)]),
-                                                minlength=len(model.parts))
+        out[:n_parts, j] = np.bincount(part, weights=np.where(gone, 0.0, element[:, ELEMENT_PARTS.index(name)]),
+                                       minlength=n_parts)
     eroded = np.where(gone, element[:, 0] + element[:, 2] + element[:, 3], 0.0) + moved[:, 0]
-    out[:len(model.parts), 5] = np.bincount(part, weights=eroded, minlength=len(model.parts))
-    out[:len(model.parts), 6] = np.bincount(part, weights=moved[:, 1], minlength=len(model.parts))
-    v2 = np.sum(state.read(state.nodes.grid_velocity, state.n_nodes) ** 2, axis=1)
-    w2 = np.sum(state.read(state.nodes.omega, state.n_nodes) ** 2, axis=1)
-    if model.rigid_bodies:
-        speed = state.read(state.bodies.velocity, len(model.rigid_bodies))
+    out[:n_parts, 5] = np.bincount(part, weights=eroded, minlength=n_parts)
+    out[:n_parts, 6] = np.bincount(part, weights=moved[:, 1], minlength=n_parts)
+    v = state.read(state.nodes.grid_velocity, state.n_nodes).copy()     # a slave's velocity is the body's
+    w = state.read(state.nodes.omega, state.n_nodes).copy()
+    if nb:
+        speed = state.read(state.bodies.velocity, nb)
         slave = model.node_body >= 0
-        v2[slave] = speed[model.node_body[slave]] ** 2
-        w2[slave] = 0.0
+        body = model.node_body[slave]
+        spin = state.read(state.bodies.omega, nb)
+        center = state.read(state.bodies.center0, nb) + state.read(state.bodies.displacement, nb)
+        positions = state.read(state.nodes.position, state.n_nodes)[slave]
+        v[slave] = speed[body] + np.cross(spin[body], positions - center[body])
+        w[slave] = spin[body]
+    v2, w2 = np.sum(v ** 2, axis=1), np.sum(w ** 2, axis=1)
     corners = np.where(model.elements >= 0, model.elements, 0)
     share = np.ones(model.corner_mass.shape)
     if state.features.mass_update:            # slaves: the shares of the assembly
         live = mass_factors(state, model) * ~gone
         share = np.where(model.node_body[corners] >= 0, model.mass_factor[:, None], live[:, None])
-    kinetic = 0.5 * (model.corner_mass * share * v2[corners] + model.corner_inertia * share * w2[corners]).sum(axis=1)
-    out[:len(model.parts), 0] = np.bincount(part, weights=kinetic, minlength=len(model.parts))
+    corner_kinetic = 0.5 * (model.corner_mass * share * v2[corners] + model.corner_inertia * share * w2[corners])
+    out[:n_parts, 0] = np.bincount(part, weights=corner_kinetic.sum(axis=1), minlength=n_parts)
+    node_body = model.node_body if model.node_body is not None else np.full(len(v2), -1)
+    for k, p in enumerate(model.point_masses):
+        free = p.nodes[node_body[p.nodes] < 0]
+        out[n_parts + nb + k, 0] = 0.5 * float(np.sum(p.mass * v2[free] + p.inertia * w2[free]))
+    if nb:
+        rotation = state.read(state.bodies.kinetic_rotation, nb)
     for i, b in enumerate(model.rigid_bodies):
-        out[len(model.parts) + i, 0] = 0.5 * b.added_mass * speed[i] ** 2
+        if b.rotates:       # the body's kinetic energy less its slaves' shares of the parts'
+            mine = np.isin(corners, b.nodes) & (model.elements >= 0)
+            shares = float(np.sum(corner_kinetic[mine]))
+            out[n_parts + i, 0] = 0.5 * b.total_mass * float(speed[i] @ speed[i]) + float(rotation[i]) - shares
+        else:
+            on_slaves = sum(p.mass * int(np.count_nonzero(node_body[p.nodes] == i)) for p in model.point_masses)
+            out[n_parts + i, 0] = 0.5 * (b.added_mass + on_slaves) * float(speed[i] @ speed[i])
     return out
 
 
@@ -306,6 +356,6 @@ def absorbed(e: dict) -> float:
 def balance_ratio(e: dict) -> float:
     """|E_err| / max(absorbed, KINETIC_SHARE x the shell's kinetic energy): the guard's ratio
     (host twin of :meth:`EnergyLedger.guard`)."""
-    scale = max(absorbed(e), KINETIC_SHARE * (e["kinetic"] - e["kinetic_bodies"]))
+    scale = max(absorbed(e), KINETIC_SHARE * (e["kinetic"] - e["kinetic_bodies"]), ROUND_OFF_SHARE * e["kinetic"])
     return abs(e["balance_error"]) / scale if scale > 0.0 else 0.0
 

@@ -17,7 +17,7 @@ Curves are numbered in scene order; -1 stands for the load factor (lambda in a s
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
@@ -47,6 +47,7 @@ class MotionSpec:
     kind: int                       # index into scene.MOTION_KINDS
     curve: int                      # -1: the load factor
     value: np.ndarray               # (6,) per DOF (ux .. rz), 0 where not prescribed
+    body: int = -1                  # the rigid body it moves (nodes empty), -1: its nodes
 
 
 @dataclass(frozen=True)
@@ -71,6 +72,8 @@ class Loading:
     motions: tuple[MotionSpec, ...]
     motion_mask: np.ndarray         # (n,) bits ux .. rz prescribed by a motion
     node_motion: np.ndarray         # (n, 6) motion of each DOF, -1 = none
+    body_motion_mask: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))   # (bodies,) DOF bits
+    body_motion: np.ndarray = field(default_factory=lambda: np.zeros((0, 6), np.int32))   # (bodies, 6) motion, -1 = none
 
     @property
     def loads(self) -> bool:
@@ -229,10 +232,33 @@ def assemble_loading(scene: Scene, points: np.ndarray, elements: np.ndarray, nod
     motions = []
     motion_mask = np.zeros(n, np.int32)
     node_motion = np.full((n, 6), -1, np.int32)
+    body_names = [rb.name for rb in scene.rigid_bodies]
+    body_motion_mask = np.zeros(len(body_names), np.int32)
+    body_motion = np.full((len(body_names), 6), -1, np.int32)
     for k, mo in enumerate(scene.motions):
-        ids = nodes_of(mo.nodes)
         where = f"{src}: [[motion]] '{mo.name}'"
         bits = sum(1 << DOFS.index(d) for d in mo.dofs)
+        value = np.array([mo.value[mo.dofs.index(d)] if d in mo.dofs else 0.0 for d in DOFS])
+        if mo.body is not None:       # a rigid body's DOFs (stages/bodies.py)
+            b = body_names.index(mo.body)
+            rb = scene.rigid_bodies[b]
+            held = sum(1 << DOFS.index(d) for d in rb.fixed)
+            for label, clash in (("fixed by its `fixed`", held & bits),
+                                 ("prescribed by another [[motion]]", body_motion_mask[b] & bits)):
+                if clash:
+                    raise SceneError(f"{where}: the body's {DOFS[int(np.log2(clash & -clash))]} is {label} too "
+                                     "(a DOF takes one of them)")
+            body_motion_mask[b] |= bits
+            turned = (held | body_motion_mask[b]) >> 3
+            if turned and turned != 0b111:
+                raise SceneError(f"{where}: a body's prescribed rotation needs its other rotations fixed or "
+                                 "prescribed too (fixed = [...] or dofs), got "
+                                 + ", ".join(d for i, d in enumerate(DOFS[3:]) if (turned >> i) & 1))
+            body_motion[b, [DOFS.index(d) for d in mo.dofs]] = k
+            motions.append(MotionSpec(mo.name, np.zeros(0, np.int64), mo.dofs, MOTION_KINDS.index(mo.kind),
+                                      index[mo.curve] if mo.curve is not None else -1, value, b))
+            continue
+        ids = nodes_of(mo.nodes)
         for label, clash in (("fixed by a [[boundary]]", fix_mask[ids] & bits),
                              ("prescribed by another [[motion]]", motion_mask[ids] & bits)):
             if np.any(clash):
@@ -243,10 +269,8 @@ def assemble_loading(scene: Scene, points: np.ndarray, elements: np.ndarray, nod
             raise SceneError(f"{where}: node {int(ids[np.argmax(node_body[ids] >= 0)])} belongs to a "
                              "[[rigid_body]] (its motion is the body's)")
         motion_mask[ids] |= bits
-        value = np.zeros(6)
-        for d, v in zip(mo.dofs, mo.value):
+        for d in mo.dofs:
             node_motion[ids, DOFS.index(d)] = k
-            value[DOFS.index(d)] = v
         motions.append(MotionSpec(mo.name, ids, mo.dofs, MOTION_KINDS.index(mo.kind),
                                   index[mo.curve] if mo.curve is not None else -1, value))
 
@@ -260,7 +284,8 @@ def assemble_loading(scene: Scene, points: np.ndarray, elements: np.ndarray, nod
         pressure_curve=np.array(pressure_curve, np.int32), pressure_nodes=pressure_nodes.astype(np.int32),
         pressure_node_start=np.concatenate([[0], np.cumsum(counts)]).astype(np.int32),
         pressure_node_slots=slots.astype(np.int32), gravity=gravity, gravity_curve=gravity_curve,
-        physical_mass=physical_mass, motions=tuple(motions), motion_mask=motion_mask, node_motion=node_motion)
+        physical_mass=physical_mass, motions=tuple(motions), motion_mask=motion_mask, node_motion=node_motion,
+        body_motion_mask=body_motion_mask, body_motion=body_motion)
     return load_force, load_moment, loading
 
 

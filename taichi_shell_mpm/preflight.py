@@ -33,7 +33,7 @@ def assembly_problems(scene, mesh) -> tuple[list[str], object]:
     errors: list[str] = []
     bad_sets = set()
     names = {x.nodes for group in (scene.boundaries, scene.loads, scene.initial, scene.probes,
-                                   scene.rigid_bodies, scene.motions) for x in group}
+                                   scene.rigid_bodies, scene.motions) for x in group if x.nodes is not None}
     for name in sorted(names):
         try:
             select_nodes(scene.nodeset(name), mesh.points)
@@ -45,7 +45,8 @@ def assembly_problems(scene, mesh) -> tuple[list[str], object]:
     replace = dataclasses.replace
     keep = lambda items: tuple(x for x in items if x.nodes not in bad_sets)   # noqa: E731
     bare = replace(scene, boundaries=(), loads=(), initial=keep(scene.initial), probes=keep(scene.probes),
-                   rigid_bodies=(), walls=(), contact=None, reference=None, motions=keep(scene.motions),
+                   rigid_bodies=(), walls=(), contact=None, reference=None,
+                   motions=tuple(m for m in keep(scene.motions) if m.body is None),
                    method=replace(scene.method, kind="fem"))
 
     def fails(candidate) -> bool:
@@ -65,7 +66,8 @@ def assembly_problems(scene, mesh) -> tuple[list[str], object]:
     names = {rb.name for rb in bodies}
     walls = tuple(w for w in scene.walls if w.moves_with is None or w.moves_with in names)
     final = replace(scene, boundaries=boundaries, loads=loads, initial=keep(scene.initial),
-                    probes=keep(scene.probes), rigid_bodies=bodies, walls=walls, motions=keep(scene.motions))
+                    probes=keep(scene.probes), rigid_bodies=bodies, walls=walls,
+                    motions=tuple(m for m in keep(scene.motions) if m.body is None or m.body in names))
     model = None
     try:
         model = assemble(final, mesh)

@@ -165,6 +165,10 @@ def summary_rows(summary: dict) -> list[tuple[str, str]]:
                        ("mass_scaling", "mass scaling energy"), ("balance_error", "balance error")):
         if key in e and (key not in ("damped", "motion_work", "eroded", "mass_scaling") or e[key]):
             rows.append((label, _num(e[key])))
+    for b in summary.get("rigid_bodies", []):
+        force = ", ".join(_num(c) for c in b["force"])
+        moment = f"; moment [{', '.join(_num(c) for c in b['moment'])}]" if b["moment"] is not None else ""
+        rows.append((f"body {b['name']}", f"kinetic {_num(b['kinetic_energy'])}; force [{force}]{moment}"))
     for m in summary.get("motions", []):
         reaction = ", ".join(f"{d} {_num(v)}" for d, v in m["reaction"].items())
         rows.append((f"motion {m['name']}", f"reaction {reaction}; work {_num(m['work'])}"))

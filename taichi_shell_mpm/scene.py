@@ -22,10 +22,13 @@ from dataclasses import MISSING, dataclass, field, fields
 from pathlib import Path
 from typing import Any, Literal, Union
 
+import numpy as np
+
 Vec3 = tuple[float, float, float]
 DOFS = ("ux", "uy", "uz", "rx", "ry", "rz")
 MAX_CURVES = 64          # [curves.NAME] tables of a scene (state.loads tables)
 MAX_MOTIONS = 64         # [[motion]] entries of a scene
+MAX_BODIES = 16          # [[rigid_body]] entries of a scene (state.bodies tables)
 
 
 class SceneError(Exception):
@@ -380,15 +383,18 @@ MOTION_KINDS = ("displacement", "velocity", "acceleration")
 
 @dataclass(frozen=True)
 class Motion:
-    """Prescribed motion of DOFs of a node set (stages/motion.py): u, v or a = value x f."""
+    """Prescribed motion of DOFs of a node set (stages/motion.py) or of a rigid body
+    (stages/bodies.py): u, v or a = value x f."""
     name: str
-    nodes: str
     dofs: tuple[str, ...]
     kind: Literal["displacement", "velocity", "acceleration"]
     value: tuple[float, ...]
     """One per DOF (a single number in the scene applies to every DOF)."""
     curve: str | None = None
     """None: the load factor (1 in a dynamic run; lambda in a static one)."""
+    nodes: str | None = None
+    body: str | None = None
+    """The [[rigid_body]] moved (instead of `nodes`)."""
 
 
 @dataclass(frozen=True)
@@ -447,12 +453,29 @@ class Reference:
 
 @dataclass(frozen=True)
 class RigidBody:
-    """Nodes moving as one rigid body that translates along `direction` only, carrying an
-    added lumped `mass` (method.md 2.5c; the tube's 500 kg). Initial velocity: [[initial]]."""
+    """Nodes moving as one rigid body (stages/bodies.py): six DOFs, or translating along
+    `direction` only (the tube's 500 kg ram, method.md 2.5c), carrying an added `mass` and
+    `inertia` (about the centre, global axes at t = 0: 3 diagonal entries or xx yy zz xy yz zx)."""
     name: str
     nodes: str
     mass: float = 0.0
-    direction: Vec3 = (0.0, 0.0, 1.0)
+    direction: Vec3 | None = None
+    inertia: tuple[float, ...] = ()
+    center: Vec3 | None = None
+    mass_from_nodes: bool = True
+    velocity: Vec3 | None = None
+    spin: Vec3 | None = None
+    fixed: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class PointMass:
+    """Mass (and rotary inertia) added to each node of a set, constraining nothing."""
+    name: str
+    nodes: str
+    mass: float | None = None
+    total_mass: float | None = None
+    inertia: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -611,6 +634,7 @@ class Scene:
     probes: tuple[Probe, ...] = ()
     reference: Reference | None = None
     rigid_bodies: tuple[RigidBody, ...] = ()
+    point_masses: tuple[PointMass, ...] = ()
     walls: tuple[Wall, ...] = ()
     tools: tuple[Tool, ...] = ()
     contact: Contact | None = None
@@ -920,6 +944,28 @@ def _dofs(allow_all: bool) -> Validator:
     return check
 
 
+def _inertia(value: Any) -> tuple[float, ...]:
+    """An inertia tensor: [Ixx, Iyy, Izz] or [Ixx, Iyy, Izz, Ixy, Iyz, Izx] (its entries, so
+    Ixy = -sum m x y), symmetric positive semi-definite."""
+    if not (isinstance(value, list) and len(value) in (3, 6) and all(map(_is_number, value))):
+        raise _Invalid(f"expected 3 numbers [Ixx, Iyy, Izz] or 6 [Ixx, Iyy, Izz, Ixy, Iyz, Izx], got {_show(value)}")
+    out = tuple(float(c) for c in value)
+    if float(np.linalg.eigvalsh(inertia_tensor(out)).min()) < -1e-12 * max(abs(c) for c in out):
+        raise _Invalid(f"not positive semi-definite: {_show(value)}")
+    return out
+
+
+def inertia_tensor(entries: Sequence[float]) -> np.ndarray:
+    """The 3 x 3 tensor of a scene's inertia entries (see _inertia); () is zero."""
+    out = np.zeros((3, 3))
+    if entries:
+        out[np.diag_indices(3)] = entries[:3]
+    if len(entries) == 6:
+        for (i, j), c in zip(((0, 1), (1, 2), (2, 0)), entries[3:]):
+            out[i, j] = out[j, i] = c
+    return out
+
+
 def _element_ids(value: Any) -> tuple[int, ...]:
     if isinstance(value, list) and value and all(_is_int(i) and i >= 0 for i in value):
         return tuple(value)
@@ -1038,7 +1084,7 @@ def _hardening_curve(value: Any) -> tuple[tuple[float, float], ...]:
 # ================================================================ table layout
 _TABLES = ("scene", "mesh", "material", "section", "materials", "sections", "elementsets", "part", "element",
            "method", "nodesets", "boundary", "load", "initial", "probe", "reference", "solve", "output",
-           "rigid_body", "wall", "tool", "contact", "crush", "curves", "motion", "pressure", "gravity")
+           "rigid_body", "point_mass", "wall", "tool", "contact", "crush", "curves", "motion", "pressure", "gravity")
 _REQUIRED_TABLES = ("scene", "mesh", "solve")
 # [[tool]] keys of each kind (required, optional); a shape key of another kind is an error
 _TOOL_KEYS = {"plane": (("normal",), ("center",)),
@@ -1319,6 +1365,9 @@ class _SceneParser:
         solve = self.part("solve", self.solve)
         output = self.plain("output")
         bodies = self.array("rigid_body", self.rigid_body)
+        if len(bodies) > MAX_BODIES:
+            self.error("[[rigid_body]]", f"expected at most {MAX_BODIES} entries, got {len(bodies)}")
+        point_masses = self.array("point_mass", self.point_mass)
         walls = self.array("wall", self.wall)
         tools = self.array("tool", lambda path, data: self.tool(path, data, solve, curves))
         names = [t.name for t in tools if t is not None]
@@ -1357,7 +1406,8 @@ class _SceneParser:
                      element=element, method=method, solve=solve, output=output,
                      nodesets=tuple(nodesets), boundaries=tuple(boundaries), loads=tuple(loads),
                      initial=tuple(initial), probes=tuple(probes), reference=reference,
-                     rigid_bodies=tuple(bodies), walls=tuple(walls), tools=tuple(tools), contact=contact, crush=crush,
+                     rigid_bodies=tuple(bodies), point_masses=tuple(point_masses), walls=tuple(walls),
+                     tools=tuple(tools), contact=contact, crush=crush,
                      materials=materials, sections=sections, elementsets=tuple(elementsets), parts=tuple(parts),
                      curves=curves, motions=tuple(motions), pressures=tuple(pressures), gravity=gravity)
 
@@ -1761,10 +1811,24 @@ class _SceneParser:
     def motion(self, path: str, data: Any, solve: Solve | None, curves: dict[str, Curve]) -> Motion | None:
         mark = len(self.messages)
         v = self.read(path, data, {"name": _identifier, "nodes": self.nodes, "dofs": _dofs(allow_all=True),
-                                   "kind": _choice(*MOTION_KINDS), "value": _numbers, "curve": self.curve_name},
-                      Motion)
+                                   "kind": _choice(*MOTION_KINDS), "value": _numbers, "curve": self.curve_name,
+                                   "body": _identifier}, Motion)
         if v is None:
             return None
+        if ("nodes" in data) == ("body" in data):
+            self.error(f"{path}.nodes", "give one of nodes (a node set) or body (a [[rigid_body]])")
+        if "body" in data:
+            listed = self.raw.get("rigid_body", [])
+            bodies = {b["name"]: b for b in (listed if isinstance(listed, list) else [])
+                      if isinstance(b, dict) and isinstance(b.get("name"), str)}
+            if v.get("body") is not None and v["body"] not in bodies:
+                self.error(f"{path}.body", f"no [[rigid_body]] named {v['body']!r}"
+                           + _hint(v["body"], list(bodies), "defined"))
+            elif v.get("body") is not None and "direction" in bodies[v["body"]]:
+                self.error(f"{path}.body", f"the [[rigid_body]] {v['body']!r} translates along its direction only: "
+                                           "a body with a prescribed motion has six DOFs (leave out direction)")
+            if solve is not None and solve.kind == "static":
+                self.error(f"{path}.body", "a body's motion is prescribed in dynamic runs only")
         dofs, value, kind, curve = v.get("dofs"), v.get("value"), v.get("kind"), v.get("curve")
         if dofs is not None and value is not None:
             if len(value) == 1:
@@ -1798,8 +1862,31 @@ class _SceneParser:
         return self.build(mark, Pressure, v)
 
     def rigid_body(self, path: str, data: Any) -> RigidBody | None:
-        return self.table_object(path, data, RigidBody, {
-            "name": _identifier, "nodes": self.nodes, "mass": _non_negative, "direction": _nonzero_vec3})
+        mark = len(self.messages)
+        v = self.read(path, data, {
+            "name": _identifier, "nodes": self.nodes, "mass": _non_negative, "direction": _nonzero_vec3,
+            "inertia": _inertia, "center": _vec3, "mass_from_nodes": _bool, "velocity": _vec3, "spin": _vec3,
+            "fixed": _dofs(allow_all=False)}, RigidBody)
+        if v is None:
+            return None
+        if v.get("direction") is not None:
+            for key in ("fixed", "spin", "inertia"):
+                if key in data:
+                    self.error(f"{path}.{key}", "a body with a direction translates along it only (its rotations "
+                                                "are held): leave out direction for a 6-DOF body")
+        if v.get("mass_from_nodes") is False and "mass" in v and not v["mass"] > 0.0:
+            self.error(f"{path}.mass", "must be > 0 with mass_from_nodes = false (it is the body's whole mass)")
+        return self.build(mark, RigidBody, v)
+
+    def point_mass(self, path: str, data: Any) -> PointMass | None:
+        mark = len(self.messages)
+        v = self.read(path, data, {"name": _identifier, "nodes": self.nodes, "mass": _non_negative,
+                                   "total_mass": _non_negative, "inertia": _non_negative}, PointMass)
+        if v is None:
+            return None
+        if ("mass" in data) == ("total_mass" in data):
+            self.error(f"{path}.mass", "give one of mass (each node's) or total_mass (shared equally by the nodes)")
+        return self.build(mark, PointMass, v)
 
     def wall(self, path: str, data: Any) -> Wall | None:
         mark = len(self.messages)

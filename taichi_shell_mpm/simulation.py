@@ -106,18 +106,18 @@ def cpu_threads() -> int:
         return os.cpu_count() or 1
 
 
-def init_taichi(arch: str = "cpu", quiet: bool = False) -> str:
+def init_taichi(arch: str = "cpu", quiet: bool = False, threads: int | None = None) -> str:
     """Start Taichi on `arch`; returns the arch it actually runs on ("cpu" when Taichi fell
     back from an unavailable GPU backend).  `quiet`: without its "[Taichi] Starting on"
-    line.  Taichi's own probing warnings for a missing GPU are held back (the caller
-    reports the fallback)."""
+    line.  `threads`: the CPU threads (default :func:`cpu_threads`).  Taichi's own probing
+    warnings for a missing GPU are held back (the caller reports the fallback)."""
     import contextlib
     import io
     frontend.speed_up()
     level = ti.WARN if arch == "cpu" else ti.ERROR
     with contextlib.redirect_stdout(io.StringIO()) if quiet else contextlib.nullcontext():
         ti.init(arch=getattr(ti, ARCHS[arch]), default_fp=ti.f64, default_ip=ti.i32, offline_cache=True,
-                offline_cache_file_path=kernel_cache_dir(), log_level=level, cpu_max_num_threads=cpu_threads())
+                offline_cache_file_path=kernel_cache_dir(), log_level=level, cpu_max_num_threads=threads or cpu_threads())
     if level != ti.WARN:
         ti.set_logging_level(ti.WARN)
     used = ti.lang.impl.current_cfg().arch
@@ -289,18 +289,83 @@ class Simulation:
 
     # ------------------------------------------------------------------ recording
     def record(self, key: float, frame: bool) -> None:
+        with self.state.reads_cached():
+            self._record(key, frame)
+
+    def _record(self, key: float, frame: bool) -> None:
         self.history.probe_rows.append([key] + self.probe_values())
         e = self.energies()
         self.history.energy_rows.append([key] + [e[k] for k in ENERGY_COLUMNS])
         self.history.part_rows.append([key] + self.part_values().ravel().tolist())
-        st, bd = self.state.step, self.state.bodies
-        nb = len(self.model.rigid_bodies)
+        st = self.state.step
         self.history.force_rows.append([key] + st.reaction[None].to_numpy().tolist()
                                        + st.reaction_impulse[None].to_numpy().tolist()
-                                       + [bd.displacement[i] for i in range(nb)] + [bd.force[i] for i in range(nb)]
-                                       + self.motion_values() + self.tool_values())
+                                       + self.body_values() + self.motion_values() + self.tool_values())
         if frame:
             self.write_frame(key)
+
+    def body_state(self) -> list[dict]:
+        """Each rigid body's pose, velocities, loads and kinetic energy now (stages/bodies.py)."""
+        nb = len(self.model.rigid_bodies)
+        if not nb:
+            return []
+        bd = self.state.bodies
+        read = {name: self.state.read(getattr(bd, name), nb) for name in (
+            "displacement", "rotation", "velocity", "omega", "angular_momentum", "force", "moment", "kinetic_rotation")}
+        out = []
+        for i, b in enumerate(self.model.rigid_bodies):
+            q = read["rotation"][i]
+            half = math.atan2(float(np.linalg.norm(q[1:])), abs(float(q[0])))
+            axis = q[1:] / np.linalg.norm(q[1:]) if half > 0.0 else np.zeros(3)
+            v = read["velocity"][i]
+            out.append({k: read[k][i] for k in read} | {
+                "rotation_vector": 2.0 * half * np.sign(q[0] or 1.0) * axis,
+                "kinetic": 0.5 * b.total_mass * float(v @ v) + (float(read["kinetic_rotation"][i]) if b.rotates else 0.0)})
+        return out
+
+    def body_values(self) -> list[float]:
+        """force.csv's body columns (:meth:`body_columns`): a ram along a direction, its
+        displacement and force along it (as before 6-DOF bodies); a 6-DOF body, its
+        displacement, rotation vector, force, moment about its centre, kinetic energy and
+        angular momentum."""
+        first, second = [], []
+        for b, x in zip(self.model.rigid_bodies, self.body_state()):
+            if b.direction is not None:
+                d = np.asarray(b.direction)
+                first.append(float(x["displacement"] @ d))
+                second.append(float(x["force"] @ d))
+            else:
+                first += [*map(float, x["displacement"]), *map(float, x["rotation_vector"])]
+                second += [*map(float, x["force"]), *map(float, x["moment"]), x["kinetic"],
+                           *map(float, x["angular_momentum"])]
+        return first + second
+
+    def body_columns(self) -> list[str]:
+        first, second = [], []
+        for b in self.model.rigid_bodies:
+            if b.direction is not None:
+                first.append(f"{b.name}.displacement")
+                second.append(f"{b.name}.force")
+            else:
+                first += [f"{b.name}.{c}" for c in ("ux", "uy", "uz", "rx", "ry", "rz")]
+                second += [f"{b.name}.{c}" for c in ("force_x", "force_y", "force_z", "moment_x", "moment_y",
+                                                     "moment_z", "kinetic", "angular_momentum_x",
+                                                     "angular_momentum_y", "angular_momentum_z")]
+        return first + second
+
+    def body_summary(self) -> list[dict]:
+        """summary.json's rigid_bodies block."""
+        out = []
+        for b, x in zip(self.model.rigid_bodies, self.body_state()):
+            out.append({"name": b.name, "mass": b.total_mass, "added_mass": b.added_mass,
+                        "center": (b.center + x["displacement"]).tolist(), "inertia": b.inertia.tolist(),
+                        "direction": list(b.direction) if b.direction is not None else None,
+                        "displacement": x["displacement"].tolist(), "rotation": x["rotation"].tolist(),
+                        "rotation_vector": x["rotation_vector"].tolist(), "velocity": x["velocity"].tolist(),
+                        "angular_velocity": x["omega"].tolist(), "angular_momentum": x["angular_momentum"].tolist(),
+                        "force": x["force"].tolist(), "moment": x["moment"].tolist() if b.rotates else None,
+                        "kinetic_energy": x["kinetic"]})
+        return out
 
     def motion_values(self) -> list[float]:
         """force.csv's motion columns (:meth:`motion_columns`): each motion's reaction on each
@@ -310,11 +375,18 @@ class Simulation:
             return []
         reaction = self.state.fetch("nodes.motion_reaction")
         work = self.state.fetch("nodes.motion_work")
+        nb = len(self.model.rigid_bodies)
+        if any(m.body >= 0 for m in motions):       # a body's motions (stages/bodies.py)
+            body_reaction = self.state.read(self.state.bodies.motion_reaction, nb)
+            body_work = self.state.read(self.state.bodies.motion_work, nb)
         from .scene import DOFS
         out = []
         for m in motions:
             dofs = [DOFS.index(d) for d in m.dofs]
-            out += [float(reaction[m.nodes, d].sum()) for d in dofs] + [float(work[m.nodes][:, dofs].sum())]
+            if m.body >= 0:
+                out += [float(body_reaction[m.body, d]) for d in dofs] + [float(body_work[m.body, dofs].sum())]
+            else:
+                out += [float(reaction[m.nodes, d].sum()) for d in dofs] + [float(work[m.nodes][:, dofs].sum())]
         return out
 
     def tool_values(self) -> list[float]:
@@ -366,8 +438,7 @@ class Simulation:
         self.state.step.reaction[None].to_numpy()
         self.state.step.reaction_impulse[None].to_numpy()
         self.state.fetch("nodes.grid_velocity")
-        for i in range(len(self.model.rigid_bodies)):
-            _ = self.state.bodies.displacement[i], self.state.bodies.force[i]
+        self.body_values()
         self.motion_values()
         self.tool_values()
         self.where()
@@ -497,13 +568,9 @@ class Simulation:
         be written; then the first OutputError is raised."""
         out = self.out_dir
         key = self.history.probe_header[0]
-        names = [b.name for b in self.model.rigid_bodies]
         tables = [("probes.csv", self.history.probe_header, self.history.probe_rows),
                   ("energy.csv", [key, *ENERGY_COLUMNS], self.history.energy_rows),
-                  ("force.csv", [key, "support_x", "support_y", "support_z", "support_impulse_x", "support_impulse_y",
-                                 "support_impulse_z"] + [f"{b}.displacement" for b in names]
-                   + [f"{b}.force" for b in names] + self.motion_columns() + self.tool_columns(),
-                   self.history.force_rows),
+                  ("force.csv", self.force_header(), self.history.force_rows),
                   ("parts.csv", [key, "part", *PART_COLUMNS, "added_mass"], self.part_table())]
         failed = None
         for name, header, rows in tables:
@@ -514,15 +581,20 @@ class Simulation:
         if failed is not None:
             raise failed
 
+    def force_header(self) -> list[str]:
+        return ([self.history.probe_header[0], "support_x", "support_y", "support_z", "support_impulse_x",
+                 "support_impulse_y", "support_impulse_z"] + self.body_columns() + self.motion_columns()
+                + self.tool_columns())
+
     def part_added_mass(self) -> np.ndarray:
-        """The mass selective mass scaling has added to each part so far (0 for rigid bodies)."""
-        out = np.zeros(len(self.model.parts) + len(self.model.rigid_bodies))
+        """The mass selective mass scaling has added to each part so far (0 for rigid bodies and point masses)."""
+        out = np.zeros(len(self.model.parts) + len(self.model.rigid_bodies) + len(self.model.point_masses))
         out[:len(self.model.parts)] = np.bincount(self.model.element.part, weights=added_mass(self.state, self.model),
                                                   minlength=len(self.model.parts))
         return out
 
     def part_values(self) -> np.ndarray:
-        """(parts + bodies, PART_COLUMNS + added mass): one output point's rows of parts.csv."""
+        """(parts + bodies + point masses, PART_COLUMNS + added mass): one output point's rows of parts.csv."""
         return np.concatenate([part_energies(self.state, self.model), self.part_added_mass()[:, None]], axis=1)
 
     def added_mass_fraction(self) -> float:
@@ -556,6 +628,10 @@ class Simulation:
         for i, b in enumerate(self.model.rigid_bodies):
             out.append({"name": f"rigid_body:{b.name}", "mass": b.added_mass,
                         "energies": {k: float(energies[len(self.model.parts) + i, j]) for j, k in enumerate(PART_COLUMNS)}})
+        first = len(self.model.parts) + len(self.model.rigid_bodies)
+        for i, p in enumerate(self.model.point_masses):
+            out.append({"name": f"point_mass:{p.name}", "mass": p.mass * len(p.nodes), "nodes": int(len(p.nodes)),
+                        "energies": {k: float(energies[first + i, j]) for j, k in enumerate(PART_COLUMNS)}})
         return out
 
     def grid_summary(self) -> dict:
@@ -605,8 +681,11 @@ class Simulation:
             columns = self.motion_columns()
             summary["motions"] = [
                 {"name": m.name, "kind": self.scene.motions[k].kind, "dofs": list(m.dofs), "nodes": int(len(m.nodes)),
+                 **({"body": self.model.rigid_bodies[m.body].name} if m.body >= 0 else {}),
                  "reaction": {d: values[columns.index(f"{m.name}.reaction_{d}")] for d in m.dofs},
                  "work": values[columns.index(f"{m.name}.work")]} for k, m in enumerate(self.model.loading.motions)]
+        if self.model.rigid_bodies:
+            summary["rigid_bodies"] = self.body_summary()
         if self.model.tools is not None:
             values, tt = self.tool_values(), self.model.tools
             contacts = self.state.read(self.state.tools.contacts, len(tt.names))

@@ -50,6 +50,7 @@ entries; ``field.to_numpy()`` would return the whole virtual capacity).
 Sign convention (method.md 0): ``nodes.force_int``/``nodes.moment_int`` are *resisting*
 nodal forces; m a = f_ext - f_int through the grid.
 """
+import contextlib
 from types import SimpleNamespace
 
 import numpy as np
@@ -57,11 +58,12 @@ import taichi as ti
 
 from .curves import COLUMNS as CURVE_COLUMNS
 from .materials import MATERIAL_PARAMETERS
-from .scene import MAX_CURVES, MAX_MOTIONS
+from .scene import MAX_BODIES, MAX_CURVES, MAX_MOTIONS
 from .tools import MAX_TOOLS
 
 (STATUS_OK, STATUS_CONVERGED, STATUS_INVERTED, STATUS_LEFT_GRID, STATUS_NONFINITE, STATUS_DT_COLLAPSE,
  STATUS_CONTACT_FULL, STATUS_ENERGY, STATUS_RETURN_FAILED, STATUS_MASS_ADDED) = range(10)
+ROTATION_HELD, ROTATION_CONSTRAINED, ROTATION_FREE = range(3)    # bodies.rotation_mode (stages/bodies.py)
 CANDIDATES_PER_NODE = 64     # capacity of the contact candidate lists, on average per node
 
 CAPACITY_MIN = 16384         # the smallest size class of a per-entity field (4^7)
@@ -72,7 +74,6 @@ MAX_FIELDS = 4               # velocity fields per grid node of the multi-field 
 FIELD_RADIUS_CELLS = 4.0     # shell nodes this many cells apart in the reference state are other layers
 MAX_MATERIALS = 64
 MAX_SECTIONS = 64
-MAX_BODIES = 16
 MAX_WALLS = 16
 MAX_SLAB_PLANES = 1 << 16
 
@@ -179,6 +180,7 @@ class State:
         fx = features
         self.n_nodes, self.n_elements = n, m
         self.features = fx
+        self._cache: dict | None = None           # read(): see reads_cached
         nk = fx.points
 
         # --- shell nodes (= particle-domain corners), method.md 1
@@ -312,12 +314,34 @@ class State:
         nb, nw = len(model.rigid_bodies), len(model.walls)
         g.table("count", ti.field(i32), ())
         g.table("wall_count", ti.field(i32), ())
-        for name in ("velocity", "velocity_start", "displacement", "force", "impulse", "wall_energy",
-                     "total_mass", "added_mass", "external_work"):
+        for name in ("wall_energy", "total_mass", "added_mass", "external_work", "kinetic_rotation", "contact_energy"):
             g.table(name, ti.field(f64), (MAX_BODIES,), nb)
-        # velocity, displacement: along the direction; velocity_start: V^(n-1/2) of the step;
-        # force: from the slave nodes; impulse: of the walls this step; wall_energy: work of
-        # the walls moving with it, on it; external_work: of gravity on its added mass
+        for name in ("velocity", "velocity_start", "displacement", "force", "impulse", "center0", "omega",
+                     "omega_start", "angular_momentum", "moment", "applied_force", "applied_moment",
+                     "angular_impulse"):
+            g.table(name, ti.Vector.field(3, f64), (MAX_BODIES,), nb)
+        for name in ("inertia", "translation_free", "rotation_free"):
+            g.table(name, ti.Matrix.field(3, 3, f64), (MAX_BODIES,), nb)
+        g.table("rotation", ti.Vector.field(4, f64), (MAX_BODIES,), nb)
+        # a [[motion]] of the body: its DOF bits and the motion of each DOF (-1: none), the
+        # reaction of each prescribed DOF this step and its work so far (stages/bodies.py)
+        g.table("motion_mask", ti.field(i32), (MAX_BODIES,), nb)
+        g.table("motion", ti.Vector.field(6, i32), (MAX_BODIES,), nb)
+        g.table("motion_reaction", ti.Vector.field(6, f64), (MAX_BODIES,), nb)
+        g.table("motion_work", ti.Vector.field(6, f64), (MAX_BODIES,), nb)
+        g.table("rotation_mode", ti.field(i32), (MAX_BODIES,), nb)
+        # (stages/bodies.py) velocity: the centre's V^(n+1/2); velocity_start: V^(n-1/2) of the
+        # step; displacement: x_c - center0 (the reference centre X_c); rotation: unit
+        # quaternion (w, x, y, z) body -> space; omega: the space-frame angular velocity of the
+        # step's rotation, omega_start the last step's; angular_momentum: L^(n+1/2) about the
+        # centre, space frame; inertia: J about the centre in the body frame (= global axes at
+        # t = 0); translation_free, rotation_free: projectors on the free DOFs; rotation_mode:
+        # ROTATION_HELD / _CONSTRAINED / _FREE; kinetic_rotation: 1/2 L . I^-1 L;
+        # force, moment: on the body this step (moment about the centre); applied_force,
+        # applied_moment: added by other stages before the body update (consumed there);
+        # impulse, angular_impulse: of walls (tools) this step, applied at its end;
+        # wall_energy: work of the walls moving with it, on it; external_work: of gravity on
+        # its added mass and of the applied loads
         g.table("direction", ti.Vector.field(3, f64), (MAX_BODIES,), nb)
         g.table("first_slave", ti.field(i32), (MAX_BODIES,), nb)
         g.table("slave_count", ti.field(i32), (MAX_BODIES,), nb)
@@ -326,8 +350,10 @@ class State:
         g.table("wall_normal", ti.Vector.field(3, f64), (MAX_WALLS,), nw)
         g.table("wall_body", ti.field(i32), (MAX_WALLS,), nw)          # -1: fixed
         # each node's impulse on each wall-carrying body, summed in node order (threads, stages/bodies.py)
-        g.entity("node_wall_impulse", ti.field(f64), n, (MAX_BODIES,),
+        g.entity("node_wall_impulse", ti.Vector.field(3, f64), n, (MAX_BODIES,),
                  used=fx.launch == "threads" and fx.moving_walls)
+        g.entity("node_wall_moment", ti.Vector.field(3, f64), n, (MAX_BODIES,),
+                 used=fx.launch == "threads" and fx.moving_walls and fx.body_rotation)
 
         # --- time curves, loads beyond the plain nodal ones, prescribed motion (stages/loads.py,
         # stages/motion.py; loading.py)
@@ -590,8 +616,20 @@ class State:
         bd.count[None], bd.wall_count[None] = len(model.rigid_bodies), len(model.walls)
         start = 0
         for i, b in enumerate(model.rigid_bodies):
-            bd.velocity[i], bd.total_mass[i], bd.added_mass[i] = b.velocity0, b.total_mass, b.added_mass
-            bd.direction[i], bd.first_slave[i], bd.slave_count[i] = b.direction, start, len(b.nodes)
+            bd.velocity[i], bd.total_mass[i], bd.added_mass[i] = b.velocity0.tolist(), b.total_mass, b.added_mass
+            bd.direction[i] = b.direction if b.direction is not None else (0.0, 0.0, 0.0)
+            bd.first_slave[i], bd.slave_count[i] = start, len(b.nodes)
+            bd.center0[i], bd.rotation[i] = b.center.tolist(), (1.0, 0.0, 0.0, 0.0)
+            bd.inertia[i], bd.translation_free[i] = b.inertia.tolist(), b.translation_free.tolist()
+            bd.rotation_free[i] = b.rotation_free.tolist()
+            free = int(np.count_nonzero(np.diag(b.rotation_free)))
+            bd.rotation_mode[i] = ROTATION_FREE if free == 3 else ROTATION_CONSTRAINED if free else ROTATION_HELD
+            bd.omega[i], bd.angular_momentum[i] = b.spin0.tolist(), (b.inertia @ b.spin0).tolist()
+            bd.kinetic_rotation[i] = 0.5 * float(b.spin0 @ b.inertia @ b.spin0)
+            if len(model.loading.body_motion_mask):
+                bd.motion_mask[i], bd.motion[i] = int(model.loading.body_motion_mask[i]), model.loading.body_motion[i].tolist()
+            else:
+                bd.motion_mask[i], bd.motion[i] = 0, [-1] * 6
             start += len(b.nodes)
         if model.rigid_bodies:
             w(bd.slave_nodes, np.concatenate([b.nodes for b in model.rigid_bodies]).astype(np.int32))
@@ -690,9 +728,30 @@ class State:
                                         ("step", self.step), ("bodies", self.bodies), ("loads", self.loads),
                                         ("tools", self.tools), ("contact", self.contact), ("grid", self.grid)) if g is not None}
 
+    def read(self, field, size: int) -> np.ndarray:
+        """The first `size` entries of `field` (all of a 0-d or fixed table) as a numpy array
+        (within :meth:`reads_cached`: the one read there, read-only)."""
+        if self._cache is None:
+            return self._read(field, size)
+        key = (id(field), size)
+        out = self._cache.get(key)
+        if out is None:
+            out = self._cache[key] = self._read(field, size)
+            out.flags.writeable = False
+        return out
+
+    @contextlib.contextmanager
+    def reads_cached(self):
+        """Each field read once within (a launch each, ~0.1-1 ms): for the host's recording of
+        a step, which reads the same fields for probes, energies and frames and writes none."""
+        self._cache = {}
+        try:
+            yield
+        finally:
+            self._cache = None
+
     @staticmethod
-    def read(field, size: int) -> np.ndarray:
-        """The first `size` entries of `field` (all of a 0-d or fixed table) as a numpy array."""
+    def _read(field, size: int) -> np.ndarray:
         if len(field.shape) == 0:
             return np.array(field.to_numpy())
         shape = (size, *field.shape[1:]) + ((field.n,) if isinstance(field, ti.MatrixField) and field.m == 1 else

@@ -86,10 +86,10 @@ def test_moving_wall_that_carries_load_balances(tmp_path, method):
     run_dynamic(sim)
     e = sim.energies()
     body = sim.model.rigid_bodies[0]
-    v_end = sim.state.bodies.velocity[0]
+    v_end = float(np.linalg.norm(sim.state.bodies.velocity[0].to_numpy()))
     work = 0.5 * body.total_mass * (speed ** 2 - v_end ** 2)
     plate = e["internal"] + e["hourglass"] + e["drilling"] + (e["kinetic"] - 0.5 * body.total_mass * v_end ** 2)
-    strain = sim.state.bodies.displacement[0]
+    strain = float(sim.state.bodies.displacement[0].to_numpy() @ np.asarray(body.direction))
     print(f"{method}: pushed {strain:.4f}, wall work {work:.4e}, plate energy {plate:.4e}, wall column "
           f"{e['wall']:.3e}; balance error {abs(e['balance_error']) / work:.2e} of the work")
     assert abs(e["balance_error"]) < 1e-6 * work        # the issue asks < 1 %

@@ -186,9 +186,12 @@ kind = "static"
 solver = "newton"
 """
 # |K v - (f(d + e v) - f(d - e v)) / 2e| / |...| over random v at a random deformed, stressed
-# state of a warped random 2x2 patch (measured: elastic 1.02e-10, plastic 1.39e-10 at e = 1e-5,
-# every point yielding; the truncation and round-off of the two differences)
-TANGENT_BOUND = {"elastic": 1.6e-10, "plastic": 2.1e-10, "triangles": 1.6e-10}
+# state of a warped random 2x2 patch (measured: elastic 8.2e-10, plastic 2.7e-10, triangles
+# 5.3e-10 at e = 1e-5, every point yielding; the truncation and round-off of the two
+# differences: the strain increment of a trial is a difference of corner coordinates in two
+# frames, stages/shell.increment_geometry, round-off ~5 eps of the element's size, about 5x the
+# explicit step's v.B, where these were 1.0, 1.4 and 1.0 x 10^-10)
+TANGENT_BOUND = {"elastic": 1.3e-9, "plastic": 4.1e-10, "triangles": 8e-10}
 
 
 def patch_equations(tmp_path, plastic: bool, triangles: bool = False):
@@ -243,7 +246,7 @@ def test_tangent_against_finite_differences(tmp_path, kind):
 
 # ---------------------------------------------------------------- quadratic convergence
 ORDER = 1.5         # observed order log(r_(k+2) / r_(k+1)) / log(r_(k+1) / r_k) near the solution (measured >= 1.79)
-NEAR, FLOOR = 0.1, 1e-9     # "near the solution": r_k below NEAR; r_(k+2) above the round-off floor (~1e-10)
+NEAR, FLOOR = 0.1, 1e-8     # "near the solution": r_k below NEAR; r_(k+2) above the round-off floor (~1e-9 here)
 
 
 def test_quadratic_convergence_on_the_cantilever(tmp_path):
@@ -255,7 +258,7 @@ def test_quadratic_convergence_on_the_cantilever(tmp_path):
     scene = load_scene(ROOT / "scenes" / "cantilever.toml", ["method.kind=fem", "solve.solver=newton"])
     sim = simulation(scene, tmp_path)
     eq = ShellEquations.compiled(sim)
-    settings = Settings(tolerance=1e-10, increment_tolerance=1e-12, energy_tolerance=1e-20)
+    settings = Settings(tolerance=2e-9, increment_tolerance=1e-12, energy_tolerance=1e-20)
     lam = 0.0
     orders = []
     for target in (0.05, 0.1, 0.15, 0.2):

@@ -694,7 +694,62 @@ kind = "dynamic"
 end_time = 1.0
 """
 
-_FUZZ_BASES = [raw_of(text) for text in (FULL, TUBE_SCENE, HEMISPHERE_SCENE, FILE_MESH, MOTION_SCENE)]
+BODIES_SCENE = """
+[scene]
+name = "bodies"
+units = "consistent"
+[mesh]
+kind = "plate"
+lx = 4.0
+ly = 1.0
+nx = 4
+ny = 1
+[material]
+E = 1000.0
+nu = 0.3
+density = 1.0
+[section]
+thickness = 0.1
+[nodesets.clamp]
+plane = { point = [0, 0, 0], normal = [1, 0, 0] }
+[nodesets.tip]
+plane = { point = [4, 0, 0], normal = [1, 0, 0] }
+[nodesets.middle]
+plane = { point = [2, 0, 0], normal = [1, 0, 0] }
+[[boundary]]
+nodes = "clamp"
+fix = "all"
+[[rigid_body]]
+name = "end"
+nodes = "tip"
+mass = 2.0
+inertia = [1.0, 2.0, 3.0, 0.1, 0.0, -0.1]
+center = [4.0, 0.5, 0.0]
+mass_from_nodes = true
+velocity = [0.0, 0.0, 1.0]
+spin = [0.0, 0.5, 0.0]
+fixed = ["ux"]
+[[motion]]
+name = "drive"
+body = "end"
+dofs = ["uz"]
+kind = "velocity"
+value = 1.0
+[[point_mass]]
+name = "weights"
+nodes = "middle"
+mass = 0.5
+inertia = 0.01
+[[point_mass]]
+name = "shared"
+nodes = "middle"
+total_mass = 1.0
+[solve]
+kind = "dynamic"
+end_time = 1.0
+"""
+
+_FUZZ_BASES = [raw_of(text) for text in (FULL, TUBE_SCENE, HEMISPHERE_SCENE, FILE_MESH, MOTION_SCENE, BODIES_SCENE)]
 
 
 # ------------------------------------------------------------------ every key is documented
@@ -935,7 +990,7 @@ def test_every_scene_key_is_documented(scene_dir, monkeypatch):
 
     monkeypatch.setattr(scene_module._SceneParser, "read", recording)
     scenes = [(text, scene_dir / "case.toml")
-              for text in (FULL, TUBE_SCENE, HEMISPHERE_SCENE, PARTS_SCENE, LAWS_SCENE, MOTION_SCENE)]
+              for text in (FULL, TUBE_SCENE, HEMISPHERE_SCENE, PARTS_SCENE, LAWS_SCENE, MOTION_SCENE, BODIES_SCENE)]
     scenes += [((ROOT / "scenes" / f"{n}.toml").read_text(), ROOT / "scenes" / f"{n}.toml")
                for n in ("cantilever", "hemisphere", "square_tube", "tube_rate_dependent")]
     for text, source in scenes:

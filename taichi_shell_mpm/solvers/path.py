@@ -23,9 +23,13 @@ against the increment), |delta . K delta| <= energy_tolerance x that of the firs
 (delta . K delta = delta . (r + dlam F): the energy of a correction).  Path following near lam = 0 measures the
 residual against max(|lam|, 0.1 max |lam| so far) F.
 
-Evaluations.  A trial is evaluated without the tangent (the forces alone: 1/49 of a tangent
-evaluation, solvers/tangent.py); the tangent is computed there only when the point is not
-converged, so the converged iterate of each point costs no tangent.
+Evaluations.  The tangent is computed with a trial when the residual the trial corrects is
+above sqrt(tolerance) of the load: from there one quadratically converging step does not
+reach the tolerance, so the iterations go on and need it [choice, measured: one launch
+instead of two per iteration, docs/newton.md].  Closer in, the trial is evaluated without it
+(the forces alone: 1/49 of a tangent evaluation, solvers/tangent.py) and the tangent is
+computed afterwards only if the point is not converged, so the converged iterate of a point
+costs no tangent.
 
 Steps.  A full Newton step is taken unless its evaluation fails (an element inside out, a
 return map that does not converge): then the step is halved (back-tracking, at most
@@ -180,7 +184,7 @@ def newton_point(eq, lam0: float, control: Control, settings: Settings, lam_scal
         g0 = float(delta @ r)
         work = float(delta @ (r + dlam * F))        # delta . K delta: the correction's energy
         step = 1.0
-        trial = _try(eq, d, delta, step)
+        trial = _try(eq, d, delta, step, tangent=ratio > math.sqrt(settings.tolerance))
         if settings.line_search and control.kind != "arc_length":
             step, trial = _line_search(eq, d, lam, delta, dlam, g0, trial)
         else:
@@ -194,7 +198,7 @@ def newton_point(eq, lam0: float, control: Control, settings: Settings, lam_scal
             return out
         d = d + step * delta
         lam = lam + step * dlam
-        f, K = trial[0], None
+        f, K = trial[0], trial[1]             # K: the tangent when the trial computed it
         last_delta = step * delta
         last_energy = abs(step * work)
         first_energy = last_energy if first_energy is None else first_energy
@@ -202,10 +206,10 @@ def newton_point(eq, lam0: float, control: Control, settings: Settings, lam_scal
     return out
 
 
-def _try(eq, d, delta, step):
-    """The internal forces of a trial step (without the tangent: it is computed only where
-    the iterations go on from the trial)."""
-    return eq.evaluate(d + step * delta, False)
+def _try(eq, d, delta, step, tangent=False):
+    """The internal forces of a trial step, and its tangent when asked (module docstring:
+    Evaluations)."""
+    return eq.evaluate(d + step * delta, tangent)
 
 
 def _line_search(eq, d, lam, delta, dlam, g0, trial):

@@ -55,8 +55,9 @@ class Stepper:
         self.energy = EnergyLedger(state, cfg, cfg.plastic)
         self.loads = ExternalLoads(state, cfg)
         self.motion = PrescribedMotion(state, cfg, self.loads, self.energy)
-        self.tools = RigidTools(state, cfg, self.loads) if cfg.tools else None
-        self.bodies = RigidBodies(state, cfg, self.energy, self.loads, self.tools)
+        self.bodies = RigidBodies(state, cfg, self.energy, self.loads)
+        self.tools = RigidTools(state, cfg, self.loads, self.bodies) if cfg.tools else None
+        self.bodies.tools = self.tools      # the tools moving with a body push it back (RigidBodies.update)
         self.nodes = NodeUpdate(state, cfg, self.bodies, self.energy, self.loads, self.motion, self.tools)
         self.contact = SelfContact(state, cfg, model) if cfg.contact else None
         self.shell = ShellElement(state, cfg, self.energy)
@@ -108,7 +109,7 @@ class Stepper:
             self.contact.check_skin()
         shell_kinetic = self.s.step.kinetic[None]     # the nodes' (the bodies' is added below)
         if ti.static(self.cfg.bodies):
-            self.bodies.apply_wall_impulses()
+            self.bodies.apply_impulses()
             self.bodies.add_kinetic_energy()
         if ti.static(self.cfg.tools):
             self.tools.end()

@@ -10,8 +10,11 @@ resisting nodal forces at the end of the step.  So the internal force of an incr
 x_n + du, from the converged state (stress, plastic strain, hourglass and drilling
 resultants of the start of the increment) [choice]: a Newton iterate is a trial of that one
 update, never an accumulation of them, so the equations solved are exactly those of a
-(large) explicit step from the converged point.  The rotation increment enters the element
-only as dtheta (the BT frame comes from the geometry, method.md 3.1); the nodal
+(large) explicit step from the converged point, with the mid-step geometry of a large
+increment (Features.finite_increment: stages/shell.increment_geometry; the explicit step's
+x - dt v / 2 is the element shrunk by cos(alpha / 2) under a rotation alpha, which made
+Newton 0.04-0.09 % stiffer at 20 increments, docs/newton.md).  The rotation increment enters
+the element only as dtheta (the BT frame comes from the geometry, method.md 3.1); the nodal
 orientation is composed with exp(dtheta) once the increment has converged
 (:meth:`IncrementalForces.commit`).
 
@@ -19,8 +22,9 @@ How, without a second copy of the element.  The element pass of the explicit ste
 reused as it is, on a *virtual* state (state.State of a virtual model): each element e
 appears P = 1 + 2 x 24 times with 4 private corner nodes: slot 0 with the trial increment,
 slot 1 + 2 j (+ 1) with degree of freedom j of its 24 (corner a = j // 6, component j % 6:
-ux uy uz rx ry rz) moved by +h (-h).  One parallel element pass (stages/shell.ShellElement,
-the parallel launch: corner loads in per-element slots, no scatter) then gives the forces
+ux uy uz rx ry rz) moved by +h (-h).  One element pass (stages/shell.ShellElement, the
+parallel launch's code: corner loads in per-element slots, no scatter; serial on a small
+mesh, :func:`newton_is_serial`), in one kernel launch with the collection, then gives the forces
 of the trial increment (slot 0) and the 24 x 24 element tangent
 K_e[:, j] = (f(+h_j) - f(-h_j)) / (2 h_j): the derivative of exactly the discrete forces
 the explicit step uses (hourglass, drilling spring, BWC, the plane-stress return, i.e. the
@@ -37,15 +41,26 @@ import numpy as np
 import taichi as ti
 
 from ..energy import ELEMENT_PARTS, EnergyLedger
+from ..simulation import THREADS_MIN_ELEMENTS, cpu_threads
 from ..stages.shell import ShellElement
 from ..state import STATUS_OK, State
 
 DOFS_PER_ELEMENT = 24
 SLOTS = 1 + 2 * DOFS_PER_ELEMENT          # the trial increment, then +h / -h of each element DOF
 FD_STEP = 1e-6     # central-difference step: relative to the mean edge (translations), radians (rotations)
-ELEMENT_SUBSTEPS = 1        # element updates along the trial increment (docs/newton.md)
 STAGGER = ELEMENT_PARTS.index("stagger")     # the element pass books dt/2 P_e there (energy.py): dt = 1 is no time step
 MAX_VIRTUAL_ELEMENTS = 1 << 22            # ~85 000 shell elements (about 8 GB): a clear error beyond
+
+
+def newton_is_serial(n_elements: int) -> bool:
+    """Whether Newton's kernels run serially on the CPU: a virtual mesh (SLOTS copies of each
+    element) below simulation.THREADS_MIN_ELEMENTS, or one core.  The CLI then starts Taichi
+    with one thread [measured, docs/newton.md]: a thread-pool dispatch per parallel loop costs
+    more than the work of a few hundred element updates, and on a busy machine each one waits
+    for a worker to be scheduled (a 10x1 cantilever's tangent: 0.27 ms median, 0.29 ms mean
+    on one thread; 0.40-0.56 ms median, 1.4-2.6 ms mean through the pool, even with its loops
+    serial)."""
+    return cpu_threads() < 2 or n_elements * SLOTS < THREADS_MIN_ELEMENTS
 
 
 def virtual_model(model, slots: int):
@@ -86,8 +101,10 @@ class IncrementalForces:
             raise ValueError(f"{self.m} elements: the Newton tangent holds {SLOTS} copies of each, more than "
                              f"{MAX_VIRTUAL_ELEMENTS} in all")
         launch = "threads" if sim.arch == "cpu" else "gpu"
+        self.serial = sim.arch == "cpu" and newton_is_serial(self.m)
         self.cfg = dataclasses.replace(sim.cfg, method="fem", launch=launch, grid_rule=False, grid_planes=False,
-                                       bodies=False, walls=False, moving_walls=False, contact=False, friction=False)
+                                       bodies=False, walls=False, moving_walls=False, contact=False, friction=False,
+                                       finite_increment=True)
         vmodel = virtual_model(model, SLOTS)
         self.v = State(vmodel, self.cfg)
         self.v.load(vmodel)
@@ -95,7 +112,6 @@ class IncrementalForces:
         self.shell = ShellElement(self.v, self.cfg, EnergyLedger(self.v, self.cfg, self.cfg.plastic))
         self.plastic = self.cfg.plastic
         self.drilling = self.cfg.drilling_spring
-        self.substeps = ELEMENT_SUBSTEPS
         self.internal = np.zeros((self.n, 6))
         self.stiffness = np.zeros((self.m, DOFS_PER_ELEMENT, DOFS_PER_ELEMENT))
 
@@ -109,16 +125,17 @@ class IncrementalForces:
         return h
 
     @ti.func
-    def load_slot(self, ve, increment: ti.template(), fraction, share, restore):
-        """Virtual element ve for a sub-step of the trial increment d (+- h on its DOF): corners
-        at x_n + fraction d, v = share d (translations), omega = share d (rotations); with
-        `restore`, its stress, plastic strain, resultants and energies those of the converged
-        element."""
+    def load_slot(self, ve, increment: ti.template()):
+        """Virtual element ve for the trial increment d (+- h on its DOF): corners at x_n + d
+        (about the element's first corner: round-off of its size, not of |x|), v = d
+        (translations), omega = d (rotations); its stress, plastic strain, resultants and
+        energies those of the converged element."""
         m = self.main.elements.count[None]
         slot, e = ve // m, ve % m
         j = (slot - 1) // 2
         sign = 1.0 - 2.0 * ((slot - 1) % 2)
         c = self.main.elements.corners[e]
+        origin = self.main.nodes.position[c[0]]
         for a in ti.static(range(4)):
             node = 4 * ve + a
             if c[a] >= 0:
@@ -128,44 +145,49 @@ class IncrementalForces:
                     if slot > 0 and j == 6 * a + k:
                         d[k] += sign * self.step(k)
                 du = ti.Vector([d[0], d[1], d[2]])
-                self.v.nodes.position[node] = self.main.nodes.position[c[a]] + fraction * du
-                self.v.nodes.grid_velocity[node] = share * du
-                self.v.nodes.omega[node] = share * ti.Vector([d[3], d[4], d[5]])
-        if restore:
-            for k in ti.static(range(self.cfg.points)):
-                self.v.points.stress[ve, k] = self.main.points.stress[e, k]
-                if ti.static(self.plastic):
-                    self.v.points.plastic_strain[ve, k] = self.main.points.plastic_strain[e, k]
-            self.v.elements.hourglass_resultant[ve] = self.main.elements.hourglass_resultant[e]
-            if ti.static(self.drilling):
-                self.v.elements.drilling_moment[ve] = self.main.elements.drilling_moment[e]
-            self.v.elements.energy[ve] = self.main.elements.energy[e]
+                self.v.nodes.position[node] = (self.main.nodes.position[c[a]] - origin) + du
+                self.v.nodes.grid_velocity[node] = du
+                self.v.nodes.omega[node] = ti.Vector([d[3], d[4], d[5]])
+        for k in ti.static(range(self.cfg.points)):
+            self.v.points.stress[ve, k] = self.main.points.stress[e, k]
+            if ti.static(self.plastic):
+                self.v.points.plastic_strain[ve, k] = self.main.points.plastic_strain[e, k]
+        self.v.elements.hourglass_resultant[ve] = self.main.elements.hourglass_resultant[e]
+        if ti.static(self.drilling):
+            self.v.elements.drilling_moment[ve] = self.main.elements.drilling_moment[e]
+        self.v.elements.energy[ve] = self.main.elements.energy[e]
 
     @ti.kernel
-    def _substep(self, increment: ti.types.ndarray(), tangent: ti.i32, fraction: ti.f64, share: ti.f64,
-                 restore: ti.i32):
-        """One element pass over slot 0 (with `tangent` all slots) of every element: the
-        sub-step of the trial increment that ends at `fraction` of it and covers `share` of it
-        (from the converged element state when `restore`).  `tangent` is run-time data: one
-        kernel for both (its front end costs ~4 s, docs/newton.md)."""
+    def _evaluate(self, increment: ti.types.ndarray(), internal: ti.types.ndarray(), stiffness: ti.types.ndarray(),
+                  tangent: ti.i32) -> ti.i32:
+        """One element pass over slot 0 (with `tangent` all slots) of every element for the
+        trial increment (n, 6); its nodal internal forces into `internal` (n, 6) and, with
+        `tangent`, the element tangents into `stiffness` (m, 24, 24).  One launch, serial on a
+        small mesh (``serial``).  `tangent` is run-time data: one kernel for both (its front
+        end costs ~4 s, docs/newton.md).  Returns the first failing virtual element (status),
+        or -1."""
         m = self.main.elements.count[None]
         count = m
         if tangent:
             count = m * SLOTS
         self.v.elements.count[None] = count
         self.v.nodes.count[None] = 4 * count
-        if restore:
-            self.v.step.status[None] = STATUS_OK
-        for ve in range(count):
-            self.load_slot(ve, increment, fraction, share, restore)
-        self.shell.element_pass()
+        self.v.step.status[None] = STATUS_OK
+        if ti.static(self.serial):
+            for _ in range(1):
+                self._trial(increment, internal, stiffness, tangent, m, count)
+        else:
+            self._trial(increment, internal, stiffness, tangent, m, count)
+        failed = -1
+        if self.v.step.status[None] != STATUS_OK:
+            failed = self.v.step.status_index[None]
+        return failed
 
-    @ti.kernel
-    def _collect(self, internal: ti.types.ndarray(), stiffness: ti.types.ndarray(), tangent: ti.i32) -> ti.i32:
-        """The trial's nodal internal forces into `internal` (n, 6) and, with `tangent`, the
-        element tangents into `stiffness` (m, 24, 24).  Returns the first failing virtual
-        element (status), or -1."""
-        m = self.main.elements.count[None]
+    @ti.func
+    def _trial(self, increment: ti.template(), internal: ti.template(), stiffness: ti.template(), tangent, m, count):
+        for ve in range(count):
+            self.load_slot(ve, increment)
+        self.shell.element_pass()
         for c, k in ti.ndrange(self.main.nodes.count[None], 6):
             internal[c, k] = 0.0
         for _ in range(1):                        # serial: the corner loads summed at the nodes
@@ -176,25 +198,34 @@ class IncrementalForces:
                         load = self.v.elements.corner_loads[e, a]
                         for k in ti.static(range(6)):
                             internal[c[a], k] += load[k]
-        if tangent:
-            for e, j in ti.ndrange(m, DOFS_PER_ELEMENT):
-                h = FD_STEP
-                if j % 6 < 3:
-                    h *= self.v.step.length_ref[None]
-                for a in ti.static(range(4)):
-                    plus = self.v.elements.corner_loads[(1 + 2 * j) * m + e, a]
-                    minus = self.v.elements.corner_loads[(2 + 2 * j) * m + e, a]
-                    for k in ti.static(range(6)):
-                        stiffness[e, 6 * a + k, j] = (plus[k] - minus[k]) / (2.0 * h)
-        failed = -1
-        if self.v.step.status[None] != STATUS_OK:
-            failed = self.v.step.status_index[None]
-        return failed
+        for e, j in ti.ndrange(m * tangent, DOFS_PER_ELEMENT):     # parallel: the bound, not an if
+            h = FD_STEP
+            if j % 6 < 3:
+                h *= self.v.step.length_ref[None]
+            for a in ti.static(range(4)):
+                plus = self.v.elements.corner_loads[(1 + 2 * j) * m + e, a]
+                minus = self.v.elements.corner_loads[(2 + 2 * j) * m + e, a]
+                for k in ti.static(range(6)):
+                    stiffness[e, 6 * a + k, j] = (plus[k] - minus[k]) / (2.0 * h)
 
     @ti.kernel
-    def _commit(self, increment: ti.types.ndarray()):
+    def _commit(self, increment: ti.types.ndarray(), internal: ti.types.ndarray(), lam_old: ti.f64, lam: ti.f64,
+                iterations: ti.i32):
         """Slot 0's element state becomes the converged one; nodes move by du, their
-        orientation turns by exp(dtheta), velocities are zero (a static equilibrium)."""
+        orientation turns by exp(dtheta), velocities are zero (a static equilibrium).  The
+        step's bookkeeping in the same launch: each node's external work of the dead loads
+        (trapezoidal, (lam_old + lam) / 2 F . du), the energy totals, the reaction of the
+        fully fixed nodes (their internal force less the load, from `internal`, the converged
+        iterate's), the load factor and the step counter (+ iterations)."""
+        if ti.static(self.serial):
+            for _ in range(1):
+                self._commit_state(increment, lam_old, lam)
+        else:
+            self._commit_state(increment, lam_old, lam)
+        self._totals(internal, lam, iterations)
+
+    @ti.func
+    def _commit_state(self, increment: ti.template(), lam_old, lam):
         m = self.main.elements.count[None]
         for e in range(m):
             for k in ti.static(range(self.cfg.points)):
@@ -210,6 +241,8 @@ class IncrementalForces:
         for c in range(self.main.nodes.count[None]):
             du = ti.Vector([increment[c, 0], increment[c, 1], increment[c, 2]])
             theta = ti.Vector([increment[c, 3], increment[c, 4], increment[c, 5]])
+            dead_load_work = self.main.nodes.load_force[c].dot(du) + self.main.nodes.load_moment[c].dot(theta)
+            self.main.nodes.energy[c][0] += 0.5 * (lam_old + lam) * dead_load_work
             self.main.nodes.position[c] += du
             self.main.nodes.grid_velocity[c] = ti.Vector([0.0, 0.0, 0.0])
             self.main.nodes.velocity[c] = ti.Vector([0.0, 0.0, 0.0])
@@ -227,14 +260,37 @@ class IncrementalForces:
                 w * q[2] - p[0] * q[3] + p[1] * q[0] + p[2] * q[1],
                 w * q[3] + p[0] * q[2] - p[1] * q[1] + p[2] * q[0]]).normalized()
 
+    @ti.func
+    def _totals(self, internal: ti.template(), lam, iterations):
+        m = self.main.elements.count[None]
+        for _ in range(1):                        # serial: fixed summation order
+            total = ti.Vector.zero(ti.f64, 5)
+            for e in range(m):
+                total += self.main.elements.energy[e]
+            self.main.step.internal_energy[None] = total[0]
+            self.main.step.plastic_work[None] = total[1]
+            self.main.step.hourglass_energy[None] = total[2]
+            self.main.step.drilling_energy[None] = total[3]
+            work = 0.0
+            reaction = ti.Vector([0.0, 0.0, 0.0])
+            for c in range(self.main.nodes.count[None]):
+                work += self.main.nodes.energy[c][0]
+                if self.main.nodes.fix_mask[c] & 0b111 == 0b111:
+                    force = ti.Vector([internal[c, 0], internal[c, 1], internal[c, 2]])
+                    reaction += force - lam * self.main.nodes.load_force[c]
+            self.main.step.external_work[None] = work
+            self.main.step.reaction[None] = reaction
+            self.main.step.load_factor[None] = lam
+            self.main.step.step[None] += iterations
+
     # ------------------------------------------------------------------ host
     def compile(self) -> None:
         """Compile (or load) the kernels: a zero increment, with and without the tangent, and
-        its commit."""
+        its commit (which changes nothing: slot 0 holds the converged state)."""
         zero = np.zeros((self.n, 6))
         self.evaluate(zero, tangent=True)
         self.evaluate(zero, tangent=False)
-        self.commit(zero)                     # changes nothing: slot 0 holds the converged state
+        self._commit(zero, self.internal, 0.0, 0.0, 0)
         ti.sync()
 
     def evaluate(self, increment: np.ndarray, tangent: bool) -> int:
@@ -242,16 +298,15 @@ class IncrementalForces:
         (n, 6) and, with `tangent`, the element tangents (self.stiffness).  Returns the
         virtual element whose update failed (inverted, return map) in slot 0, or -1."""
         increment = np.ascontiguousarray(increment, dtype=np.float64)
-        failed = self._run(increment, tangent)
+        failed = int(self._evaluate(increment, self.internal, self.stiffness, int(tangent)))
         if failed >= self.m:                 # a perturbed copy failed: check the trial itself
-            failed = self._run(increment, False)
+            failed = int(self._evaluate(increment, self.internal, self.stiffness, 0))
         return failed
 
-    def _run(self, increment: np.ndarray, tangent: bool) -> int:
-        n = self.substeps
-        for k in range(n):
-            self._substep(increment, int(tangent), (k + 1) / n, 1.0 / n, int(k == 0))
-        return int(self._collect(self.internal, self.stiffness, int(tangent)))
-
-    def commit(self, increment: np.ndarray) -> None:
-        self._commit(np.ascontiguousarray(increment, dtype=np.float64))
+    def commit(self, increment: np.ndarray, internal: np.ndarray | None = None, lam_old: float = 0.0,
+               lam: float = 0.0, iterations: int = 0) -> None:
+        """Make `increment` the converged state (:meth:`_commit`); `internal`: the converged
+        iterate's internal forces (the reaction), `lam_old`, `lam`: the load factors at the
+        start and end of the increment (the external work)."""
+        self._commit(np.ascontiguousarray(increment, dtype=np.float64),
+                     self.internal if internal is None else np.ascontiguousarray(internal), lam_old, lam, iterations)

@@ -131,9 +131,10 @@ class NodeUpdate:
         w_start = keep * self.s.nodes.omega[c]
         vg = drop_fixed(v_grid, mask, 0)
         rigid = self.s.nodes.body[c] >= 0
+        placed = self.s.nodes.position[c]              # a rotating body's slave: its new place
         if ti.static(self.cfg.bodies):
             if rigid:
-                vg = self.bodies.slave_velocity(c)
+                vg, placed = self.bodies.slave_motion(c)
         moved = 0                                            # DOF bits prescribed by a motion
         if ti.static(self.cfg.loads):
             moved = self.s.nodes.motion_mask[c]
@@ -157,6 +158,9 @@ class NodeUpdate:
             # removed velocity back to the grid every step
             self.s.nodes.velocity[c] += vg - v_grid
         self.s.nodes.position[c] += dt * vg
+        if ti.static(self.cfg.body_rotation):
+            if rigid:
+                self.s.nodes.position[c] = placed
         # rotations: J w' = mu_ext - mu_int, then remove the drilling component
         normal, project = self.drill_normal(c)
         torque = moment_ext - self.s.nodes.moment_int[c]
@@ -164,8 +168,10 @@ class NodeUpdate:
         if project:
             w -= w.dot(normal) * normal
         w = drop_fixed(w, mask, 3)
-        if rigid:
+        if rigid:               # a slave turns with its body (a ram's rotations are held)
             w = ti.Vector([0.0, 0.0, 0.0])
+            if ti.static(self.cfg.body_rotation):
+                w = self.bodies.slave_omega(c)
         if ti.static(self.cfg.loads):
             w = self.motion.prescribed(c, w, w_start, 3)
         if ti.static(self.cfg.mass_update):
@@ -173,6 +179,9 @@ class NodeUpdate:
                 w = ti.Vector([0.0, 0.0, 0.0])
         self.s.nodes.omega[c] = w
         self.rotate_orientation(c, dt * w)
+        if ti.static(self.cfg.body_rotation):
+            if rigid:           # composed with the body's rotation exactly (R(t = 0) = 1)
+                self.s.nodes.rotation[c] = self.s.bodies.rotation[self.s.nodes.body[c]]
         if not rigid:        # a slave's rotation is held and its translation is the body's (stages/bodies.py)
             self.acc.total(self.s.step.residual_sq,
                            self.residual_torque_about(c, normal, project, moment_ext).norm_sqr()
@@ -189,6 +198,9 @@ class NodeUpdate:
         force = force_ext - self.s.nodes.force_int[c]
         if ti.static(self.cfg.contact):
             contact = -kick * self.s.contact.force[c].dot(v_mid)
+        if ti.static(self.cfg.body_rotation):
+            if rigid:           # a rotating body books its slaves' load and self-contact work (stages/bodies.py)
+                external, contact = 0.0, 0.0
         if ti.static(self.cfg.tools):
             contact += self.tools.book_node(c, v_mid, kick)
         if ti.static(self.cfg.contact or self.cfg.tools):

@@ -17,6 +17,7 @@ from ..state import STATUS_INVERTED, STATUS_OK, STATUS_RETURN_FAILED, State
 from . import warping
 from .accumulate import Accumulator, CornerLoads
 from .material import ConstitutiveUpdate
+from .rotation import rotation_vector
 from .drilling import DrillingSpring
 from .hourglass import Hourglass
 from .masses import MassUpdate
@@ -54,6 +55,47 @@ def local_geometry(x):
             xl[a, d] = x[a, d] - centre[d]
     xl = xl @ rot.transpose()
     return rot, column(xl, 0), column(xl, 1), column(xl, 2)
+
+
+@ti.func
+def increment_geometry(x, dx):
+    """The mid-step of a large increment dx (4x3) that ends at x, in the corotational frame
+    of x - dx/2 (returned first): the corners' coordinates, the mean of the start's and the
+    end's, each in its own frame; their change in those frames (the increment less the
+    frames' rigid motion); and the frames' rotation from start to end (a rotation vector,
+    in the mid frame).  Why: x - dx/2 is the element shrunk by cos(alpha/2) across the axis
+    of a rotation alpha of the increment, which overstates the strain increments by
+    1/cos(alpha/2) (curvature) to 1/cos^2(alpha/2) (membrane) and lets a rigid rotation
+    shear the element by alpha - 2 tan(alpha/2); negligible in an explicit step, a
+    second-order error of the load increment in Newton's (docs/newton.md)."""
+    rot0, x0, y0, z0 = local_geometry(x - dx)
+    rot1, x1, y1, z1 = local_geometry(x)
+    rot_m = corotational_frame(x - 0.5 * dx)
+    change = ti.Matrix.zero(ti.f64, 4, 3)
+    for a in ti.static(range(4)):
+        change[a, 0] = x1[a] - x0[a]
+        change[a, 1] = y1[a] - y0[a]
+        change[a, 2] = z1[a] - z0[a]
+    spin = rot_m @ rotation_vector(rot1.transpose() @ rot0)
+    return rot_m, 0.5 * (x0 + x1), 0.5 * (y0 + y1), 0.5 * (z0 + z1), change, spin
+
+
+@ti.func
+def mid_step(x, v, w, dt, large: ti.template()):
+    """The mid-step frame, the corners' local coordinates there and their local velocities
+    and angular velocities (4x3).  An explicit step (`large` False): the frame and
+    coordinates of x - dt/2 v, v^_a = R v~_a, theta^_a = R omega_a.  One large increment
+    (Newton's trial, Features.finite_increment): increment_geometry, the corners' motion and
+    rotation less the frame's."""
+    if ti.static(large):
+        rot_m, xm, ym, zm, change, spin = increment_geometry(x, dt * v)
+        wl = w @ rot_m.transpose()
+        for a, d in ti.static(ti.ndrange(4, 3)):
+            wl[a, d] -= spin[d] / dt
+        return rot_m, xm, ym, zm, change / dt, wl
+    else:
+        rot_m, xm, ym, zm = local_geometry(x - (0.5 * dt) * v)
+        return rot_m, xm, ym, zm, v @ rot_m.transpose(), w @ rot_m.transpose()
 
 
 @ti.func
@@ -300,9 +342,7 @@ class ShellElement:
         # dt*d second-order accurate and exactly zero for a discrete rigid rotation
         # (Hughes-Winget). Evaluated at x^(n+1), a free plate spinning 1.5 revolutions
         # gained 0.9% spurious strain energy (tests/test_stability.py).
-        rot_m, xm, ym, zm = local_geometry(x - (0.5 * dt) * v)
-        vl = v @ rot_m.transpose()                # v^_a = R v~_a
-        wl = w @ rot_m.transpose()                # theta^_a = R omega_a
+        rot_m, xm, ym, zm, vl, wl = mid_step(x, v, w, dt, self.cfg.finite_increment)
         vx, vy, vz = column(vl, 0), column(vl, 1), column(vl, 2)
         tx, ty, tz = column(wl, 0), column(wl, 1), column(wl, 2)
         area_m, g1, g2 = gradient_operators(xm, ym)

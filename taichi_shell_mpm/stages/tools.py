@@ -41,12 +41,14 @@ work dt F . V_tool on the shell (booked as prescribed-motion work); a body's kin
 changes by exactly -dt F . V_mid (its velocity update, stages/bodies.py), so a body-driven
 tool closes the balance by itself.
 
-Rigid bodies.  A tool moving with a body sits at origin + the body's displacement (today's
-bodies translate); its force pushes the body back (stages/bodies.RigidBodies.update), and
-nodes of that body are not in contact with it.  :meth:`RigidTools.pose` is the one place a
-body's pose is read: with a rotating body, centre = x_body + R (origin - x_body0), frame
-rows F0 R^T, and the point velocity V + omega x (x - x_body) in :meth:`point_velocity`;
-the moment about the centre is kept (state.tools.moment) for that body's moment balance.
+Rigid bodies.  A tool moving with a body is part of it (:meth:`RigidTools.pose`, the one
+place a body's pose is read): centre = x_b + R (origin - X_b), frame rows F0 R^T, its points'
+velocity V + omega x (x - x_b) (:meth:`point_velocity`).  Its force pushes the body back
+(stages/bodies.RigidBodies.update): -F_k at the tool's centre plus the moment -M_k
+(state.tools.moment, about the centre), not booked as the body's external work; :meth:`end`
+books dt (F . V_mid + omega_mid . ((c_k - x_b) x F + M_k)) as the tool's work, which is what the
+body's kinetic energy loses (translation exactly, rotation to the body's own balance).  Nodes
+of that body are not in contact with it.
 """
 import taichi as ti
 
@@ -58,8 +60,9 @@ from .timestep import impulse_time
 
 @ti.data_oriented
 class RigidTools:
-    def __init__(self, state, cfg, loads):
+    def __init__(self, state, cfg, loads, bodies):
         self.s = state
+        self.bodies = bodies            # stages/bodies.RigidBodies (pose of the tools moving with a body)
         self.g = state.tools
         self.cfg = cfg
         self.loads = loads              # stages/loads.ExternalLoads (curves)
@@ -69,17 +72,21 @@ class RigidTools:
     # ------------------------------------------------------------------ pose
     @ti.func
     def pose(self, k):
-        """Tool k's centre at t^n and the mean velocity of its points over the step (for a
-        body: V^(n-1/2)); its frame stays F0 while bodies only translate."""
+        """Tool k's centre and frame at t^n and the mean velocity of its points over the step
+        (for a body: its centre's V^(n-1/2); the points' in :meth:`point_velocity`).  A tool
+        moving with body b is part of it: centre = x_b + R (origin - X_b) (bodies.place), frame
+        rows F0 R^T (a local direction F q in space is R F0^T q)."""
         centre = self.g.origin[k]
+        frame = self.g.frame[k]
         velocity = ti.Vector([0.0, 0.0, 0.0])
         motion = self.g.motion[k]
         if ti.static(self.cfg.bodies):
             if motion == BODY:
                 b = self.g.body[k]
-                d = self.s.bodies.direction[b]
-                centre += self.s.bodies.displacement[b] * d
-                velocity = self.s.bodies.velocity[b] * d
+                centre = self.bodies.place(b, centre)
+                velocity = self.s.bodies.velocity[b]
+                if ti.static(self.cfg.body_rotation):
+                    frame = frame @ self.bodies.rotation_matrix(b).transpose()
         if ti.static(self.cfg.loads):
             if motion == VELOCITY or motion == DISPLACEMENT:
                 start = self.s.step.time[None]
@@ -93,12 +100,17 @@ class RigidTools:
                     level1 = self.loads.curve_or_default(self.g.curve[k], end, 0)
                 centre += level0 * self.g.value[k]
                 velocity = (level1 - level0) / self.s.step.dt[None] * self.g.value[k]
-        return centre, self.g.frame[k], velocity
+        return centre, frame, velocity
 
     @ti.func
     def point_velocity(self, k, x):
-        """Velocity of tool k's point at x (a translating tool: the same everywhere)."""
-        return self.g.velocity[k]
+        """Velocity of tool k's point at x: a translating tool's is the same everywhere, a
+        body's tool's V + omega x (x - x_b) (bodies.point_velocity, at t^(n-1/2))."""
+        velocity = self.g.velocity[k]
+        if ti.static(self.cfg.body_rotation):
+            if self.g.motion[k] == BODY:
+                velocity = self.bodies.point_velocity(self.g.body[k], x)
+        return velocity
 
     # ------------------------------------------------------------------ geometry (tool frame)
     @ti.func
@@ -260,13 +272,18 @@ class RigidTools:
                     self.scatter_acc.add(self.g.contacts, k, 1)
 
     @ti.func
-    def on_body(self, b):
-        """The force the tools moving with body b take from the shell (its reaction)."""
+    def on_body(self, b, x_b):
+        """The force the tools moving with body b take from the shell (its reaction, -F_k at
+        each tool's centre c_k) and its moment about the body's centre x_b,
+        -(c_k - x_b) x F_k - M_k (M_k: tools.moment, about c_k).  Not booked as external work
+        on the body: :meth:`end` books the same work as the tool's (once)."""
         out = ti.Vector([0.0, 0.0, 0.0])
+        moment = ti.Vector([0.0, 0.0, 0.0])
         for k in range(self.g.count[None]):
             if self.g.motion[k] == BODY and self.g.body[k] == b:
                 out -= self.g.force[k]
-        return out
+                moment -= (self.g.centre[k] - x_b).cross(self.g.force[k]) + self.g.moment[k]
+        return out, moment
 
     @ti.func
     def book_node(self, c, v_mid, kick):
@@ -291,8 +308,14 @@ class RigidTools:
             if ti.static(self.cfg.bodies):
                 if self.g.motion[k] == BODY:
                     b = self.g.body[k]
-                    velocity = 0.5 * (self.s.bodies.velocity_start[b] + self.s.bodies.velocity[b]) * self.s.bodies.direction[b]
+                    velocity = 0.5 * (self.s.bodies.velocity_start[b] + self.s.bodies.velocity[b])
             work = kick * self.g.force[k].dot(velocity)
+            if ti.static(self.cfg.body_rotation):     # sum f . omega_mid x (x - x_b^n)
+                if self.g.motion[k] == BODY:
+                    b = self.g.body[k]
+                    omega_mid = 0.5 * (self.s.bodies.omega_start[b] + self.s.bodies.omega[b])
+                    x_b = self.bodies.center(b) - self.s.step.dt[None] * self.s.bodies.velocity[b]    # t^n
+                    work += kick * omega_mid.dot((self.g.centre[k] - x_b).cross(self.g.force[k]) + self.g.moment[k])
             self.g.work[k] += work
             self.g.energy[k] += work
             self.s.step.contact_energy[None] += work

@@ -76,6 +76,7 @@ one-point quadrature", IJNME 20 (1984) 787-802.
 import taichi as ti
 
 from ..state import STATUS_INVERTED, STATUS_OK
+from .rotation import rotation_vector
 from .timestep import triangle_limit
 
 
@@ -106,6 +107,37 @@ def triangle_geometry(x):
         xh[a] = r.dot(e1)
         yh[a] = r.dot(e2)
     return ti.Matrix.rows([e1, e2, e3]), xh, yh, normal
+
+
+@ti.func
+def increment_geometry(x, dx):
+    """The triangle's twin of shell.increment_geometry (a large increment dx ending at x): the
+    mid-step frame, the mean of the start's and end's corner coordinates in their own frames,
+    their change in those frames, the frames' rotation (in the mid frame), and the mid-step
+    normal (the inside-out check)."""
+    rot0, x0, y0, normal0 = triangle_geometry(x - dx)
+    rot1, x1, y1, normal1 = triangle_geometry(x)
+    rot_m, xm, ym, normal_m = triangle_geometry(x - 0.5 * dx)
+    change = ti.Matrix.zero(ti.f64, 3, 3)
+    for a in ti.static(range(3)):
+        change[a, 0] = x1[a] - x0[a]
+        change[a, 1] = y1[a] - y0[a]
+    spin = rot_m @ rotation_vector(rot1.transpose() @ rot0)
+    return rot_m, 0.5 * (x0 + x1), 0.5 * (y0 + y1), normal_m, change, spin
+
+
+@ti.func
+def mid_step(x, v, w, dt, large: ti.template()):
+    """The triangle's twin of shell.mid_step (its normal in place of z^)."""
+    if ti.static(large):
+        rot_m, xm, ym, normal_m, change, spin = increment_geometry(x, dt * v)
+        wl = w @ rot_m.transpose()
+        for a, d in ti.static(ti.ndrange(3, 3)):
+            wl[a, d] -= spin[d] / dt
+        return rot_m, xm, ym, normal_m, change / dt, wl
+    else:
+        rot_m, xm, ym, normal_m = triangle_geometry(x - (0.5 * dt) * v)
+        return rot_m, xm, ym, normal_m, v @ rot_m.transpose(), w @ rot_m.transpose()
 
 
 @ti.func
@@ -200,9 +232,7 @@ class TriangleElement:
         c = self.s.elements.corners[e]
         x, v, w = self.quad.gather(c, 3)
         # --- rates on the mid-step geometry (as the quad: shell.ShellElement.update)
-        rot_m, xm, ym, normal_m = triangle_geometry(x - (0.5 * dt) * v)
-        vl = v @ rot_m.transpose()
-        wl = w @ rot_m.transpose()
+        rot_m, xm, ym, normal_m, vl, wl = mid_step(x, v, w, dt, self.cfg.finite_increment)
         vx, vy, vz = column(vl, 0), column(vl, 1), column(vl, 2)
         tx, ty, tz = column(wl, 0), column(wl, 1), column(wl, 2)
         area_m, g1, g2 = gradient_operators(xm, ym)
