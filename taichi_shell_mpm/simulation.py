@@ -124,6 +124,12 @@ def init_taichi(arch: str = "cpu", quiet: bool = False, threads: int | None = No
     return next((name for name, a in ARCHS.items() if getattr(ti, a) == used), "cpu")
 
 
+def kernel_cache_base() -> Path:
+    """The folder that holds the kernel caches of every build: $TAICHI_SHELL_MPM_CACHE or
+    ~/.cache/taichi_shell_mpm."""
+    return Path(os.environ.get("TAICHI_SHELL_MPM_CACHE") or Path.home() / ".cache" / "taichi_shell_mpm")
+
+
 def kernel_cache_dir() -> str:
     """Taichi's offline kernel cache of this build of the package: a folder per hash of its
     sources, under $TAICHI_SHELL_MPM_CACHE or ~/.cache/taichi_shell_mpm [choice, issue 17].
@@ -136,8 +142,7 @@ def kernel_cache_dir() -> str:
     digest = hashlib.sha256()
     for path in sorted(Path(__file__).parent.rglob("*.py")):
         digest.update(path.read_bytes())
-    base = Path(os.environ.get("TAICHI_SHELL_MPM_CACHE") or Path.home() / ".cache" / "taichi_shell_mpm")
-    return str(base / digest.hexdigest()[:16])
+    return str(kernel_cache_base() / digest.hexdigest()[:16])
 
 
 @dataclass

@@ -13,7 +13,7 @@ import taichi as ti
 from hypothesis import settings
 
 from taichi_shell_mpm.scene import load_scene
-from taichi_shell_mpm.simulation import Simulation, init_taichi
+from taichi_shell_mpm.simulation import Simulation, init_taichi, kernel_cache_base
 from taichi_shell_mpm.solvers.stepper import Stepper
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -30,8 +30,7 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "repeatable"))
 # Each process keeps its own offline kernel cache [choice]: two processes never write or read a
 # half-written cached kernel of the other, at the price of compiling a feature set both meet twice.
 if os.environ.get("PYTEST_XDIST_WORKER"):
-    _cache = os.environ.get("TAICHI_SHELL_MPM_CACHE") or str(Path.home() / ".cache" / "taichi_shell_mpm")
-    os.environ["TAICHI_SHELL_MPM_CACHE"] = str(Path(_cache) / os.environ["PYTEST_XDIST_WORKER"])
+    os.environ["TAICHI_SHELL_MPM_CACHE"] = str(kernel_cache_base() / os.environ["PYTEST_XDIST_WORKER"])
 
 PLATE = """
 [scene]
