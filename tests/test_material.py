@@ -3,17 +3,18 @@ point (uniaxial hardening line, return onto the ellipse with normal flow, plasti
 incompressibility, random-path robustness) and the limit moment of a plate bent through
 one BT element."""
 
+import meshio
 import numpy as np
 import pytest
 import taichi as ti
 
 from taichi_shell_mpm.materials import MATERIAL_PARAMETERS, hardening_laws, parameter_row, rate_laws
 from taichi_shell_mpm.quadrature import through_thickness_rule
-from taichi_shell_mpm.scene import Material
+from taichi_shell_mpm.scene import Material, load_scene
 from taichi_shell_mpm.simulation import init_taichi
 from taichi_shell_mpm.stages.material import PlaneStressJ2
 
-from .conftest import element_pass, element_simulation
+from .conftest import element_stage, unwarmed_simulation, write_scene
 
 E, NU, SY0, H = 2.0e5, 0.3, 250.0, 2000.0
 EPS_Y = SY0 / E                                          # uniaxial yield strain
@@ -230,28 +231,69 @@ def test_random_paths_stay_admissible():
         assert plastic_steps > n * steps // 10
 
 
+# Four unconnected copies of the square element, one per rule (3, 5, 7, 9 Lobatto points), each
+# its own part and section: one compile serves the four rules (Features.points is the most of any
+# section; each section's point count is run-time data).
+RULES = (3, 5, 7, 9)
+PATCH = """
+[scene]
+name = "rules"
+units = "consistent"
+[mesh]
+kind = "file"
+path = "rules.vtu"
+[materials.j2]
+E = {E}
+nu = {nu}
+density = 1.0
+model = "j2"
+yield_stress = {sy}
+hardening = 0.0
+[method]
+kind = "fem"
+[solve]
+kind = "dynamic"
+end_time = 1.0
+"""
+RULE = """
+[sections.lobatto{n}]
+thickness = {t}
+points = {n}
+rule = "lobatto"
+[elementsets.e{i}]
+ids = [{i}]
+[[part]]
+name = "lobatto{n}"
+material = "j2"
+section = "lobatto{n}"
+elements = "e{i}"
+"""
+
+
 def test_bending_limit_moment_through_bt_element(tmp_path):
     """Square flat element, nodal rotations theta_y = kappa_dot x (zero translations): a
     uniform curvature rate kappa_xx with kappa_yy = 0, so every point is in plane stress
     with eyy = 0 (plane strain in y). At full plasticity there, dev strain rate has no yy part:
     syy = sxx/2 and q = sqrt(3)/2 sxx = sigma_y, i.e. sxx = 2 sigma_y/sqrt(3). Stresses
     accumulate over 500 steps to 50 yield curvatures; the limit moment is then
-    M_xx = (t^2/4) sum_k w_k |zeta_k| 2 sigma_y/sqrt(3)."""
+    M_xx = (t^2/4) sum_k w_k |zeta_k| 2 sigma_y/sqrt(3), for each of the four Lobatto rules."""
     t, dt, steps = 0.05, 1e-4, 500
     factor = 2 / np.sqrt(3)                                   # plane-strain limit sxx / sigma_y
-    corners = np.array([[-0.5, -0.5, 0.0], [0.5, -0.5, 0.0], [0.5, 0.5, 0.0], [-0.5, 0.5, 0.0]])
+    square = np.array([[-0.5, -0.5, 0.0], [0.5, -0.5, 0.0], [0.5, 0.5, 0.0], [-0.5, 0.5, 0.0]])
+    corners = np.concatenate([square + [0.0, 2.0 * i, 0.0] for i in range(len(RULES))])   # apart along y
+    meshio.write(tmp_path / "rules.vtu", meshio.Mesh(corners, [("quad", np.arange(4 * len(RULES)).reshape(-1, 4))]))
+    text = PATCH.format(E=E, nu=NU, sy=SY0) + "".join(RULE.format(n=n, i=i, t=t) for i, n in enumerate(RULES))
+    sim = unwarmed_simulation(load_scene(write_scene(tmp_path, text)), tmp_path)
     # first yield at the surface: elastic plane strain sxx = E' exx, syy = nu sxx, q = sxx sqrt(1 - nu + nu^2)
     kappa_y = 2 / t * SY0 * (1 - NU ** 2) / (E * np.sqrt(1 - NU + NU ** 2))
     kappa_dot = 50 * kappa_y / (steps * dt)
+    stress, *_ = element_stage(sim, corners, np.zeros_like(corners),
+                               np.column_stack([np.zeros(len(corners)), kappa_dot * corners[:, 0],
+                                                np.zeros(len(corners))]), dt, steps=steps)
+    ebar = sim.state.fetch("points.plastic_strain")
     ratios = []
-    for points in (3, 5, 7, 9):
-        sim = element_simulation(tmp_path, corners, E=E, nu=NU, t=t,
-                                 material=f'model = "j2"\nyield_stress = {SY0}\nhardening = 0.0',
-                                 section=f'points = {points}\nrule = "lobatto"')
-        s = sim.state
-        element_pass(sim, corners, np.zeros((4, 3)),
-                     np.column_stack([np.zeros(4), kappa_dot * corners[:, 0], np.zeros(4)]), dt, steps=steps)
-        sig = s.fetch("points.stress")[0]
+    for i, points in enumerate(RULES):
+        sig = stress[i, :points]
         zeta, w = through_thickness_rule("lobatto", points)
         ratio = np.sum(w * zeta * sig[:, 0]) / SY0                  # M_xx / (sigma_y t^2/4)
         ratio_yy = np.sum(w * zeta * sig[:, 1]) / SY0
@@ -259,7 +301,7 @@ def test_bending_limit_moment_through_bt_element(tmp_path):
         ratios.append(ratio)
         print(f"Lobatto {points}: M_xx/(sigma_y t^2/4) = {ratio:.10f}, predicted {predicted:.10f} "
               f"(sum w|zeta| = {np.sum(w * np.abs(zeta)):.6f}), rel. error {ratio / predicted - 1:.1e}; "
-              f"M_yy/M_xx = {ratio_yy / ratio:.8f}; ebar at the surface {s.fetch('points.plastic_strain')[0, -1]:.4e}; "
+              f"M_yy/M_xx = {ratio_yy / ratio:.8f}; ebar at the surface {ebar[i, points - 1]:.4e}; "
               f"continuum 2/sqrt(3) = {factor:.6f}")
         assert abs(ratio / predicted - 1) < 1e-6
         assert np.abs(sig[:, 3:]).max() < 1e-12 * SY0                 # no transverse shear
