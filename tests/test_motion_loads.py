@@ -3,7 +3,8 @@
 against a closed form.
 
 All runs are explicit FE (``fem``) strips or plates, so that the kernels of two
-configurations serve every test (static and dynamic, with Features.loads on); the curves of
+configurations serve every test (static and dynamic, with Features.loads on: a static scene
+with only plain nodal loads puts them on the curve LOAD_FACTOR); the curves of
 the dynamic tests have corners between outputs, so that a step straddles each.
 """
 from __future__ import annotations
@@ -71,6 +72,15 @@ history_interval = {every}
 
 def strip(name: str, body: str, *, lx=10.0, ly=B, nx=10, ny=1, nu=0.0, t=T) -> str:
     return STRIP.format(name=name, lx=lx, ly=ly, nx=nx, ny=ny, E=E, nu=nu, t=t, body=body)
+
+
+# f(lambda) = lambda, the plain load factor as a curve: a static scene whose loads are all plain
+# nodal ones takes it, so that it compiles with Features.loads on like every other scene here
+# (the same kernels; one configuration less to compile)
+LOAD_FACTOR = """
+[curves.load_factor]
+points = [[0.0, 0.0], [1.0, 1.0]]
+"""
 
 
 def static(levels: int = 1, tolerance: float = 1e-6) -> str:
@@ -316,10 +326,11 @@ def test_displacement_control_reaction_equals_the_load(tmp_path):
     geometric nonlinearity is in it), then with the tip's uz prescribed to that deflection:
     the motion's reaction is P, and the support reaction -P."""
     P = EI / 10.0 ** 2
-    load = CLAMP + TIP_PROBE + f"""
+    load = CLAMP + TIP_PROBE + LOAD_FACTOR + f"""
 [[load]]
 nodes = "tip"
 force = [0.0, 0.0, {P}]
+curve = "load_factor"
 """ + static(tolerance=1e-6)
     out, _ = run(tmp_path, strip("loaded", load), "loaded")
     w = float(table(out / "probes.csv")["tipuz"][-1])
@@ -503,10 +514,11 @@ def test_line_load_is_consistent(tmp_path):
     from taichi_shell_mpm.loading import load_shares
     points = skewed_strip(tmp_path / "strip.vtu")
     q = 2e-3                                   # tip deflection 2e-4 L: linear
-    body = CLAMP + f"""
+    body = CLAMP + LOAD_FACTOR + f"""
 [[load]]
 nodes = "tip"
 force_per_length = [0.0, 0.0, {q}]
+curve = "load_factor"
 [[probe]]
 name = "tip"
 nodes = "tip"
