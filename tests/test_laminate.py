@@ -135,8 +135,37 @@ def imposed_rates(corners, strain, curvature, shear):
     return velocity, omega
 
 
+# The three layups as three unconnected copies of FLAT (apart along y), each its own part and
+# section: one simulation, so one compile of the element stage serves the three tests (the
+# most points of any section and the set of models are what compiles, each section's plies are
+# run-time data).
+SPACING = np.array([0.0, 3.0, 0.0])
+
+
+@pytest.fixture(scope="module")
+def layup_stage(tmp_path_factory):
+    """The unwarmed simulation of the three LAYUPS as elements 0, 1, 2, and their corners."""
+    tmp = tmp_path_factory.mktemp("layups")
+    corners = np.concatenate([FLAT + i * SPACING for i in range(len(LAYUPS))])
+    meshio.write(tmp / "element.vtu", meshio.Mesh(corners, [("quad", np.arange(len(corners)).reshape(-1, 4))]))
+    text = ELEMENT.replace("[sections.laminate]\nplies = {plies}\nreference_direction = {reference}\n", "{parts}")
+    parts = "".join(f"""
+[sections.s{i}]
+plies = {plies_toml(layup)}
+reference_direction = {REFERENCE.tolist()}
+[elementsets.e{i}]
+ids = [{i}]
+[[part]]
+name = "p{i}"
+section = "s{i}"
+elements = "e{i}"
+""" for i, layup in enumerate(LAYUPS.values()))
+    scene = load_scene(write_scene(tmp, text.format(materials=MATERIALS, parts=parts)))
+    return unwarmed_simulation(scene, tmp), corners
+
+
 @pytest.mark.parametrize("name", list(LAYUPS))
-def test_element_stiffness_matches_lamination_theory(tmp_path, name):
+def test_element_stiffness_matches_lamination_theory(layup_stage, name):
     """One distorted quad, material axis = REFERENCE projected (along no edge), plies turned
     from it.  Eight imposed increments from zero stress -- unit membrane strains, curvatures
     and transverse shears in the element's frame, one at a time, as nodal rates for one step
@@ -145,27 +174,28 @@ def test_element_stiffness_matches_lamination_theory(tmp_path, name):
     output's), Q = int tau dz (from the point stresses) over dt x the imposed rate.  Against
     classical lamination theory computed here from the ply data with the textbook Q_bar: A,
     B, D and H = int G dz to 1e-10 of each block's largest entry (B of the symmetric layup:
-    of sqrt(|A| |D|))."""
+    of sqrt(|A| |D|)).  The quad is element `i` of :func:`layup_stage` (the others at rest)."""
+    sim, corners = layup_stage
+    i = list(LAYUPS).index(name)
     layup = LAYUPS[name]
-    meshio.write(tmp_path / "element.vtu", meshio.Mesh(FLAT, [("quad", np.array([[0, 1, 2, 3]]))]))
-    scene = load_scene(write_scene(tmp_path, ELEMENT.format(materials=MATERIALS, plies=plies_toml(layup),
-                                                            reference=REFERENCE.tolist())))
-    sim = unwarmed_simulation(scene, tmp_path)
     e1, e2 = element_frame(FLAT)
     axis_angle = np.arctan2(REFERENCE @ e2, REFERENCE @ e1)          # material axis from e1
     A, B, D, H = lamination_theory(layup, axis_angle)
     expected = np.block([[A, B, np.zeros((3, 2))], [B, D, np.zeros((3, 2))], [np.zeros((2, 6)), H]])
     measured = np.zeros((8, 8))
-    zeta = sim.model.sections.zeta[0]
-    weight = sim.model.sections.weight[0]
-    t = sim.model.element.thickness[0]
+    section = sim.model.element.section[i]
+    points = int(sim.model.sections.point_count[section])
+    zeta = sim.model.sections.zeta[section][:points]
+    weight = sim.model.sections.weight[section][:points]
+    t = sim.model.element.thickness[i]
     for j, unit in enumerate(np.eye(8)):
-        velocity, omega = imposed_rates(FLAT, unit[:3], unit[3:6], unit[6:])
-        stress, *_ = element_stage(sim, FLAT + 0.5 * DT * velocity, velocity, omega, DT)
+        velocity, omega = np.zeros_like(corners), np.zeros_like(corners)
+        velocity[4 * i:4 * i + 4], omega[4 * i:4 * i + 4] = imposed_rates(FLAT, unit[:3], unit[3:6], unit[6:])
+        stress, *_ = element_stage(sim, corners + 0.5 * DT * velocity, velocity, omega, DT)
         results = sim.element_results()
-        measured[:3, j] = results["membrane_force"][0] / DT
-        measured[3:6, j] = results["bending_moment"][0] / DT
-        measured[6:, j] = 0.5 * t * weight @ stress[0, :, 3:5] / DT
+        measured[:3, j] = results["membrane_force"][i] / DT
+        measured[3:6, j] = results["bending_moment"][i] / DT
+        measured[6:, j] = 0.5 * t * weight @ stress[i, :points, 3:5] / DT
     blocks = {"A": (slice(0, 3), slice(0, 3)), "B": (slice(0, 3), slice(3, 6)), "B'": (slice(3, 6), slice(0, 3)),
               "D": (slice(3, 6), slice(3, 6)), "H": (slice(6, 8), slice(6, 8))}
     errors = {}
