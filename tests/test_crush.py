@@ -1,8 +1,9 @@
 """Reduced crush (issue 3): the paper's tube section and material, 80 mm long, crushed for
 2.5 ms (about 37 mm) through the CLI.  Asserts the mean crush force and the fold
 half-wavelength against their measured values, the energy balance against the absorbed
-energy, the hourglass share and contact penetration; and that the three launches give one
-answer on the same tube."""
+energy, the hourglass share and contact penetration; and, on the same tube (its kernels
+compiled once for the file), that the three launches give one answer and that a restart
+with contact is bit-for-bit."""
 from __future__ import annotations
 
 import json
@@ -107,6 +108,21 @@ def test_launches_match(tmp_path, monkeypatch):
             assert crush == serial["crush"]["crush_distance"]
         else:
             assert abs(crush - serial["crush"]["crush_distance"]) <= 1e-9
+
+
+def test_contact_restart_is_bit_for_bit(tmp_path, monkeypatch):
+    """The reduced crush to 2 ms, stopped after its folds have touched: the contact side memory
+    and candidate lists travel in the checkpoint (tests/test_restart.py's round trip; here
+    because the tube's kernels are this file's, compiled once for its tests)."""
+    from .test_restart import restart_roundtrip
+    args = [str(ROOT / "scenes" / "square_tube.toml")]
+    for item in [*SHORT[:5], "solve.end_time=2.0", "output.times=[1.0]", "output.history_interval=0.05"]:
+        args += ["--set", item]
+    # 1440 elements, 1000-step batches; ~6 600 steps to 2 ms (the drilling spring halved the count)
+    stopped, periodic = restart_roundtrip(tmp_path, monkeypatch, args, stop_step=5500, every=3000,
+                                          batch_element_steps=1_440_000)
+    summary = json.loads((tmp_path / "a" / "summary.json").read_text())
+    assert summary["energies"]["contact"] != 0.0 and stopped["event"] > 0
 
 def test_fold_geometry_reads_lobes_and_half_wavelength():
     """A synthetic 60x60 tube whose faces fold into alternating tent-shaped lobes of length

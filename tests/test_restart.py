@@ -157,17 +157,3 @@ def test_restart_refuses_a_missing_or_foreign_checkpoint(tmp_path):
     r = cli_run("run", *CANTILEVER, "--set", "solve.load_steps=1", "--restart", str(out))
     print(r.err)
     assert r.code == 2 and "cannot read the checkpoint" in r.err and len(r.err.splitlines()) == 1
-
-
-def test_contact_restart_is_bit_for_bit(tmp_path, monkeypatch):
-    """The reduced crush (tests/test_crush.py) to 2 ms, stopped after its folds have touched:
-    the contact side memory and candidate lists travel in the checkpoint."""
-    from .test_crush import SHORT
-    args = [str(ROOT / "scenes" / "square_tube.toml")]
-    for item in [*SHORT[:5], "solve.end_time=2.0", "output.times=[1.0]", "output.history_interval=0.05"]:
-        args += ["--set", item]
-    # 1440 elements, 1000-step batches; ~6 600 steps to 2 ms (the drilling spring halved the count)
-    stopped, periodic = restart_roundtrip(tmp_path, monkeypatch, args, stop_step=5500, every=3000,
-                                          batch_element_steps=1_440_000)
-    summary = json.loads((tmp_path / "a" / "summary.json").read_text())
-    assert summary["energies"]["contact"] != 0.0 and stopped["event"] > 0
