@@ -208,7 +208,7 @@ def test_empty_grid_ratios_pair_the_interleaved_runs():
     for k, (scene, wide) in enumerate([(1.0, 1.10), (2.0, 1.90), (1.5, 1.5)], start=1):
         rows += [{"case": f"empty_grid_scene_{k}", "scene": "empty_grid", "mesh": "10/2/60", "status": "ok",
                   "run_s": str(scene)},
-                 {"case": f"empty_grid_wide_{k}", "scene": "empty_grid", "mesh": "10/2/60 wide grid",
+                 {"case": f"empty_grid_wide_{k}", "scene": "empty_grid", "mesh": "10/2/60 box x100",
                   "status": "ok" if k != 3 else "failed: x", "run_s": str(wide)}]
     assert bench.empty_grid_ratios(rows) == pytest.approx([1.10, 0.95])      # the failed pair left out
     text = "\n".join(report._empty_grid_section(rows))
