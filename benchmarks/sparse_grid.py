@@ -3,6 +3,7 @@
 
     python benchmarks/sparse_grid.py                  # the paper's tube, ~1 min on an idle 2-core machine
     python benchmarks/sparse_grid.py --refine 2       # 2x finer mesh and cell (4x the nodes)
+    python benchmarks/sparse_grid.py --cache-probe    # does the tree's shape enter the cache key?
 
 The nodes are those of the paper's tube (scenes/square_tube.toml, built by the package's
 mesh generator; --refine r: r x the elements along each direction, cell size 2.5 / r mm),
@@ -38,7 +39,9 @@ node-step (all threads; on a loaded machine it counts the work, not the waiting 
 core), first-step seconds minus
 one step (compile), the grid's bytes (hash: table + slots + per-node indices; SNodes: the
 root's static pointer array plus every block container allocated, read from Taichi's
-allocator counts after the run) and the process's peak RSS.  The checksum of the gathered
+allocator counts after the run) and the process's peak RSS.  ``--cache-probe``: the first
+call of one kernel on a pointer tree of 3 top blocks, again (loaded from the offline cache),
+then of 200 top blocks, again, each in a fresh process on one new cache folder.  The checksum of the gathered
 velocities must agree between variants (the same sums up to the order of atomic adds).
 """
 from __future__ import annotations
@@ -281,6 +284,37 @@ def worker(variant: str, scale: float, refine: int, steps: int, chunk: int, cros
             "rss_peak_MB": rss_peak_mb(), **mem}
 
 
+def cache_probe_worker(n_top: int, cache: str) -> float:
+    """First call of one P2G-like kernel on a pointer tree of n_top top blocks along z, with
+    the offline cache in `cache`: whether the tree's shape is part of the cache key."""
+    import taichi as ti
+    ti.init(arch=ti.cpu, default_fp=ti.f64, offline_cache=True, offline_cache_file_path=cache, log_level=ti.WARN)
+    m = ti.field(ti.f64)
+    ti.root.pointer(ti.ijk, (1, 1, n_top)).pointer(ti.ijk, 16).dense(ti.ijk, 8).place(m)
+    x = ti.Vector.field(3, ti.f64, 1000)
+
+    @ti.kernel
+    def scatter():
+        for c in range(1000):
+            for i, j, k in ti.static(ti.ndrange(4, 4, 4)):
+                m[ti.floor(x[c] + ti.Vector([i, j, k]), ti.i32)] += 1.0 + ti.sin(x[c][0] * i) * ti.cos(x[c][1] * j)
+
+    t0 = time.perf_counter()
+    scatter()
+    ti.sync()
+    return time.perf_counter() - t0
+
+
+def cache_probe() -> None:
+    """Each in a fresh process on one new cache folder: 3 top blocks, again, 200, again."""
+    import tempfile
+    with tempfile.TemporaryDirectory() as cache:
+        for n_top in (3, 3, 200, 200):
+            proc = subprocess.run([sys.executable, __file__, "--probe-worker", str(n_top), cache],
+                                  capture_output=True, text=True, check=True)
+            print(f"pointer tree of {n_top:3d} top blocks: first call {float(proc.stdout.split()[-1]):.2f} s")
+
+
 VARIANTS = ("hash", "pointer_bitmasked_4", "pointer_bitmasked_8", "pointer_dense_4", "pointer_dense_8")
 
 
@@ -293,8 +327,17 @@ def main() -> int:
     p.add_argument("--scale", type=float, default=100.0, help="the large box: the scene's box times this per axis")
     p.add_argument("--rounds", type=int, default=2, help="every variant once per round (interleaved)")
     p.add_argument("--variant", action="append", choices=VARIANTS, default=[])
+    p.add_argument("--cache-probe", action="store_true",
+                   help="instead: whether the SNode tree's shape enters the offline cache key")
     p.add_argument("--worker", nargs=2, metavar=("VARIANT", "SCALE"), help=argparse.SUPPRESS)
+    p.add_argument("--probe-worker", nargs=2, metavar=("N_TOP", "CACHE"), help=argparse.SUPPRESS)
     a = p.parse_args()
+    if a.probe_worker:
+        print(cache_probe_worker(int(a.probe_worker[0]), a.probe_worker[1]))
+        return 0
+    if a.cache_probe:
+        cache_probe()
+        return 0
     if a.worker:
         print(json.dumps(worker(a.worker[0], float(a.worker[1]), a.refine, a.steps, a.chunk, a.cross)))
         return 0
