@@ -255,3 +255,28 @@ def test_sheets_keep_their_velocities_until_they_touch(tmp_path, thickness):
     #                                so the bending after the impact moves their mean off the centre of mass
     assert v_lower / approach > 0.5 and distance[-1] > thickness      # momentum handed over, parted
     assert slide_err < SLIDE_TOL
+
+
+def test_multi_field_claim_rounds_of_the_gpu_launch_match_the_serial_claim(tmp_path, monkeypatch):
+    """The GPU launch chooses the fields with atomics in MAX_FIELDS rounds
+    (GridUpdate.claim_rounds) instead of the CPU's claim in P2G order; run here on the CPU's
+    threads (simulation.FORCE_LAUNCH = "gpu"), the two sheets of the test above, approaching
+    within h/4 and touching, take the same path as on the serial launch (to round-off: the
+    atomic sums change the order of additions)."""
+    from taichi_shell_mpm import simulation
+    gap, slide, approach, thickness = 0.5, 0.1, -0.2, 0.02
+    end = (gap - thickness) / -approach + 0.3
+    sheets_mesh(tmp_path / "sheets.vtu", gap)
+    text = SHEETS.format(t=thickness, fields="multi", gap=gap, slide=slide, approach=approach, end=end, every=0.01)
+    probes = {}
+    for launch in ("batched", "gpu"):
+        monkeypatch.setattr(simulation, "FORCE_LAUNCH", launch)
+        out, summary = run(tmp_path, text, f"sheets_{launch}")
+        assert summary["launch"] == launch and summary["grid"]["fields"] > 1
+        assert summary["grid"]["field_overflow"] == 0
+        probes[launch] = np.loadtxt(out / "probes.csv", delimiter=",", skiprows=1)
+    diff = float(np.abs(probes["gpu"] - probes["batched"]).max())
+    print(f"\nclaim rounds (gpu launch on the CPU) vs serial claim: largest probe difference {diff:.1e} "
+          f"over {len(probes['gpu'])} rows")
+    assert probes["gpu"].shape == probes["batched"].shape
+    assert diff < 1e-9
