@@ -247,6 +247,64 @@ class GridUpdate:
         return v_minus, v_plus, f, inv_mass
 
     @ti.func
+    def contact(self, slot, f, idx, v_plus):
+        """Field f's v+ at the grid node in slot `slot` after the grid contact condition
+        (Bardenhagen et al. 2000, 2001; module docstring).  With the centre-of-mass velocity
+        v_cm = sum m_b v+_b / sum m_b over the fields with mass and the pair's normal n (from a
+        to the rest), field a approaching, dv = v_a - v_cm, (dv . n) > 0, within t_c (the
+        centroids' distance along n below field_gap) gets
+            v_a' = v_a - (dv . n) n - min(1, mu (dv . n) / |dv_t|) dv_t,   dv_t = dv - (dv . n) n:
+        the approach removed (perfectly plastic), the slip slowed by Coulomb friction, or the
+        common v_cm where friction sticks.  Between two fields the impulses are equal and
+        opposite (n_b = -n_a), so the node's momentum is kept."""
+        m_tot = 0.0
+        p_tot = ti.Vector([0.0, 0.0, 0.0])
+        x_tot = ti.Vector([0.0, 0.0, 0.0])
+        count = 0
+        for b in ti.static(range(MAX_FIELDS)):
+            g = self.address(slot, b)
+            _v_minus, v_b, _f, inv_b = self.velocities(g, idx)
+            if inv_b > 0.0:
+                m_b = self.s.grid.mass[g]
+                m_tot += m_b
+                p_tot += m_b * v_b
+                x_tot += self.s.grid.field_position[g]
+                count += 1
+        out = v_plus
+        g_a = self.address(slot, f)
+        m_a = self.s.grid.mass[g_a]
+        if count > 1 and m_a > self.s.step.mass_floor[None]:
+            x_a = self.s.grid.field_position[g_a] / m_a
+            x_rest = (x_tot - self.s.grid.field_position[g_a]) / (m_tot - m_a)
+            # the pair's normal: each field's shell normal turned towards the other side,
+            # n = normalize(n_a - n_rest) (Homel & Herbold 2017: one normal for the pair)
+            n_a = self.s.grid.field_normal[g_a]
+            if n_a.dot(x_rest - x_a) < 0.0:
+                n_a = -n_a
+            n_rest = ti.Vector([0.0, 0.0, 0.0])
+            for b in ti.static(range(MAX_FIELDS)):
+                g = self.address(slot, b)
+                m_b = self.s.grid.mass[g]
+                if b != f and m_b > self.s.step.mass_floor[None]:
+                    n_b = self.s.grid.field_normal[g]
+                    if n_b.dot(x_a - self.s.grid.field_position[g] / m_b) < 0.0:
+                        n_b = -n_b
+                    n_rest += n_b
+            n = n_a.normalized(1e-300) - n_rest.normalized(1e-300)
+            if n.norm_sqr() > 0.0:
+                n = n.normalized()
+                dv = v_plus - p_tot / m_tot
+                approach = dv.dot(n)
+                if approach > 0.0 and (x_rest - x_a).dot(n) < self.s.grid.field_gap[None]:
+                    slip = dv - approach * n
+                    slip_speed = slip.norm()
+                    stick = 1.0
+                    if self.s.grid.field_friction[None] * approach < slip_speed:
+                        stick = self.s.grid.field_friction[None] * approach / slip_speed
+                    out = v_plus - approach * n - stick * slip
+        return out
+
+    @ti.func
     def clear(self, c):
         """Zero the 8 grid nodes of node c's stencil (the fields it used, and the openers)."""
         for i, j, k in ti.static(ti.ndrange(2, 2, 2)):
@@ -259,3 +317,6 @@ class GridUpdate:
             self.s.grid.momentum[g] = ti.Vector([0.0, 0.0, 0.0])
             if ti.static(self.cfg.grid_force):
                 self.s.grid.force[g] = ti.Vector([0.0, 0.0, 0.0])
+            if ti.static(self.cfg.grid_contact):
+                self.s.grid.field_position[g] = ti.Vector([0.0, 0.0, 0.0])
+                self.s.grid.field_normal[g] = ti.Vector([0.0, 0.0, 0.0])
