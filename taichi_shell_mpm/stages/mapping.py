@@ -241,10 +241,9 @@ class Mapping:
                     affine -= v_grid.outer_product(massive_grad)
                     if ti.static(self.cfg.grid_contact):
                         if v_contact.norm_sqr() > 0.0:
-                            # a node the grid contact moved drops its velocity's gradient
-                            # across its shell, C (1 - n n^T) [choice, measured: stages/grid.py]
-                            normal = self.s.nodes.normal_sum[c].normalized()
-                            affine -= (affine @ normal).outer_product(normal)
+                            # a node the grid contact moved carries no affine velocity
+                            # [choice, measured: stages/grid.py]
+                            affine = ti.Matrix.zero(ti.f64, 3, 3)
                 carried = v_grid
                 if ti.static(self.cfg.transfer == "flip"):
                     a = self.s.step.flip_blend[None]
