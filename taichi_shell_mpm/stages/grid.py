@@ -32,10 +32,34 @@ g at f * capacity + g).  In P2G each shell node takes, at each of its 8 grid nod
 first field opened by a node of its layer (:meth:`same_layer`: same part, reference
 positions within FIELD_RADIUS_CELLS cells, nodal normals on one side), else opens a free
 one; G2P and the clear read the same fields.  Layers closer than a cell thus keep their
-own velocities; they interact only through [contact] (the penalty forces enter P2G as
-nodal forces), not through a grid contact condition.  The per-node indices are scalar
+own velocities; by default ([method].field_contact = "penalty") they interact only through
+[contact] (the penalty forces enter P2G as nodal forces).  The per-node indices are scalar
 fields (node_slots[c, q], anchor[g, f]): with vector fields indexed at run time, the
 multi-field step segfaulted in its first batch on Taichi 1.7 (CPU), in debug mode too.
+
+Grid contact condition (field_contact = "grid", compiled only then; :meth:`GridUpdate.contact`,
+Bardenhagen et al. 2000, 2001): where a grid node has two or more fields with mass, a field
+approaching the others' centre of mass loses the normal part of its velocity relative to it
+(perfectly plastic) and its slip is slowed by Coulomb friction, mu times that normal change,
+down to sticking; applied to v+ where G2P reads it.  P2G adds per field sum N m x and sum N m n
+(n: the node's unit shell normal), 6 doubles per field.  Three choices, each measured on two
+sheets at h = 2t (docs/contact.md, tests/test_grid.py):
+* The normal is the pair's (Homel & Herbold 2017), n = normalize(n_a - n_rest), from the fields'
+  shell normals each turned towards the other field's centroid, not from the mass gradients
+  sum N m grad N: two sheets inside one cell have no grid node between them, and there each
+  sheet's trilinear mass gradient points at the same grid node (its normal component does
+  not depend on where in the cell the sheet is), so their difference carries no side.
+* Contact only where the fields' centroids are closer than t_c along n (a separation test, as
+  Nairn's MPM codes make): without it the condition acts as soon as two layers share a grid
+  node, and two sheets (t = 0.02 or 0.125, h = 0.25) met at a gap of 0.249 (one cell) and
+  stayed 0.241 apart; with it they meet at 0.1247 (t = 0.125) and 0.0193 (t = 0.02).
+* A shell node whose velocity the condition changed carries no affine velocity (C = 0, PIC
+  for that node and step): the condition corrects a layer's field only at the grid nodes it
+  shares with another, and APIC's C kept the velocity of the others (those on the far side of
+  the sheet, those the other layer's nodes do not reach) for good, so that stacked sheets
+  ended still approaching at 0.034 (upper -0.117, lower -0.083) instead of both at -0.1.
+The kinetic energy it removes is booked as contact energy, the node's share of the impulse,
+-m dv . v_mid, like a wall's (energy.py): the stacked sheets' balance closes to 1e-16.
 
 The update is evaluated where G2P reads a node (:meth:`GridUpdate.velocities`) rather
 than in a loop of its own over a list of touched nodes [choice, measured in the note of
