@@ -203,12 +203,23 @@ def test_peer_case_row(tmp_path, monkeypatch):
     assert 0.0 < row["err1_mean"] <= row["err1_max"]
 
 
+def test_empty_grid_box_is_the_scene_box_100x_along_each_axis():
+    """The report says the wide rows run in the tube's grid box scaled 100x about its centre."""
+    import tomllib
+    method = tomllib.loads((bench.SCENES / "square_tube.toml").read_text())["method"]
+    wide = {key.split("=")[0]: json.loads(key.split("=")[1]) for key in bench.WIDE_GRID}
+    lo, hi = np.array(method["grid_min"]), np.array(method["grid_max"])
+    wide_lo, wide_hi = np.array(wide["method.grid_min"]), np.array(wide["method.grid_max"])
+    assert wide_hi - wide_lo == pytest.approx(100 * (hi - lo))
+    assert wide_hi + wide_lo == pytest.approx(hi + lo)          # the same centre
+
+
 def test_empty_grid_ratios_pair_the_interleaved_runs():
     rows = []
     for k, (scene, wide) in enumerate([(1.0, 1.10), (2.0, 1.90), (1.5, 1.5)], start=1):
         rows += [{"case": f"empty_grid_scene_{k}", "scene": "empty_grid", "mesh": "10/2/60", "status": "ok",
                   "run_s": str(scene)},
-                 {"case": f"empty_grid_wide_{k}", "scene": "empty_grid", "mesh": "10/2/60 wide grid",
+                 {"case": f"empty_grid_wide_{k}", "scene": "empty_grid", "mesh": "10/2/60 box x100",
                   "status": "ok" if k != 3 else "failed: x", "run_s": str(wide)}]
     assert bench.empty_grid_ratios(rows) == pytest.approx([1.10, 0.95])      # the failed pair left out
     text = "\n".join(report._empty_grid_section(rows))

@@ -16,9 +16,14 @@ import numpy as np
 import pytest
 import taichi as ti
 
+from taichi_shell_mpm.assembly import assemble
+from taichi_shell_mpm.config import Features
+from taichi_shell_mpm.mesh import build_mesh
 from taichi_shell_mpm.scene import SceneError, load_scene, parse_scene
 from taichi_shell_mpm.simulation import Simulation, init_taichi
 from taichi_shell_mpm.solvers.dynamic import run_dynamic
+from taichi_shell_mpm.solvers.stepper import Stepper
+from taichi_shell_mpm.state import State
 from taichi_shell_mpm.tools import bucket_grid, read_surface
 
 from .test_reliability import assert_clean_output, cli_run
@@ -212,12 +217,17 @@ GEOMETRY_TOOLS = {
 
 def test_signed_distance_and_normal_of_each_kind(tmp_path):
     """Each kind's signed distance and outward normal at random points near its surface
-    against the closed form (the mesh: a cube, whose nearest facet gives the box's distance)."""
+    against the closed form (the mesh: a cube, whose nearest facet gives the box's distance).
+    Only the tools' functions are compiled (a probe kernel), not the step with all five kinds."""
     init_taichi("cpu")
     scene = load_scene(write(tmp_path, scene_text(GEOMETRY_TOOLS, end_time=1e-4)))
-    sim = Simulation(scene, tmp_path / "out", quiet=True)
+    model = assemble(scene, build_mesh(scene.mesh))
+    cfg = Features.from_scene(scene, model, "batched")
+    state = State(model, cfg)
+    state.load(model)
+    tools = Stepper(state, cfg, model).tools
     rng = np.random.default_rng(7)
-    names = list(sim.model.tools.names)
+    names = list(model.tools.names)
     centres = {"ball": (0.3, 0, 0), "roller": (-0.3, 0, 0), "board": (0, 0.3, 0), "floor": (0, -0.3, 0),
                "box": (0, 0, 0.3)}
     for name in GEOMETRY_TOOLS:
@@ -225,7 +235,7 @@ def test_signed_distance_and_normal_of_each_kind(tmp_path):
         q = np.array(centres[name]) + rng.uniform(-spread, spread, (4000, 3))
         forms = _closed_forms(q)
         out = np.zeros((len(q), 5))
-        _probe(sim.stepper.tools, names.index(name), q, out)
+        _probe(tools, names.index(name), q, out)
         d, n, reach = forms[name]
         hit = out[:, 4] > 0.5
         near = np.abs(d) < (0.99 * T if name == "box" else 0.02)   # where contact can happen

@@ -17,7 +17,7 @@ from ..state import STATUS_INVERTED, STATUS_OK, STATUS_RETURN_FAILED, State
 from . import warping
 from .accumulate import Accumulator, CornerLoads
 from .material import ConstitutiveUpdate
-from .rotation import rotation_vector
+from .rotation import mid_step, rotation_vector
 from .drilling import DrillingSpring
 from .hourglass import Hourglass
 from .masses import MassUpdate
@@ -78,24 +78,6 @@ def increment_geometry(x, dx):
         change[a, 2] = z1[a] - z0[a]
     spin = rot_m @ rotation_vector(rot1.transpose() @ rot0)
     return rot_m, 0.5 * (x0 + x1), 0.5 * (y0 + y1), 0.5 * (z0 + z1), change, spin
-
-
-@ti.func
-def mid_step(x, v, w, dt, large: ti.template()):
-    """The mid-step frame, the corners' local coordinates there and their local velocities
-    and angular velocities (4x3).  An explicit step (`large` False): the frame and
-    coordinates of x - dt/2 v, v^_a = R v~_a, theta^_a = R omega_a.  One large increment
-    (Newton's trial, Features.finite_increment): increment_geometry, the corners' motion and
-    rotation less the frame's."""
-    if ti.static(large):
-        rot_m, xm, ym, zm, change, spin = increment_geometry(x, dt * v)
-        wl = w @ rot_m.transpose()
-        for a, d in ti.static(ti.ndrange(4, 3)):
-            wl[a, d] -= spin[d] / dt
-        return rot_m, xm, ym, zm, change / dt, wl
-    else:
-        rot_m, xm, ym, zm = local_geometry(x - (0.5 * dt) * v)
-        return rot_m, xm, ym, zm, v @ rot_m.transpose(), w @ rot_m.transpose()
 
 
 @ti.func
@@ -342,7 +324,7 @@ class ShellElement:
         # dt*d second-order accurate and exactly zero for a discrete rigid rotation
         # (Hughes-Winget). Evaluated at x^(n+1), a free plate spinning 1.5 revolutions
         # gained 0.9% spurious strain energy (tests/test_stability.py).
-        rot_m, xm, ym, zm, vl, wl = mid_step(x, v, w, dt, self.cfg.finite_increment)
+        rot_m, xm, ym, zm, vl, wl = mid_step(x, v, w, dt, self.cfg.finite_increment, local_geometry, increment_geometry)
         vx, vy, vz = column(vl, 0), column(vl, 1), column(vl, 2)
         tx, ty, tz = column(wl, 0), column(wl, 1), column(wl, 2)
         area_m, g1, g2 = gradient_operators(xm, ym)

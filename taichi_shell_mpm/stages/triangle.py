@@ -76,7 +76,7 @@ one-point quadrature", IJNME 20 (1984) 787-802.
 import taichi as ti
 
 from ..state import STATUS_INVERTED, STATUS_OK
-from .rotation import rotation_vector
+from .rotation import mid_step, rotation_vector
 from .timestep import triangle_limit
 
 
@@ -124,20 +124,6 @@ def increment_geometry(x, dx):
         change[a, 1] = y1[a] - y0[a]
     spin = rot_m @ rotation_vector(rot1.transpose() @ rot0)
     return rot_m, 0.5 * (x0 + x1), 0.5 * (y0 + y1), normal_m, change, spin
-
-
-@ti.func
-def mid_step(x, v, w, dt, large: ti.template()):
-    """The triangle's twin of shell.mid_step (its normal in place of z^)."""
-    if ti.static(large):
-        rot_m, xm, ym, normal_m, change, spin = increment_geometry(x, dt * v)
-        wl = w @ rot_m.transpose()
-        for a, d in ti.static(ti.ndrange(3, 3)):
-            wl[a, d] -= spin[d] / dt
-        return rot_m, xm, ym, normal_m, change / dt, wl
-    else:
-        rot_m, xm, ym, normal_m = triangle_geometry(x - (0.5 * dt) * v)
-        return rot_m, xm, ym, normal_m, v @ rot_m.transpose(), w @ rot_m.transpose()
 
 
 @ti.func
@@ -232,7 +218,7 @@ class TriangleElement:
         c = self.s.elements.corners[e]
         x, v, w = self.quad.gather(c, 3)
         # --- rates on the mid-step geometry (as the quad: shell.ShellElement.update)
-        rot_m, xm, ym, normal_m, vl, wl = mid_step(x, v, w, dt, self.cfg.finite_increment)
+        rot_m, xm, ym, normal_m, vl, wl = mid_step(x, v, w, dt, self.cfg.finite_increment, triangle_geometry, increment_geometry)
         vx, vy, vz = column(vl, 0), column(vl, 1), column(vl, 2)
         tx, ty, tz = column(wl, 0), column(wl, 1), column(wl, 2)
         area_m, g1, g2 = gradient_operators(xm, ym)
