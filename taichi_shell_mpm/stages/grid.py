@@ -81,6 +81,9 @@ sheets at h = 2t (docs/contact.md, tests/test_grid.py):
   shares with another, and APIC's C kept the velocity of the others (those on the far side of
   the sheet, those the other layer's nodes do not reach) for good, so that stacked sheets
   ended still approaching at 0.034 (upper -0.117, lower -0.083) instead of both at -0.1.
+  Dropping only the gradient across the sheet, C (1 - n n^T), fixed the stacked sheets but not
+  the shifted ones of tests/test_grid.py (closest upper node over the lower sheet 0.041 for
+  t = 0.125, through it for t = 0.02; with C = 0: 0.116 and 0.017).
 The kinetic energy it removes is booked as contact energy, the node's share of the impulse,
 -m dv . v_mid, like a wall's (energy.py): the stacked sheets' balance closes to 1e-16.
 
