@@ -167,6 +167,8 @@ class StepParameters:
     contact_stiffness: float = 0.0      # alpha_c
     contact_damping: float = 0.0
     contact_friction: float = 0.0
+    field_gap: float = 0.0              # grid contact condition (stages/grid.py): t_c
+    field_friction: float = 0.0         # and its Coulomb coefficient
     target_dt: float = 0.0              # selective mass scaling: the step (0: none)
     added_mass_cap: float = 0.0         # its limit on the added mass (0: none)
 
@@ -807,6 +809,9 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
         **({"contact_thickness": contact.thickness or float(element.thickness.max()),
             "contact_stiffness": contact.stiffness, "contact_damping": contact.damping,
             "contact_friction": contact.friction} if contact is not None else {}),
+        **({"field_gap": (contact.thickness if contact is not None and contact.thickness else
+                          float(element.thickness.max())),
+            "field_friction": scene.method.field_friction} if scene.method.field_contact == "grid" else {}),
         **({"target_dt": scene.solve.target_dt,
             "added_mass_cap": 0.01 * scene.solve.added_mass_limit * float(corner_mass.sum())}
            if scene.solve.kind == "dynamic" and scene.solve.mass_scaling == "selective" else {}))

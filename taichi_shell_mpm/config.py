@@ -43,6 +43,7 @@ class Features:
     erosion: bool = False       # some material's elements fail (issue 18; stages/masses.py)
     mass_scaling: bool = False  # selective mass scaling to [solve].target_dt (stages/masses.py)
     multi_field: bool = False   # a velocity field per shell layer at each grid node (stages/grid.py)
+    grid_contact: bool = False  # the fields interact by the grid contact condition (stages/grid.py)
     launch: str = "batched"     # "batched" | "threads" | "gpu" (solvers/stepper.py)
     loads: bool = False         # curve or follower loads, pressure, gravity, prescribed motion
     #                             (stages/loads.py, stages/motion.py): one switch [choice: a
@@ -128,5 +129,7 @@ class Features:
             erosion=model.materials.erosion,
             mass_scaling=scene.solve.kind == "dynamic" and scene.solve.mass_scaling == "selective",
             multi_field=model.grid is not None and scene.method.fields == "multi",
+            grid_contact=(model.grid is not None and scene.method.fields == "multi"
+                          and scene.method.field_contact == "grid"),
             launch=launch, loads=model.loading.loads or (model.tools is not None and model.tools.prescribed),
             body_rotation=any(b.rotates for b in model.rigid_bodies))

@@ -121,7 +121,7 @@ class EnergyLedger:
         self.acc.total(self.s.step.external_work, external)
         if ti.static(self.cfg.loads):
             self.acc.total(self.s.step.motion_work, motion)
-        if ti.static(self.cfg.contact or self.cfg.tools):
+        if ti.static(self.cfg.contact or self.cfg.tools or self.cfg.grid_contact):
             self.acc.total(self.s.step.contact_energy, contact)
         if ti.static(self.cfg.walls):
             self.acc.total(self.s.step.wall_energy, wall)

@@ -309,6 +309,11 @@ class Method:
     fields: Literal["single", "multi"] = "single"
     """Velocity fields per grid node (stages/grid.py): ``multi`` keeps a field per shell layer
     at each grid node, ``single`` one velocity."""
+    field_contact: Literal["penalty", "grid"] = "penalty"
+    """How the fields of a multi-field grid interact (stages/grid.py): ``penalty`` only through
+    [contact]; ``grid`` also through the grid contact condition (Bardenhagen et al. 2001)."""
+    field_friction: float = 0.0
+    """Coulomb coefficient of the grid contact condition."""
 
 
 # ---------------------------------------------------------------- node sets, BCs, loads
@@ -1132,6 +1137,7 @@ _ELEMENT = {"hourglass": _unit_interval, "w_hourglass": _choice("kirchhoff", "bt
             "warping": _choice("none", "bwc")}
 _METHOD = {"kind": _choice("mpm", "fem"), "cell_size": _positive, "grid_min": _vec3,
            "grid_max": _vec3, "fields": _choice("single", "multi"),
+           "field_contact": _choice("penalty", "grid"), "field_friction": _non_negative,
            "transfer": _choice("apic", "pic", "flip"), "flip_blend": _unit_interval}
 _SOLVE = {"kind": _choice("static", "dynamic"), "load_steps": _int(1),
           "tolerance": _number(0, 0.1, lo_open=True), "max_steps_per_load_step": _int(1),
@@ -1700,6 +1706,10 @@ class _SceneParser:
             self.error(f"[method].{missing}", "missing required key (grid_min and grid_max come together)")
         self.check_order("[method]", v.get("grid_min"), v.get("grid_max"), ("grid_min", "grid_max"),
                          strict=True)
+        if v.get("field_contact") == "grid" and v.get("fields") != "multi":
+            self.error("[method].field_contact", '"grid" acts between the fields of a multi-field grid: set fields = "multi"')
+        if "field_friction" in data and v.get("field_contact") != "grid":
+            self.error("[method].field_friction", 'the friction of the grid contact condition: set field_contact = "grid"')
         return self.build(mark, Method, v)
 
     def nodesets(self, data: Any) -> list[NodeSet | None]:

@@ -643,7 +643,8 @@ class Simulation:
         """The grid's memory (stages/grid.py): slots taken now and in the pool, grid-node
         bytes, collections so far; with the multi-field grid, joins of a full grid node."""
         g = self.state.grid
-        per_node = 8 * (4 + 3 * self.cfg.grid_force) * (MAX_FIELDS if self.cfg.multi_field else 1)
+        per_node = (8 * (4 + 3 * self.cfg.grid_force + 6 * self.cfg.grid_contact)
+                    * (MAX_FIELDS if self.cfg.multi_field else 1))
         out = {"slots_used": int(g.slot_count[None]), "slots": int(self.state.grid_slots),
                "bytes": int(self.state.grid_slots * (per_node + 12 * 4 + 4 * MAX_FIELDS * self.cfg.multi_field)),
                "collections": int(g.collections[None])}

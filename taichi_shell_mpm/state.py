@@ -541,6 +541,9 @@ class State:
         g.table("field_overflow", ti.field(i32), (), used=multi, persistent=False)   # joins of a full node
         g.entity("anchor", ti.field(i32), slots if multi else 0, (MAX_FIELDS,), used=multi, host=False)
         g.entity("node_fields", ti.field(i32), n, used=multi, host=False)
+        touch = multi and fx.grid_contact               # the grid contact condition's t_c and mu
+        g.table("field_gap", ti.field(f64), (), used=touch)
+        g.table("field_friction", ti.field(f64), (), used=touch)
         # mass, momentum (without grid_force: p + dt f, stages/grid.py), force: an array of
         # structures, one grid node's data in one cache line.  Never read or written by the
         # host: zero between steps.
@@ -550,6 +553,10 @@ class State:
         if fx.grid_force:
             g.force = ti.Vector.field(3, f64)
             placed.append(g.force)
+        if touch:        # per field: sum N m x and sum N m n (the grid contact condition)
+            g.field_position = ti.Vector.field(3, f64)
+            g.field_normal = ti.Vector.field(3, f64)
+            placed += [g.field_position, g.field_normal]
         g._builder.dense(ti.i, slots * (MAX_FIELDS if multi else 1)).place(*placed)
         for group in (self.nodes, self.elements, self.sections, self.step, self.bodies, self.loads, self.tools, contact,
                       self.points, grid):
@@ -672,6 +679,9 @@ class State:
             w(gg.node_base, np.full((n, 3), NO_CELL, np.int32))      # every node looks its slots up
             if self.features.multi_field:
                 gg.field_radius_sq[None] = (FIELD_RADIUS_CELLS * geo.h) ** 2
+                if self.features.grid_contact:
+                    gg.field_gap[None] = model.parameters.field_gap
+                    gg.field_friction[None] = model.parameters.field_friction
                 part = np.full(n, np.iinfo(np.int32).max, np.int64)
                 np.minimum.at(part, model.elements[model.elements >= 0],
                               np.repeat(model.element.part, 4)[model.elements.ravel() >= 0])

@@ -406,6 +406,10 @@ def test_cross_checks(scene_dir):
         "[section].points: expected an integer in [2, 10] for rule = lobatto, got 1")
     one({"method.grid_min": [0, 1, 0]}, "[method]: expected grid_min < grid_max in every component, "
                                         "got grid_min = [0.0, 1.0, 0.0], grid_max = [11.0, 1.0, 8.0]")
+    one({"method.field_contact": "grid"}, '[method].field_contact: "grid" acts between the fields of a '
+        'multi-field grid: set fields = "multi"')
+    one({"method.fields": "multi", "method.field_friction": 0.3},
+        '[method].field_friction: the friction of the grid contact condition: set field_contact = "grid"')
     one({"mesh.corner_radius": 20}, "[mesh].corner_radius: expected a number < min(width, depth)/2 = 20, "
                                     "got 20", base=TUBE_SCENE)
     one({"mesh.n_corner": 0}, "[mesh].n_corner: expected an integer >= 1 when corner_radius > 0, got 0",

@@ -55,10 +55,37 @@ g at f * capacity + g).  In P2G each shell node takes, at each of its 8 grid nod
 first field opened by a node of its layer (:meth:`same_layer`: same part, reference
 positions within FIELD_RADIUS_CELLS cells, nodal normals on one side), else opens a free
 one; G2P and the clear read the same fields.  Layers closer than a cell thus keep their
-own velocities; they interact only through [contact] (the penalty forces enter P2G as
-nodal forces), not through a grid contact condition.  The per-node indices are scalar
+own velocities; by default ([method].field_contact = "penalty") they interact only through
+[contact] (the penalty forces enter P2G as nodal forces).  The per-node indices are scalar
 fields (node_slots[c, q], anchor[g, f]): with vector fields indexed at run time, the
 multi-field step segfaulted in its first batch on Taichi 1.7 (CPU), in debug mode too.
+
+Grid contact condition (field_contact = "grid", compiled only then; :meth:`GridUpdate.contact`,
+Bardenhagen et al. 2000, 2001): where a grid node has two or more fields with mass, a field
+approaching the others' centre of mass loses the normal part of its velocity relative to it
+(perfectly plastic) and its slip is slowed by Coulomb friction, mu times that normal change,
+down to sticking; applied to v+ where G2P reads it.  P2G adds per field sum N m x and sum N m n
+(n: the node's unit shell normal), 6 doubles per field.  Three choices, each measured on two
+sheets at h = 2t (docs/contact.md, tests/test_grid.py):
+* The normal is the pair's (Homel & Herbold 2017), n = normalize(n_a - n_rest), from the fields'
+  shell normals each turned towards the other field's centroid, not from the mass gradients
+  sum N m grad N: two sheets inside one cell have no grid node between them, and there each
+  sheet's trilinear mass gradient points at the same grid node (its normal component does
+  not depend on where in the cell the sheet is), so their difference carries no side.
+* Contact only where the fields' centroids are closer than t_c along n (a separation test, as
+  Nairn's MPM codes make): without it the condition acts as soon as two layers share a grid
+  node, and two sheets (t = 0.02 or 0.125, h = 0.25) met at a gap of 0.249 (one cell) and
+  stayed 0.241 apart; with it they meet at 0.1247 (t = 0.125) and 0.0193 (t = 0.02).
+* A shell node whose velocity the condition changed carries no affine velocity (C = 0, PIC
+  for that node and step): the condition corrects a layer's field only at the grid nodes it
+  shares with another, and APIC's C kept the velocity of the others (those on the far side of
+  the sheet, those the other layer's nodes do not reach) for good, so that stacked sheets
+  ended still approaching at 0.034 (upper -0.117, lower -0.083) instead of both at -0.1.
+  Dropping only the gradient across the sheet, C (1 - n n^T), fixed the stacked sheets but not
+  the shifted ones of tests/test_grid.py (closest upper node over the lower sheet 0.041 for
+  t = 0.125, through it for t = 0.02; with C = 0: 0.116 and 0.017).
+The kinetic energy it removes is booked as contact energy, the node's share of the impulse,
+-m dv . v_mid, like a wall's (energy.py): the stacked sheets' balance closes to 1e-16.
 
 The update is evaluated where G2P reads a node (:meth:`GridUpdate.velocities`) rather
 than in a loop of its own over a list of touched nodes [choice, measured in the note of
@@ -270,6 +297,64 @@ class GridUpdate:
         return v_minus, v_plus, f, inv_mass
 
     @ti.func
+    def contact(self, slot, f, idx, v_plus):
+        """Field f's v+ at the grid node in slot `slot` after the grid contact condition
+        (Bardenhagen et al. 2000, 2001; module docstring).  With the centre-of-mass velocity
+        v_cm = sum m_b v+_b / sum m_b over the fields with mass and the pair's normal n (from a
+        to the rest), field a approaching, dv = v_a - v_cm, (dv . n) > 0, within t_c (the
+        centroids' distance along n below field_gap) gets
+            v_a' = v_a - (dv . n) n - min(1, mu (dv . n) / |dv_t|) dv_t,   dv_t = dv - (dv . n) n:
+        the approach removed (perfectly plastic), the slip slowed by Coulomb friction, or the
+        common v_cm where friction sticks.  Between two fields the impulses are equal and
+        opposite (n_b = -n_a), so the node's momentum is kept."""
+        m_tot = 0.0
+        p_tot = ti.Vector([0.0, 0.0, 0.0])
+        x_tot = ti.Vector([0.0, 0.0, 0.0])
+        count = 0
+        for b in ti.static(range(MAX_FIELDS)):
+            g = self.address(slot, b)
+            _v_minus, v_b, _f, inv_b = self.velocities(g, idx)
+            if inv_b > 0.0:
+                m_b = self.s.grid.mass[g]
+                m_tot += m_b
+                p_tot += m_b * v_b
+                x_tot += self.s.grid.field_position[g]
+                count += 1
+        out = v_plus
+        g_a = self.address(slot, f)
+        m_a = self.s.grid.mass[g_a]
+        if count > 1 and m_a > self.s.step.mass_floor[None]:
+            x_a = self.s.grid.field_position[g_a] / m_a
+            x_rest = (x_tot - self.s.grid.field_position[g_a]) / (m_tot - m_a)
+            # the pair's normal: each field's shell normal turned towards the other side,
+            # n = normalize(n_a - n_rest) (Homel & Herbold 2017: one normal for the pair)
+            n_a = self.s.grid.field_normal[g_a]
+            if n_a.dot(x_rest - x_a) < 0.0:
+                n_a = -n_a
+            n_rest = ti.Vector([0.0, 0.0, 0.0])
+            for b in ti.static(range(MAX_FIELDS)):
+                g = self.address(slot, b)
+                m_b = self.s.grid.mass[g]
+                if b != f and m_b > self.s.step.mass_floor[None]:
+                    n_b = self.s.grid.field_normal[g]
+                    if n_b.dot(x_a - self.s.grid.field_position[g] / m_b) < 0.0:
+                        n_b = -n_b
+                    n_rest += n_b
+            n = n_a.normalized(1e-300) - n_rest.normalized(1e-300)
+            if n.norm_sqr() > 0.0:
+                n = n.normalized()
+                dv = v_plus - p_tot / m_tot
+                approach = dv.dot(n)
+                if approach > 0.0 and (x_rest - x_a).dot(n) < self.s.grid.field_gap[None]:
+                    slip = dv - approach * n
+                    slip_speed = slip.norm()
+                    stick = 1.0
+                    if self.s.grid.field_friction[None] * approach < slip_speed:
+                        stick = self.s.grid.field_friction[None] * approach / slip_speed
+                    out = v_plus - approach * n - stick * slip
+        return out
+
+    @ti.func
     def clear(self, c):
         """Zero the 8 grid nodes of node c's stencil (the fields it used, and the openers)."""
         for i, j, k in ti.static(ti.ndrange(2, 2, 2)):
@@ -282,3 +367,6 @@ class GridUpdate:
             self.s.grid.momentum[g] = ti.Vector([0.0, 0.0, 0.0])
             if ti.static(self.cfg.grid_force):
                 self.s.grid.force[g] = ti.Vector([0.0, 0.0, 0.0])
+            if ti.static(self.cfg.grid_contact):
+                self.s.grid.field_position[g] = ti.Vector([0.0, 0.0, 0.0])
+                self.s.grid.field_normal[g] = ti.Vector([0.0, 0.0, 0.0])

@@ -156,6 +156,9 @@ class Mapping:
         if ti.static(not self.cfg.grid_force):
             momentum += impulse_time(self.s.step) * force      # p + dt f (stages/timestep.py)
         affine_m = mass * affine_h
+        place, facing = ti.Vector([0.0, 0.0, 0.0]), ti.Vector([0.0, 0.0, 0.0])
+        if ti.static(self.cfg.grid_contact):        # m x and m n of the grid contact condition (stages/grid.py)
+            place, facing = mass * self.s.nodes.position[c], mass * self.s.nodes.normal_sum[c].normalized()
         if ti.static(self.cfg.multi_field and not self.cfg.atomic_scatter):
             self.grid.claim(c)
         for i, j, k in ti.static(ti.ndrange(2, 2, 2)):
@@ -170,6 +173,9 @@ class Mapping:
             self.grid_acc.add(self.s.grid.momentum, g, n * p)
             if ti.static(self.cfg.grid_force):
                 self.grid_acc.add(self.s.grid.force, g, n * force)
+            if ti.static(self.cfg.grid_contact):
+                self.grid_acc.add(self.s.grid.field_position, g, n * place)
+                self.grid_acc.add(self.s.grid.field_normal, g, n * facing)
 
     @ti.func
     def particles_to_grid(self):
@@ -204,10 +210,16 @@ class Mapping:
                 v_delta = ti.Vector([0.0, 0.0, 0.0])
                 affine = ti.Matrix.zero(ti.f64, 3, 3)
                 massive_grad = ti.Vector([0.0, 0.0, 0.0])
+                v_contact = ti.Vector([0.0, 0.0, 0.0])
                 for i, j, k in ti.static(ti.ndrange(2, 2, 2)):
                     n, grad = self.weight(w, i, j, k)
                     g = self.grid.address(self.grid.corner(c, i, j, k), self.grid.field_of(c, 4 * i + 2 * j + k))
                     v_minus, v_plus, f, inv_mass = self.grid.velocities(g, base + ti.Vector([i, j, k]))
+                    if ti.static(self.cfg.grid_contact):
+                        v_touch = self.grid.contact(self.grid.corner(c, i, j, k), self.grid.field_of(c, 4 * i + 2 * j + k),
+                                                    base + ti.Vector([i, j, k]), v_plus)
+                        v_contact += n * (v_touch - v_plus)
+                        v_plus = v_touch
                     massive = inv_mass > 0.0
                     v_grid += n * v_plus
                     if ti.static(self.cfg.static):
@@ -227,6 +239,11 @@ class Mapping:
                     # plane) carries no velocity, so it must not pull C towards -v/h.
                     # Identical to sum v+_I grad N_I^T when all 8 nodes have mass.
                     affine -= v_grid.outer_product(massive_grad)
+                    if ti.static(self.cfg.grid_contact):
+                        if v_contact.norm_sqr() > 0.0:
+                            # a node the grid contact moved carries no affine velocity
+                            # [choice, measured: stages/grid.py]
+                            affine = ti.Matrix.zero(ti.f64, 3, 3)
                 carried = v_grid
                 if ti.static(self.cfg.transfer == "flip"):
                     a = self.s.step.flip_blend[None]
@@ -234,6 +251,10 @@ class Mapping:
                 if ti.static(self.cfg.transfer == "apic"):
                     self.s.nodes.affine[c] = affine
                 self.s.nodes.velocity[c] = carried
+                if ti.static(self.cfg.grid_contact):
+                    # the grid contact's work, booked like a wall's: its impulse m dv . v_mid (energy.py)
+                    v_mid = 0.5 * (self.s.step.velocity_keep[None] * self.s.nodes.grid_velocity[c] + v_grid)
+                    self.nodes.energy.node(c, 0.0, -mass * v_contact.dot(v_mid), 0.0, 0.0)
             self.nodes.finish(c, v_grid)
 
     @ti.func
