@@ -118,7 +118,7 @@ def test_contact_restart_is_bit_for_bit(tmp_path, monkeypatch):
     args = [str(ROOT / "scenes" / "square_tube.toml")]
     for item in [*SHORT[:5], "solve.end_time=2.0", "output.times=[1.0]", "output.history_interval=0.05"]:
         args += ["--set", item]
-    # 768 elements, 1000-step batches; ~6 600 steps to 2 ms (the drilling spring halved the count)
+    # 768 elements, batches of 1 440 000 element-steps (1875 steps); ~6 600 steps to 2 ms (the drilling spring halved the count)
     stopped, periodic = restart_roundtrip(tmp_path, monkeypatch, args, stop_step=5500, every=3000,
                                           batch_element_steps=1_440_000)
     summary = json.loads((tmp_path / "a" / "summary.json").read_text())
