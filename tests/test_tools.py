@@ -215,17 +215,23 @@ GEOMETRY_TOOLS = {
 }
 
 
-def test_signed_distance_and_normal_of_each_kind(tmp_path):
-    """Each kind's signed distance and outward normal at random points near its surface
-    against the closed form (the mesh: a cube, whose nearest facet gives the box's distance).
-    Only the tools' functions are compiled (a probe kernel), not the step with all five kinds."""
+def tools_only(tmp_path, text: str):
+    """(model, state, tools stage) of the scene `text` without compiling its step: the
+    geometry tests compile only their probe kernel (_probe)."""
     init_taichi("cpu")
-    scene = load_scene(write(tmp_path, scene_text(GEOMETRY_TOOLS, end_time=1e-4)))
+    scene = load_scene(write(tmp_path, text))
     model = assemble(scene, build_mesh(scene.mesh))
     cfg = Features.from_scene(scene, model, "batched")
     state = State(model, cfg)
     state.load(model)
-    tools = Stepper(state, cfg, model).tools
+    return model, state, Stepper(state, cfg, model).tools
+
+
+def test_signed_distance_and_normal_of_each_kind(tmp_path):
+    """Each kind's signed distance and outward normal at random points near its surface
+    against the closed form (the mesh: a cube, whose nearest facet gives the box's distance).
+    Only the tools' functions are compiled (a probe kernel), not the step with all five kinds."""
+    model, _, tools = tools_only(tmp_path, scene_text(GEOMETRY_TOOLS, end_time=1e-4))
     rng = np.random.default_rng(7)
     names = list(model.tools.names)
     centres = {"ball": (0.3, 0, 0), "roller": (-0.3, 0, 0), "board": (0, 0.3, 0), "floor": (0, -0.3, 0),
@@ -268,21 +274,19 @@ def test_mesh_bucket_grid_finds_what_brute_force_finds(tmp_path):
         close = np.flatnonzero(np.max(np.linalg.norm(x - q[i], axis=2), axis=1) <= reach)
         assert set(close.tolist()) <= listed
     per_bucket = np.diff(start)
-    init_taichi("cpu")
     text = scene_text({"ball": 'kind = "mesh"\nfile = "ball.stl"\ncenter = [0, 0, 3]'}, end_time=1e-4)
-    sim = Simulation(load_scene(write(tmp_path, text)), tmp_path / "out", quiet=True)
-    tools = sim.stepper.tools
-    k = list(sim.model.tools.names).index("ball")
+    model, state, tools = tools_only(tmp_path, text)
+    k = list(model.tools.names).index("ball")
     points = q + np.array([0.0, 0.0, 3.0])
     timing, results = {}, {}
     for mode in ("buckets", "brute force"):
         if mode == "brute force":        # one bucket holding every facet
-            g = sim.state.tools
-            first = int(sim.model.tools.tri_first[k])
+            g = state.tools
+            first = int(model.tools.tri_first[k])
             g.grid_lo[k], g.grid_h[k], g.grid_dims[k] = (-10.0, -10.0, -10.0), 100.0, (1, 1, 1)
             g.bucket_first[k] = 0
-            sim.state.write(g.bucket_start, np.array([0, len(tri)], np.int32))
-            sim.state.write(g.bucket_items, np.arange(first, first + len(tri), dtype=np.int32))
+            state.write(g.bucket_start, np.array([0, len(tri)], np.int32))
+            state.write(g.bucket_items, np.arange(first, first + len(tri), dtype=np.int32))
         out = np.zeros((len(points), 5))
         _probe(tools, k, points[:10], out[:10])        # compiled
         t0 = time.perf_counter()
