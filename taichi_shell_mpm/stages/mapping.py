@@ -213,11 +213,11 @@ class Mapping:
                 v_contact = ti.Vector([0.0, 0.0, 0.0])
                 for i, j, k in ti.static(ti.ndrange(2, 2, 2)):
                     n, grad = self.weight(w, i, j, k)
-                    g = self.grid.address(self.grid.corner(c, i, j, k), self.grid.field_of(c, 4 * i + 2 * j + k))
+                    slot, field = self.grid.corner(c, i, j, k), self.grid.field_of(c, 4 * i + 2 * j + k)
+                    g = self.grid.address(slot, field)
                     v_minus, v_plus, f, inv_mass = self.grid.velocities(g, base + ti.Vector([i, j, k]))
                     if ti.static(self.cfg.grid_contact):
-                        v_touch = self.grid.contact(self.grid.corner(c, i, j, k), self.grid.field_of(c, 4 * i + 2 * j + k),
-                                                    base + ti.Vector([i, j, k]), v_plus)
+                        v_touch = self.grid.contact(slot, field, base + ti.Vector([i, j, k]), v_plus)
                         v_contact += n * (v_touch - v_plus)
                         v_plus = v_touch
                     massive = inv_mass > 0.0
