@@ -19,7 +19,7 @@ from .tools import TOOL_KINDS
 @dataclass(frozen=True)
 class Features:
     method: str                 # "mpm" | "fem"
-    transfer: str               # "apic" | "pic" | "flip" (mpm)
+    transfer: str               # "apic" | "polypic" | "pic" | "flip" (mpm)
     static: bool                # dynamic relaxation (method.md 6)
     fire: bool                  # static: FIRE velocity mixing instead of plain kinetic damping
     points: int                 # through-thickness points: the most of any section
@@ -81,6 +81,18 @@ class Features:
         FLIP needs v- and v+ separately, statics the grid residual; APIC and PIC dynamics
         scatter p + dt f in one field."""
         return self.transfer == "flip" or self.static
+
+    @property
+    def affine_transfer(self) -> bool:
+        """The nodes carry an affine velocity C_c to the grid (APIC, and PolyPIC's first modes;
+        stages/mapping.py)."""
+        return self.method == "mpm" and self.transfer in ("apic", "polypic")
+
+    @property
+    def velocity_modes(self) -> bool:
+        """The nodes also carry the bilinear and trilinear velocity modes of their cell
+        (PolyPIC, stages/mapping.py)."""
+        return self.method == "mpm" and self.transfer == "polypic"
 
     @property
     def tools(self) -> bool:

@@ -304,7 +304,7 @@ class Method:
     grid_max: Vec3 | None = None
     """Optional grid box: a node leaving it stops the run; None = unbounded (the grid follows
     the shell, stages/grid.py)."""
-    transfer: Literal["apic", "pic", "flip"] = "apic"
+    transfer: Literal["apic", "polypic", "pic", "flip"] = "apic"
     flip_blend: float = 0.99
     fields: Literal["single", "multi"] = "single"
     """Velocity fields per grid node (stages/grid.py): ``multi`` keeps a field per shell layer
@@ -1138,7 +1138,7 @@ _ELEMENT = {"hourglass": _unit_interval, "w_hourglass": _choice("kirchhoff", "bt
 _METHOD = {"kind": _choice("mpm", "fem"), "cell_size": _positive, "grid_min": _vec3,
            "grid_max": _vec3, "fields": _choice("single", "multi"),
            "field_contact": _choice("penalty", "grid"), "field_friction": _non_negative,
-           "transfer": _choice("apic", "pic", "flip"), "flip_blend": _unit_interval}
+           "transfer": _choice("apic", "polypic", "pic", "flip"), "flip_blend": _unit_interval}
 _SOLVE = {"kind": _choice("static", "dynamic"), "load_steps": _int(1),
           "tolerance": _number(0, 0.1, lo_open=True), "max_steps_per_load_step": _int(1),
           "end_time": _non_negative, "dt_safety": _fraction,

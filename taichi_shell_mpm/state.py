@@ -200,7 +200,10 @@ class State:
         g.entity("body", ti.field(i32), n)             # rigid body of the node, -1 = none
         g.entity("energy", ti.Vector.field(4, f64), n)  # external work, contact, wall, motion (energy.py)
         g.entity("affine", ti.Matrix.field(3, 3, f64), n,   # C_c (method.md 2.2)
-                 used=fx.transfer == "apic" and fx.method == "mpm")
+                 used=fx.affine_transfer)
+        # PolyPIC's higher velocity modes (stages/mapping.py): columns d2v/dxdy, d2v/dydz,
+        # d2v/dzdx, d3v/dxdydz
+        g.entity("velocity_modes", ti.Matrix.field(3, 4, f64), n, used=fx.velocity_modes)
         # sum_e A_e e3 and sum_e A_e: the nodal normal of the drilling projection (method.md 2.3)
         # and of the multi-field grid's layer test (stages/grid.py)
         g.entity("normal_sum", ti.Vector.field(3, f64), n, used=fx.nodal_normals)

@@ -158,8 +158,13 @@ def test_contact_on_a_grid_as_coarse_as_the_elements_warns():
     tube = str(ROOT / "scenes" / "square_tube.toml")
     coarse = cli_run("validate", tube, "--set", "method.cell_size=5")
     assert coarse.code == 0 and "stick through the grid" in coarse.out + coarse.err
+    multi = cli_run("validate", tube, "--set", "method.cell_size=5", "--set", "method.fields=multi")
+    assert multi.code == 0 and "apic transfer dissipates" in multi.out + multi.err
+    polypic = cli_run("validate", tube, "--set", "method.cell_size=5", "--set", "method.fields=multi",
+                      "--set", "method.transfer=polypic")
     fine = cli_run("validate", tube)
-    assert fine.code == 0 and "stick" not in fine.out + fine.err
+    for r in (polypic, fine):
+        assert r.code == 0 and "cell_size" not in r.out + r.err
 
 
 def test_contact_candidate_overflow_stops_cleanly(tmp_path):

@@ -292,7 +292,7 @@ BAD_VALUES = [  # (dotted path, value, expected message after "case.toml: ")
                          "got '..'"),
     ("scene.units", " ", "[scene].units: expected a non-empty string, got ' '"),
     ("element.hourglass", 1.5, "[element].hourglass: expected a number in [0, 1], got 1.5"),
-    ("method.transfer", "apci", "[method].transfer: expected one of apic, pic, flip, got 'apci' "
+    ("method.transfer", "apci", "[method].transfer: expected one of apic, polypic, pic, flip, got 'apci' "
                                 "(did you mean 'apic'?)"),
     ("method.cell_size", 0, "[method].cell_size: expected a number > 0, got 0"),
     ("boundary.1.fix", ["ux", "uw"], "[[boundary]][1].fix: unknown DOF 'uw' (expected some of "

@@ -3,8 +3,17 @@
 Element -> corner is done once (frozen CPDI2 weights give the corner masses, see
 :func:`taichi_shell_mpm.assembly.cpdi2_weights`); here the corners map to the grid with
 trilinear functions and back.  Transfer (compile-time): ``apic`` (affine corner
-velocity C_c, conserves angular momentum; default), ``pic``, or ``flip`` blended with
-PIC by ``flip_blend``.
+velocity C_c, conserves angular momentum; default), ``polypic``, ``pic``, or ``flip``
+blended with PIC by ``flip_blend``.
+
+``polypic`` (Fu et al. 2017, "A polynomial particle-in-cell method", ACM TOG 36(6)) with
+every mode of the trilinear stencil: besides v_c and C_c a node carries its cell's
+bilinear and trilinear velocity modes (d2v/dxdy, d2v/dydz, d2v/dzdx, d3v/dxdydz), so
+that G2P keeps the whole trilinear field of the cell it read and P2G hands each grid node
+back the velocity that field has there.  Grid -> nodes -> grid is then the identity for
+nodes that stay in their cell, which APIC is only for affine grid fields: at one cell per
+element (h = l) the part of a node-scale wave that is not affine over a cell is what
+APIC's round trip dissipates (docs/grid.md).
 
 Each free node finds its stencil's 8 grid nodes through the grid's hash
 (stages/grid.py) only when its base cell changes; P2G, G2P and the clear address them
@@ -139,7 +148,9 @@ class Mapping:
         """S2 for node c: m_I += N m_c, p_I += N m_c (v_c + C_c (X_I - x_c)), f_I += N (f_ext - f_int)_c
         (or p_I += N (m_c (v_c + C_c (X_I - x_c)) + dt f_c) without a grid force field).
         With APIC, v_c + C_c (X_I - x_c) = (v_c - h C_c r) + h C_c (i, j, k) for the cell
-        corner (i, j, k) and fractional position r: one product per node, additions per corner."""
+        corner (i, j, k) and fractional position r: one product per node, additions per corner.
+        PolyPIC adds the mixed modes at the corner's offset from the node in cells, d = (i, j, k)
+        - r: h^2 (d2v/dxdy d_x d_y + d2v/dydz d_y d_z + d2v/dzdx d_z d_x) + h^3 d3v/dxdydz d_x d_y d_z."""
         _base, frac, _inside = self.stencil(self.s.nodes.position[c])
         w = self.axis_weights(frac)
         mass = self.s.nodes.mass[c]
@@ -149,9 +160,14 @@ class Mapping:
         if ti.static(self.cfg.fire):
             vel += (self.s.step.fire_mix[None] / mass) * force    # FIRE mixing (solvers/stepper.py)
         affine_h = ti.Matrix.zero(ti.f64, 3, 3)
-        if ti.static(self.cfg.transfer == "apic"):
+        if ti.static(self.cfg.affine_transfer):
             affine_h = (keep * self.s.grid.h[None]) * self.s.nodes.affine[c]
             vel -= affine_h @ frac
+        modes_m = ti.Matrix.zero(ti.f64, 3, 4)       # in cell units: h^2 d2v, h^3 d3v
+        if ti.static(self.cfg.velocity_modes):
+            h = self.s.grid.h[None]
+            modes_m = (keep * mass) * self.s.nodes.velocity_modes[c] @ ti.Matrix(
+                [[h * h, 0.0, 0.0, 0.0], [0.0, h * h, 0.0, 0.0], [0.0, 0.0, h * h, 0.0], [0.0, 0.0, 0.0, h * h * h]])
         momentum = mass * vel
         if ti.static(not self.cfg.grid_force):
             momentum += impulse_time(self.s.step) * force      # p + dt f (stages/timestep.py)
@@ -165,10 +181,14 @@ class Mapping:
             n, _ = self.weight(w, i, j, k)
             g = self.grid.address(self.grid.corner(c, i, j, k), self.grid.field_of(c, 4 * i + 2 * j + k))
             p = momentum
-            if ti.static(self.cfg.transfer == "apic"):
+            if ti.static(self.cfg.affine_transfer):
                 for d, on in ti.static(enumerate((i, j, k))):
                     if ti.static(on):
                         p += ti.Vector([affine_m[0, d], affine_m[1, d], affine_m[2, d]])
+            if ti.static(self.cfg.velocity_modes):
+                # the cell's mixed terms at the corner's offset r = (i, j, k) - frac from the node
+                r = ti.Vector([i, j, k], ti.f64) - frac
+                p += modes_m @ ti.Vector([r[0] * r[1], r[1] * r[2], r[2] * r[0], r[0] * r[1] * r[2]])
             self.grid_acc.add(self.s.grid.mass, g, n * mass)
             self.grid_acc.add(self.s.grid.momentum, g, n * p)
             if ti.static(self.cfg.grid_force):
@@ -210,6 +230,8 @@ class Mapping:
                 v_delta = ti.Vector([0.0, 0.0, 0.0])
                 affine = ti.Matrix.zero(ti.f64, 3, 3)
                 massive_grad = ti.Vector([0.0, 0.0, 0.0])
+                modes = ti.Matrix.zero(ti.f64, 3, 4)
+                massive_mixed = ti.Vector([0.0, 0.0, 0.0, 0.0])
                 v_contact = ti.Vector([0.0, 0.0, 0.0])
                 for i, j, k in ti.static(ti.ndrange(2, 2, 2)):
                     n, grad = self.weight(w, i, j, k)
@@ -229,27 +251,43 @@ class Mapping:
                             self.acc.total(self.s.step.residual_sq, (n * mass * inv_mass) * f.norm_sqr())
                     if ti.static(self.cfg.transfer == "flip"):
                         v_delta += n * (v_plus - v_minus)
-                    if ti.static(self.cfg.transfer == "apic"):
+                    if ti.static(self.cfg.affine_transfer):
                         affine += v_plus.outer_product(grad)
                         if massive:
                             massive_grad += grad
-                if ti.static(self.cfg.transfer == "apic"):
+                    if ti.static(self.cfg.velocity_modes):
+                        # d/dr of the trilinear field at the node's frac (cell units)
+                        mixed = ti.Vector([(2 * i - 1) * (2 * j - 1) * w[k, 2], (2 * j - 1) * (2 * k - 1) * w[i, 0],
+                                           (2 * k - 1) * (2 * i - 1) * w[j, 1], (2 * i - 1) * (2 * j - 1) * (2 * k - 1)])
+                        modes += v_plus.outer_product(mixed)
+                        if massive:
+                            massive_mixed += mixed
+                if ti.static(self.cfg.affine_transfer):
                     # C = sum over nodes with mass of (v+_I - v~_c) grad N_I^T [choice]: a
                     # massless node (weight 0, gradient not 0: a corner sitting on a grid
                     # plane) carries no velocity, so it must not pull C towards -v/h.
-                    # Identical to sum v+_I grad N_I^T when all 8 nodes have mass.
+                    # Identical to sum v+_I grad N_I^T when all 8 nodes have mass.  The
+                    # higher modes likewise (their weights, like the gradient's, sum to 0).
                     affine -= v_grid.outer_product(massive_grad)
+                    if ti.static(self.cfg.velocity_modes):
+                        h = self.s.grid.h[None]
+                        modes -= v_grid.outer_product(massive_mixed)
+                        modes = modes @ ti.Matrix([[1.0 / (h * h), 0.0, 0.0, 0.0], [0.0, 1.0 / (h * h), 0.0, 0.0],
+                                                   [0.0, 0.0, 1.0 / (h * h), 0.0], [0.0, 0.0, 0.0, 1.0 / (h * h * h)]])
                     if ti.static(self.cfg.grid_contact):
                         if v_contact.norm_sqr() > 0.0:
                             # a node the grid contact moved carries no affine velocity
                             # [choice, measured: stages/grid.py]
                             affine = ti.Matrix.zero(ti.f64, 3, 3)
+                            modes = ti.Matrix.zero(ti.f64, 3, 4)
                 carried = v_grid
                 if ti.static(self.cfg.transfer == "flip"):
                     a = self.s.step.flip_blend[None]
                     carried = a * (self.s.step.velocity_keep[None] * self.s.nodes.velocity[c] + v_delta) + (1.0 - a) * v_grid
-                if ti.static(self.cfg.transfer == "apic"):
+                if ti.static(self.cfg.affine_transfer):
                     self.s.nodes.affine[c] = affine
+                if ti.static(self.cfg.velocity_modes):
+                    self.s.nodes.velocity_modes[c] = modes
                 self.s.nodes.velocity[c] = carried
                 if ti.static(self.cfg.grid_contact):
                     # the grid contact's work, booked like a wall's: its impulse m dv . v_mid (energy.py)

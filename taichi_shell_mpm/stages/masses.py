@@ -119,8 +119,10 @@ class MassUpdate:
                     self.s.nodes.grid_velocity[c] = ti.Vector([0.0, 0.0, 0.0])
                     self.s.nodes.velocity[c] = ti.Vector([0.0, 0.0, 0.0])
                     self.s.nodes.omega[c] = ti.Vector([0.0, 0.0, 0.0])
-                    if ti.static(self.cfg.transfer == "apic" and self.cfg.method == "mpm"):
+                    if ti.static(self.cfg.affine_transfer):
                         self.s.nodes.affine[c] = ti.Matrix.zero(ti.f64, 3, 3)
+                    if ti.static(self.cfg.velocity_modes):
+                        self.s.nodes.velocity_modes[c] = ti.Matrix.zero(ti.f64, 3, 4)
                 self.s.nodes.mass[c] = mass
                 self.s.nodes.inertia[c] = inertia
 
