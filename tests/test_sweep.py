@@ -195,7 +195,14 @@ def test_ctrl_c_stops_the_study_cleanly(tmp_path):
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path, env=env(),
                             start_new_session=True)
     first = proc.stdout.readline() + proc.stdout.readline()      # "N case(s) to run", then the cluster line
-    time.sleep(3)
+    # wait until both cases run (each writes its run.log first): on a loaded machine the
+    # workers may still be starting seconds after the cluster line (a fixed 3 s wait once sent
+    # the SIGINT before the cases ran, and the sweep finished both)
+    deadline = time.perf_counter() + 300
+    while len(list((out / "cases").glob("*/run.log"))) < 2 and time.perf_counter() < deadline \
+            and proc.poll() is None:
+        time.sleep(0.1)
+    time.sleep(1)
     t0 = time.perf_counter()
     os.killpg(proc.pid, signal.SIGINT)
     stdout, stderr = proc.communicate(timeout=600)

@@ -107,7 +107,13 @@ def tube_cases(end_time: float | None = None) -> list[Case]:
             Case(f"tube_5mm_fem{tag}", "tube", "10/2/60", "fem", None, 5.0, ("method.kind=fem",) + end),
             Case(f"tube_2.5mm_mpm{tag}", "tube", "20/4/120", "mpm", 0.5, 2.5,
                  ("method.kind=mpm", "mesh.n_flat=20", "mesh.n_corner=4", "mesh.n_length=120",
-                  "method.cell_size=1.25") + end)]
+                  "method.cell_size=1.25") + end),
+            # one cell per element (issue 20, docs/grid.md): on one field with APIC the folds glue
+            # and the impact's wave is filtered; multi fields with PolyPIC keep both
+            Case(f"tube_5mm_mpm_h5{tag}", "tube", "10/2/60", "mpm", 1.0, 5.0,
+                 ("method.kind=mpm", "method.cell_size=5") + end),
+            Case(f"tube_5mm_mpm_h5_multi_polypic{tag}", "tube", "10/2/60", "mpm", 1.0, 5.0,
+                 ("method.kind=mpm", "method.cell_size=5", "method.fields=multi", "method.transfer=polypic") + end)]
 
 
 def scaling_cases(flats=SCALING_FLAT) -> list[Case]:
