@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .scene import DECK_SUFFIXES as DYNA_SUFFIXES, SceneError   # file endings read as decks (any case)
+from .scene import DECK_SUFFIXES as DYNA_SUFFIXES, SceneError  # noqa: F401 (re-exported: file endings read as decks, any case)
 
 MAX_INCLUDE_DEPTH = 20
 

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import math
 import os
-import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -145,6 +144,15 @@ def kernel_cache_dir() -> str:
     return str(kernel_cache_base() / digest.hexdigest()[:16])
 
 
+def prepare(scene: Scene, model: Model, launch: str) -> tuple[Features, State, Stepper]:
+    """The feature set, the state loaded from the model and the step's stages, before any
+    kernel is compiled (:class:`Simulation`; tests that use one stage alone)."""
+    cfg = Features.from_scene(scene, model, launch)
+    state = State(model, cfg)
+    state.load(model)
+    return cfg, state, Stepper(state, cfg, model)
+
+
 @dataclass
 class History:
     """Rows recorded at each output point (load step or output time)."""
@@ -167,10 +175,7 @@ class Simulation:
         self.mesh: Mesh = mesh if mesh is not None else build_mesh(scene.mesh)
         self.model: Model = model if model is not None else assemble(scene, self.mesh)
         launch = choose_launch(arch, len(self.model.elements), scene.solve.kind == "static")
-        self.cfg = Features.from_scene(scene, self.model, launch)
-        self.state = State(self.model, self.cfg)
-        self.state.load(self.model)
-        self.stepper = Stepper(self.state, self.cfg, self.model)
+        self.cfg, self.state, self.stepper = prepare(scene, self.model, launch)
         self._initial_geometry()
         t0, cpu0 = time.perf_counter(), time.process_time()
         self._compile()

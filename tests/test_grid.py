@@ -275,7 +275,7 @@ def test_grid_contact_sheets_meet_plastically_with_coulomb_friction(tmp_path):
     (0.3 x 0.1 m per sheet), takes 0.03 off the upper's slide and gives it to the lower's
     (0.07, 0.03); the kinetic energy lost, 1/2 m1 m2 / (m1 + m2) (0.2^2 + (0.1^2 - 0.04^2)),
     is the contact column.  No exchange before the mid-surfaces are t apart."""
-    t, h, gap, slide, approach, mu = 0.125, 0.25, 0.175, 0.1, -0.2, 0.3
+    t, gap, slide, approach, mu = 0.125, 0.175, 0.1, -0.2, 0.3      # (h = 0.25: SHEETS)
     touch = (gap - t) / -approach
     every = 0.005
     sheets_mesh(tmp_path / "sheets.vtu", gap, shift=0.0)

@@ -7,7 +7,6 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
-from pathlib import Path
 
 import meshio
 import numpy as np
@@ -245,7 +244,7 @@ def test_orthotropic_section_of_one_material_is_a_one_ply_laminate(tmp_path):
     (stress_a, force_a, moment_a), (stress_b, force_b, moment_b) = results
     differences = [np.abs(a - b).max() / np.abs(a).max()
                    for a, b in ((stress_a, stress_b), (force_a, force_b), (moment_a, moment_b))]
-    print(f"\nplain vs one-ply laminate: relative differences of stress, force, moment "
+    print("\nplain vs one-ply laminate: relative differences of stress, force, moment "
           + ", ".join(f"{d:.1e}" for d in differences))
     assert differences[0] < 1e-14
     assert max(differences[1:]) < 1e-12       # hourglass and drilling: the same moduli up to round-off

@@ -20,7 +20,6 @@ from pathlib import Path
 
 import meshio
 import numpy as np
-import pytest
 
 from taichi_shell_mpm import checkpoint
 from taichi_shell_mpm.solvers import static

@@ -17,13 +17,10 @@ import pytest
 import taichi as ti
 
 from taichi_shell_mpm.assembly import assemble
-from taichi_shell_mpm.config import Features
 from taichi_shell_mpm.mesh import build_mesh
 from taichi_shell_mpm.scene import SceneError, load_scene, parse_scene
-from taichi_shell_mpm.simulation import Simulation, init_taichi
+from taichi_shell_mpm.simulation import Simulation, init_taichi, prepare
 from taichi_shell_mpm.solvers.dynamic import run_dynamic
-from taichi_shell_mpm.solvers.stepper import Stepper
-from taichi_shell_mpm.state import State
 from taichi_shell_mpm.tools import bucket_grid, read_surface
 
 from .test_reliability import assert_clean_output, cli_run
@@ -221,10 +218,8 @@ def tools_only(tmp_path, text: str):
     init_taichi("cpu")
     scene = load_scene(write(tmp_path, text))
     model = assemble(scene, build_mesh(scene.mesh))
-    cfg = Features.from_scene(scene, model, "batched")
-    state = State(model, cfg)
-    state.load(model)
-    return model, state, Stepper(state, cfg, model).tools
+    _, state, stepper = prepare(scene, model, "batched")
+    return model, state, stepper.tools
 
 
 def test_signed_distance_and_normal_of_each_kind(tmp_path):
