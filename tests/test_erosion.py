@@ -355,3 +355,21 @@ def test_lsdyna_fail_and_tdel_become_erosion(tmp_path):
         prepare(write_scene(tmp_path, text.format("static", "[[load]]\nnodes = \"all\"\nforce = [0, 0, 1]\n")), [])
     assert err.value.messages == ["scene.toml: material 'mat_1': erosion (failure_strain, failure_min_dt; a deck's "
                                   'FAIL, TDEL) needs [solve].kind = "dynamic"']
+
+
+def test_restart_through_mass_scaling_and_erosion_is_bit_for_bit(tmp_path, monkeypatch):
+    """The pushed strip with a notch that fails at 10 % plastic strain: mass is added to it from
+    ~0.13 ms (its elements shorten below the target step) and it erodes at ~0.25 ms; the run
+    stopped at 0.83 ms and restarted (and restarted from its periodic checkpoint at 0.67 ms) is
+    bit-for-bit the uninterrupted one, so the checkpoint carries the eroded elements, their
+    energies and the added masses (tests/test_restart.py's round trip)."""
+    from .test_restart import restart_roundtrip
+    scene = strip_scene(tmp_path, failure_strain=0.1, speed=-2.0, target_dt=0.98 * element_step(200.0), limit=50.0)
+    # 40 elements, 100-step batches; 1 800 steps to 1 ms
+    restart_roundtrip(tmp_path, monkeypatch, [str(scene)], stop_step=1500, every=1200, batch_element_steps=4000)
+    energy, parts = table(tmp_path / "a" / "energy.csv"), table(tmp_path / "a" / "parts.csv")
+    notch = parts["added_mass"][parts["part"] == "notch"]
+    eroded_at = energy["time"][np.argmax(energy["eroded"] > 0.0)]
+    print(f"added mass from {parts['time'][parts['part'] == 'notch'][np.argmax(notch > 0.0)]:.3f} ms "
+          f"({notch[-1]:.3e} kg at the end), eroded at {eroded_at:.3f} ms")
+    assert notch[-1] > 0.0 and energy["eroded"][-1] > 0.0 and eroded_at < 0.6      # before both stops
