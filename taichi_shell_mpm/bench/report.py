@@ -197,7 +197,10 @@ def write_report(path: Path, out: Path, rows: list[dict], planned: list[Case], c
         L += ["## Square tube crush to 15 ms (a case name ending _tT: to T ms)", "",
               "Mean support force (clamped end and support plane) over 20–200 mm of crush "
               "(Wierzbicki–Abramowicz 7.46 kN, Abramowicz–Jones 10.22 kN); "
-              "energy balance error relative to the absorbed energy; half-wavelength expected ≈ 15.1 mm.", ""]
+              "energy balance error relative to the absorbed energy; half-wavelength expected ≈ 15.1 mm.  "
+              "`_h5`: one grid cell per element (h = ℓ = 5 mm; docs/grid.md): on one field with APIC the folds "
+              "glue and the transfer filters the impact's wave; `_multi_polypic`: multi-velocity fields with "
+              "the PolyPIC transfer, which keep both.", ""]
         L += _tube_table(tubes) + [""]
     scaling = [r for r in rows if r["scene"] == "scaling"]
     if scaling:
