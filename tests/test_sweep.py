@@ -187,17 +187,23 @@ def test_study_on_an_existing_scheduler(tmp_path):
     assert "Traceback" not in bad.stderr
 
 
+def _interruptible() -> None:
+    """In the child before exec: SIGINT at its default, so that Python installs its Ctrl-C
+    handler.  A test run started in the background by a non-interactive shell (``pytest ... &``)
+    ignores SIGINT, and an ignored signal stays ignored across exec: the sweep, its workers and
+    its cases then ran to the end through the SIGINT (measured: every test process had SIG_IGN)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def test_ctrl_c_stops_the_study_cleanly(tmp_path):
     """SIGINT to the process group (a terminal's Ctrl-C) while two full cantilever cases run."""
     out = tmp_path / "out"
     proc = subprocess.Popen([sys.executable, "-m", "taichi_shell_mpm", "sweep", str(SCENE), "--param",
                              "element.hourglass=0.05,0.1", "--set", "mesh.nx=40", "--workers", "2", "--out", str(out)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path, env=env(),
-                            start_new_session=True)
+                            start_new_session=True, preexec_fn=_interruptible)
     first = proc.stdout.readline() + proc.stdout.readline()      # "N case(s) to run", then the cluster line
-    # wait until both cases run (each writes its run.log first): on a loaded machine the
-    # workers may still be starting seconds after the cluster line (a fixed 3 s wait once sent
-    # the SIGINT before the cases ran, and the sweep finished both)
+    # wait until both cases run (each writes its run.log first)
     deadline = time.perf_counter() + 300
     while len(list((out / "cases").glob("*/run.log"))) < 2 and time.perf_counter() < deadline \
             and proc.poll() is None:
