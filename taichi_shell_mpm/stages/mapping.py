@@ -89,6 +89,12 @@ class Mapping:
         return n, grad
 
     @ti.func
+    def cell_powers(self):
+        """(h^2, h^2, h^2, h^3): the mixed velocity modes' lengths (PolyPIC)."""
+        h = self.s.grid.h[None]
+        return ti.Vector([h * h, h * h, h * h, h * h * h])
+
+    @ti.func
     def locate(self):
         """The stencil base of every free node (on_grid 0 for prescribed nodes and nodes without
         mass, NodeUpdate.is_idle; a node outside the grid's bounds stops the run), the span of the bases across the slab axis, and the
@@ -163,11 +169,9 @@ class Mapping:
         if ti.static(self.cfg.affine_transfer):
             affine_h = (keep * self.s.grid.h[None]) * self.s.nodes.affine[c]
             vel -= affine_h @ frac
-        modes_m = ti.Matrix.zero(ti.f64, 3, 4)       # in cell units: h^2 d2v, h^3 d3v
+        modes_m = ti.Matrix.zero(ti.f64, 3, 4)
         if ti.static(self.cfg.velocity_modes):
-            h = self.s.grid.h[None]
-            modes_m = (keep * mass) * self.s.nodes.velocity_modes[c] @ ti.Matrix(
-                [[h * h, 0.0, 0.0, 0.0], [0.0, h * h, 0.0, 0.0], [0.0, 0.0, h * h, 0.0], [0.0, 0.0, 0.0, h * h * h]])
+            modes_m = (keep * mass) * self.s.nodes.velocity_modes[c]
         momentum = mass * vel
         if ti.static(not self.cfg.grid_force):
             momentum += impulse_time(self.s.step) * force      # p + dt f (stages/timestep.py)
@@ -186,9 +190,10 @@ class Mapping:
                     if ti.static(on):
                         p += ti.Vector([affine_m[0, d], affine_m[1, d], affine_m[2, d]])
             if ti.static(self.cfg.velocity_modes):
-                # the cell's mixed terms at the corner's offset r = (i, j, k) - frac from the node
-                r = ti.Vector([i, j, k], ti.f64) - frac
-                p += modes_m @ ti.Vector([r[0] * r[1], r[1] * r[2], r[2] * r[0], r[0] * r[1] * r[2]])
+                # the mixed terms at the corner's offset from the node, h d with d = (i, j, k) - frac
+                d = ti.Vector([i, j, k], ti.f64) - frac
+                p += modes_m @ (self.cell_powers() * ti.Vector([d[0] * d[1], d[1] * d[2], d[2] * d[0],
+                                                                  d[0] * d[1] * d[2]]))
             self.grid_acc.add(self.s.grid.mass, g, n * mass)
             self.grid_acc.add(self.s.grid.momentum, g, n * p)
             if ti.static(self.cfg.grid_force):
@@ -256,9 +261,10 @@ class Mapping:
                         if massive:
                             massive_grad += grad
                     if ti.static(self.cfg.velocity_modes):
-                        # d/dr of the trilinear field at the node's frac (cell units)
+                        # N_I's mixed derivatives at the node (d2/dxdy, d2/dydz, d2/dzdx, d3/dxdydz)
                         mixed = ti.Vector([(2 * i - 1) * (2 * j - 1) * w[k, 2], (2 * j - 1) * (2 * k - 1) * w[i, 0],
-                                           (2 * k - 1) * (2 * i - 1) * w[j, 1], (2 * i - 1) * (2 * j - 1) * (2 * k - 1)])
+                                           (2 * k - 1) * (2 * i - 1) * w[j, 1],
+                                           (2 * i - 1) * (2 * j - 1) * (2 * k - 1)]) / self.cell_powers()
                         modes += v_plus.outer_product(mixed)
                         if massive:
                             massive_mixed += mixed
@@ -270,10 +276,7 @@ class Mapping:
                     # higher modes likewise (their weights, like the gradient's, sum to 0).
                     affine -= v_grid.outer_product(massive_grad)
                     if ti.static(self.cfg.velocity_modes):
-                        h = self.s.grid.h[None]
                         modes -= v_grid.outer_product(massive_mixed)
-                        modes = modes @ ti.Matrix([[1.0 / (h * h), 0.0, 0.0, 0.0], [0.0, 1.0 / (h * h), 0.0, 0.0],
-                                                   [0.0, 0.0, 1.0 / (h * h), 0.0], [0.0, 0.0, 0.0, 1.0 / (h * h * h)]])
                     if ti.static(self.cfg.grid_contact):
                         if v_contact.norm_sqr() > 0.0:
                             # a node the grid contact moved carries no affine velocity
