@@ -241,10 +241,9 @@ def test_ram_is_the_translation_only_special_case(tmp_path):
     held: written so, the pushed plate of test_energy gives the same bits (the same compiled
     code: no body rotates); and with another body spinning in the scene, so that the rotation
     is compiled and the ram's slaves are placed by x_c + R (X - X_c), the same to round-off."""
-    six, spinner = SIX_DOF_RAM, SPINNER
     out_a, _ = pushed_plate_with_spinner(tmp_path, "ram", RAM.format(mass=1000.0), "")
-    out_b, _ = pushed_plate_with_spinner(tmp_path, "six", "[[rigid_body]]\n" + six, "")
-    out_c, _ = pushed_plate_with_spinner(tmp_path, "spin", "[[rigid_body]]\n" + six, spinner)
+    out_b, _ = pushed_plate_with_spinner(tmp_path, "six", "[[rigid_body]]\n" + SIX_DOF_RAM, "")
+    out_c, _ = pushed_plate_with_spinner(tmp_path, "spin", "[[rigid_body]]\n" + SIX_DOF_RAM, SPINNER)
     ea, eb, ec = (table(o / "energy.csv") for o in (out_a, out_b, out_c))
     fa, fb, fc = (table(o / "force.csv") for o in (out_a, out_b, out_c))
     same_bits = (out_a / "energy.csv").read_bytes() == (out_b / "energy.csv").read_bytes()

@@ -1,7 +1,6 @@
 """Energy bookkeeping (issue 16, items 3, 4; energy.py): moving walls, the balance guard."""
 from __future__ import annotations
 
-
 import meshio
 import numpy as np
 import pytest

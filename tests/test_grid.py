@@ -13,6 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from taichi_shell_mpm.energy import absorbed as absorbed_energy
+
 from .test_motion_loads import run, table
 from .test_reliability import assert_clean_output, cli_run
 
@@ -370,7 +372,6 @@ def test_polypic_keeps_the_tube_wave_at_one_cell_per_element(tmp_path, monkeypat
         args += ["--set", item]
     # 2 880 elements, batches of 200 steps; ~1 100 steps to 0.5 ms
     restart_roundtrip(tmp_path, monkeypatch, args, stop_step=700, every=400, batch_element_steps=576_000)
-    from taichi_shell_mpm.energy import absorbed as absorbed_energy
     e = json.loads((tmp_path / "a" / "summary.json").read_text())["energies"]
     absorbed = absorbed_energy(e)
     loss = e["balance_error"]

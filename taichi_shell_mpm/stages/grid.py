@@ -77,8 +77,8 @@ sheets at h = 2t (docs/contact.md, tests/test_grid.py):
   node, and two sheets (t = 0.02 or 0.125, h = 0.25) met at a gap of 0.249 (one cell) and
   stayed 0.241 apart; with it they meet at 0.1247 (t = 0.125) and 0.0193 (t = 0.02).
 * A shell node whose velocity the condition changed carries no affine velocity (C = 0, PIC
-  for that node and step; with PolyPIC no velocity modes either): the condition corrects a layer's field only at the grid nodes it
-  shares with another, and APIC's C kept the velocity of the others (those on the far side of
+  for that node and step; with PolyPIC no velocity modes either): the condition corrects a
+  layer's field only at the grid nodes it shares with another, and APIC's C kept the velocity of the others (those on the far side of
   the sheet, those the other layer's nodes do not reach) for good, so that stacked sheets
   ended still approaching at 0.034 (upper -0.117, lower -0.083) instead of both at -0.1.
   Dropping only the gradient across the sheet, C (1 - n n^T), fixed the stacked sheets but not

@@ -170,8 +170,10 @@ class Mapping:
             affine_h = (keep * self.s.grid.h[None]) * self.s.nodes.affine[c]
             vel -= affine_h @ frac
         modes_m = ti.Matrix.zero(ti.f64, 3, 4)
+        powers = ti.Vector([0.0, 0.0, 0.0, 0.0])
         if ti.static(self.cfg.velocity_modes):
             modes_m = (keep * mass) * self.s.nodes.velocity_modes[c]
+            powers = self.cell_powers()
         momentum = mass * vel
         if ti.static(not self.cfg.grid_force):
             momentum += impulse_time(self.s.step) * force      # p + dt f (stages/timestep.py)
@@ -192,8 +194,7 @@ class Mapping:
             if ti.static(self.cfg.velocity_modes):
                 # the mixed terms at the corner's offset from the node, h d with d = (i, j, k) - frac
                 d = ti.Vector([i, j, k], ti.f64) - frac
-                p += modes_m @ (self.cell_powers() * ti.Vector([d[0] * d[1], d[1] * d[2], d[2] * d[0],
-                                                                  d[0] * d[1] * d[2]]))
+                p += modes_m @ (powers * ti.Vector([d[0] * d[1], d[1] * d[2], d[2] * d[0], d[0] * d[1] * d[2]]))
             self.grid_acc.add(self.s.grid.mass, g, n * mass)
             self.grid_acc.add(self.s.grid.momentum, g, n * p)
             if ti.static(self.cfg.grid_force):
@@ -237,6 +238,9 @@ class Mapping:
                 massive_grad = ti.Vector([0.0, 0.0, 0.0])
                 modes = ti.Matrix.zero(ti.f64, 3, 4)
                 massive_mixed = ti.Vector([0.0, 0.0, 0.0, 0.0])
+                powers = ti.Vector([1.0, 1.0, 1.0, 1.0])
+                if ti.static(self.cfg.velocity_modes):
+                    powers = self.cell_powers()
                 v_contact = ti.Vector([0.0, 0.0, 0.0])
                 for i, j, k in ti.static(ti.ndrange(2, 2, 2)):
                     n, grad = self.weight(w, i, j, k)
@@ -264,7 +268,7 @@ class Mapping:
                         # N_I's mixed derivatives at the node (d2/dxdy, d2/dydz, d2/dzdx, d3/dxdydz)
                         mixed = ti.Vector([(2 * i - 1) * (2 * j - 1) * w[k, 2], (2 * j - 1) * (2 * k - 1) * w[i, 0],
                                            (2 * k - 1) * (2 * i - 1) * w[j, 1],
-                                           (2 * i - 1) * (2 * j - 1) * (2 * k - 1)]) / self.cell_powers()
+                                           (2 * i - 1) * (2 * j - 1) * (2 * k - 1)]) / powers
                         modes += v_plus.outer_product(mixed)
                         if massive:
                             massive_mixed += mixed
