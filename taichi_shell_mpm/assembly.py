@@ -425,12 +425,34 @@ def _deck_specs(deck, source: str):
     SRP) the cowper_symonds rate law on the total strain rate (VP = 0, -1) or the plastic strain
     rate (VP = 1); FAIL (*MAT_003 FS) > 0 the failure strain (one point, LS-DYNA's NUMFIP
     default), *MAT_024 TDEL the failure step of erosion; *SECTION_SHELL thickness T1, NIP
-    Gauss points (QR = 0; NIP = 0 means 2), QR = 1 (trapezoidal) as Lobatto with a note, SHRF."""
-    from .scene import Material, Section
-    materials, sections, notes = {}, {}, []
+    Gauss points (QR = 0; NIP = 0 means 2), QR = 1 (trapezoidal) as Lobatto with a note, SHRF.
+
+    A deck's value is checked as strictly as the same scene key (scene.value_problem, the
+    scene's own validator): the third result maps a scene name (mat_<mid>, sec_<secid>) to the
+    problems of its card, each naming the deck file, line, keyword and field; the caller
+    reports those of the cards its parts use (a card the scene replaces is not used)."""
+    from .scene import Material, Section, value_problem
+    materials, sections, notes, problems = {}, {}, [], {}
+
+    def check(name: str, where: str, fields: tuple) -> None:
+        """Each (deck field, scene table, scene key, value) against the scene's validator."""
+        for deck_key, table, key, value in fields:
+            problem = value_problem(table, key, value)
+            if problem is not None:
+                problems.setdefault(name, []).append(f"{where}: {deck_key} (the scene's {key}): {problem}")
     for mid, card in deck.materials.items():
         v = card.values
         E, nu, rho = v.get("e", 0.0), v.get("pr", 0.0), v.get("ro", 0.0)
+        label = f"{card.where or source} (mid {mid})"
+        check(f"mat_{mid}", label, (("RO", "material", "density", rho), ("E", "material", "E", E),
+                                    ("PR", "material", "nu", nu)))
+        if card.kind != "elastic" and not card.curve:
+            etan = v.get("etan", 0.0)
+            check(f"mat_{mid}", label, (("SIGY", "material", "yield_stress", v.get("sigy", 0.0)),))
+            if not 0.0 <= etan < E and E > 0.0:
+                problems.setdefault(f"mat_{mid}", []).append(
+                    f"{label}: ETAN = {etan:g}: expected 0 <= ETAN < E = {E:g} (the tangent modulus of the "
+                    "plastic range; ETAN >= E has no hardening modulus H = E ETAN/(E - ETAN) >= 0)")
         if card.kind == "elastic":
             materials[f"mat_{mid}"] = Material(E=E, nu=nu, density=rho)
             continue
@@ -460,6 +482,10 @@ def _deck_specs(deck, source: str):
             law["failure_min_dt"] = v["tdel"]
         materials[f"mat_{mid}"] = Material(E=E, nu=nu, density=rho, model="j2", **law)
     for secid, card in deck.sections.items():
+        label = f"{card.where or source} (secid {secid})"
+        check(f"sec_{secid}", label, (("T1", "section", "thickness", card.thickness),
+                                      ("NIP", "section", "points", int(card.nip)),
+                                      ("SHRF", "section", "shear_factor", card.shear_factor)))
         points = int(card.nip) if card.nip > 0 else 2             # NIP = 0: LS-DYNA's default, 2
         rule = "gauss"
         if card.quadrature == 1 and points > 1:
@@ -470,8 +496,8 @@ def _deck_specs(deck, source: str):
             notes.append(f"{source}: *SECTION_SHELL {secid}: QR = {card.quadrature} (a user rule) is not read: "
                          f"{points}-point Gauss rule")
         sections[f"sec_{secid}"] = Section(thickness=card.thickness, points=points, rule=rule,
-                                           shear_factor=min(card.shear_factor, 1.0))
-    return materials, sections, notes
+                                           shear_factor=card.shear_factor)
+    return materials, sections, notes, problems
 
 
 def _deck_curve(curve, where: str, notes: list) -> tuple[tuple[float, float], ...]:
@@ -505,13 +531,21 @@ def _part_data(scene: Scene, mesh: Mesh, points: np.ndarray, elements: np.ndarra
     """The parts (PartSpec: element ids, material and section names), the materials and the
     sections by name.  [[part]] assigns them; without it the scene's one material and section
     cover the mesh, or an LS-DYNA deck's *PART cards assign its own (scene tables of the same
-    name -- mat_<mid>, sec_<secid> -- replace the deck's).  Every element belongs to exactly
-    one part: overlaps and orphans are errors naming the parts and elements."""
+    name -- mat_<mid>, sec_<secid> -- replace the deck's; a [[part]] may name the deck's).
+    Every element belongs to exactly one part: overlaps and orphans are errors naming the
+    parts and elements.  With a deck, a scene table no part uses (an override of nothing) is
+    an error, and so is a value of a deck card some part uses that the same scene key would
+    refuse (_deck_specs)."""
     m = len(elements)
     materials, sections = dict(scene.materials), dict(scene.sections)
     notes: list[str] = []
     thickness = None
     if not scene.parts and scene.material is not None:
+        if mesh.deck is not None and mesh.deck.parts:
+            notes.append(f"{scene.source.name}: [material] and [section] cover every element: the deck's "
+                         f"{len(mesh.deck.parts)} *PART cards and their sections and materials are not used (leave "
+                         "[material] and [section] out to use them; [materials.mat_<mid>] or "
+                         "[sections.sec_<secid>] replaces one)")
         return (PartSpec("all", np.arange(m), "material", "section"),), {"material": scene.material}, \
             {"section": scene.section}, thickness, notes
     if not scene.parts and mesh.deck is None:
@@ -521,15 +555,17 @@ def _part_data(scene: Scene, mesh: Mesh, points: np.ndarray, elements: np.ndarra
             return (PartSpec("all", np.arange(m), None, sname),), used, {sname: sec}, thickness, notes
         (mname, mat), = materials.items()
         return (PartSpec("all", np.arange(m), mname, sname),), {mname: mat}, {sname: sec}, thickness, notes
-    if not scene.parts:                          # an LS-DYNA deck's parts
-        deck_materials, deck_sections, notes = _deck_specs(mesh.deck, scene.source.name)
+    deck_problems = {}
+    if mesh.deck is not None:                    # the deck's materials and sections, by scene name
+        deck_materials, deck_sections, notes, deck_problems = _deck_specs(mesh.deck, scene.source.name)
         materials = {**deck_materials, **materials}
         sections = {**deck_sections, **sections}
+        thickness = _deck_element_thickness(mesh.deck, scene, notes)
+    if not scene.parts:                          # an LS-DYNA deck's parts
         from .scene import Part
         entries = tuple(Part(name=(p.title if p.title and p.title in mesh.element_sets else f"part:{pid}"),
                              material=f"mat_{p.mid}", section=f"sec_{p.secid}", elements=f"part:{pid}")
                         for pid, p in sorted(mesh.deck.parts.items()) if f"part:{pid}" in mesh.element_sets)
-        thickness = _deck_element_thickness(mesh.deck, scene, notes)
     else:
         entries = scene.parts
     errors = []
@@ -566,6 +602,22 @@ def _part_data(scene: Scene, mesh: Mesh, points: np.ndarray, elements: np.ndarra
         raise SceneError(errors)
     used_s = {p.section for p in parts}
     used_m = {p.material for p in parts} | {ply.material for name in used_s for ply in sections[name].plies}
+    if mesh.deck is not None:
+        from .scene import name_hint
+        for label, table, used, deck_names in (("materials", scene.materials, used_m, sorted(deck_materials)),
+                                               ("sections", scene.sections, used_s, sorted(deck_sections))):
+            for name in table:
+                if name not in used:
+                    errors.append(f"{scene.source.name}: [{label}.{name}]: replaces nothing: no part of the deck "
+                                  f"or [[part]] uses {name!r}" + name_hint(name, deck_names, "the deck's"))
+        errors += [line for name in sorted(used_s | used_m) if name not in scene.materials
+                   and name not in scene.sections for line in deck_problems.get(name, ())]
+        if thickness is not None:                # a scene section's thickness wins over the deck's
+            for p in parts:
+                if p.section in scene.sections:
+                    thickness[p.elements] = np.nan
+        if errors:
+            raise SceneError(errors)
     return tuple(parts), {k: v for k, v in materials.items() if k in used_m}, \
         {k: v for k, v in sections.items() if k in used_s}, thickness, notes
 
@@ -573,15 +625,13 @@ def _part_data(scene: Scene, mesh: Mesh, points: np.ndarray, elements: np.ndarra
 def _deck_element_thickness(deck, scene: Scene, notes: list) -> np.ndarray | None:
     """(m,) thickness of each element from *ELEMENT_SHELL_THICKNESS (the mean of its corner
     values; NaN: the section's), as LS-DYNA takes it over the section's T1 -- except in parts
-    whose section the scene redefines ([sections.sec_<id>]: the scene's value wins)."""
+    whose section the scene redefines ([sections.sec_<id>]: the scene's value wins; _part_data)."""
     corner = deck.element_thickness
     if corner is None:
         return None
     given = np.where(corner > 0.0, corner, np.nan)
     count = np.sum(np.isfinite(given), axis=1)
     mean = np.where(count > 0, np.nansum(given, axis=1) / np.maximum(count, 1), np.nan)
-    overridden = [pid for pid, p in deck.parts.items() if f"sec_{p.secid}" in scene.sections]
-    mean[np.isin(deck.element_parts, overridden)] = np.nan
     varying = int(np.sum(np.nanmax(given, axis=1, initial=0.0) - np.nanmin(given, axis=1, initial=np.inf) > 1e-12
                          * np.nanmax(given, axis=1, initial=1.0)))
     if varying:

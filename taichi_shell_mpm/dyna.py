@@ -66,6 +66,8 @@ class DeckSection:
     title: str = ""
     values: dict = field(default_factory=dict)
     """Every field of the two cards as read (lower-case LS-DYNA names), blanks as 0."""
+    where: str = field(default="", compare=False)
+    """``file:line: *KEYWORD`` of its first card, for messages about its values."""
 
 
 @dataclass(frozen=True)
@@ -81,6 +83,8 @@ class DeckMaterial:
     """*MAT_024: yield stress against effective plastic strain, (eps, sigma) pairs: the
     LCSS curve (scaled and offset as *DEFINE_CURVE says) or the EPS1..8 / ES1..8 points;
     empty when the material is bilinear (SIGY, ETAN) or its curve is missing (a warning)."""
+    where: str = field(default="", compare=False)
+    """``file:line: *KEYWORD`` of its first card, for messages about its values."""
 
 
 @dataclass(frozen=True)
@@ -279,6 +283,10 @@ def _blocks(path: Path, main_dir: Path, depth: int = 0, seen: tuple = ()) -> tup
                     raise SceneError(f"{_where(card, 'INCLUDE')}: {name} includes itself (directly or "
                                      "through other files)")
                 sub, sub_title = _blocks(target, main_dir, depth + 1, seen + (path.resolve(),))
+                text = _read_lines(target, target)
+                if not any(t.startswith("*") for t in text) and any(t.strip() and not t.startswith("$") for t in text):
+                    raise SceneError(f"{_where(card, 'INCLUDE')}: {name} is not an LS-DYNA keyword file (no line "
+                                     "starts with a '*' keyword)")
                 result += sub
                 title = title or sub_title
         else:
@@ -287,10 +295,17 @@ def _blocks(path: Path, main_dir: Path, depth: int = 0, seen: tuple = ()) -> tup
 
 
 def _include_path(name: str, including: Path, main_dir: Path, line: _Line) -> Path:
+    """The file an *INCLUDE names: relative to the including file's folder, else the main
+    deck's (each folder named once in the message when it is in neither)."""
     candidates = [Path(name)] if Path(name).is_absolute() else [including.parent / name, main_dir / name]
+    candidates = list({str(c.resolve()): c for c in candidates}.values())
     for c in candidates:
         if c.is_file():
             return c
+    folder = next((c for c in candidates if c.is_dir()), None)
+    if folder is not None:
+        raise SceneError(f"{_where(line, 'INCLUDE')}: {name} is a folder ({folder.resolve()}), not a file: "
+                         "name the deck file to include")
     raise SceneError(f"{_where(line, 'INCLUDE')}: included file {name} not found (looked in "
                      f"{', '.join(str(c.parent) for c in candidates)})")
 
@@ -367,6 +382,10 @@ def read_deck(path: Path) -> tuple[np.ndarray, np.ndarray, dict, Deck, tuple[str
                     if what == "thickness":
                         t = _fields(card, _SHELL_THICKNESS, name)
                         row = [t[f"thic{k}"] for k in range(1, 5)]
+                        if min(row) < 0.0:       # 0 (blank) is the section's thickness; < 0 is no thickness
+                            k = int(np.argmin(row))
+                            raise SceneError(f"{_where(card, name)}: element {v['eid']}: THIC{k + 1} = {row[k]:g}: "
+                                             "expected a thickness > 0 (or 0/blank: the section's T1)")
                         if any(row):
                             thick_rows[len(shells) - 1] = [x if x > 0 else np.nan for x in row]
                     else:
@@ -388,7 +407,8 @@ def read_deck(path: Path) -> tuple[np.ndarray, np.ndarray, dict, Deck, tuple[str
                     values.update(_fields(card, cl, name))
                 mid = values.pop("mid")
                 values = {k: float(x) for k, x in values.items()}
-                _unique(materials, mid, DeckMaterial(mid, kind, heading, values), group[titled], name, "material")
+                _unique(materials, mid, DeckMaterial(mid, kind, heading, values, where=_where(group[titled], name)),
+                        group[titled], name, "material")
                 material_lines[mid] = (group[titled], name)
         elif base == "DEFINE_CURVE":
             cards = _cards(block)
@@ -519,7 +539,8 @@ def read_deck(path: Path) -> tuple[np.ndarray, np.ndarray, dict, Deck, tuple[str
 
 
 def _replace_curve(mat: DeckMaterial, curve) -> DeckMaterial:
-    return DeckMaterial(mat.mid, mat.kind, mat.title, mat.values, tuple((float(a), float(b)) for a, b in curve))
+    return DeckMaterial(mat.mid, mat.kind, mat.title, mat.values, tuple((float(a), float(b)) for a, b in curve),
+                        where=mat.where)
 
 
 def _unique(table: dict, key: int, value, line: _Line, keyword: str, what: str) -> None:
@@ -559,4 +580,5 @@ def _read_sections(block: _Block, titled: bool, sections: dict) -> None:
         values = {k: float(x) for k, x in {**one, **two}.items() if k != "secid"}
         _unique(sections, one["secid"], DeckSection(
             secid=one["secid"], elform=elform, shear_factor=one["shrf"] or 1.0, nip=nip, thickness=t1,
-            thicknesses=ts, quadrature=int(one["qr"]), title=heading, values=values), line, name, "section")
+            thicknesses=ts, quadrature=int(one["qr"]), title=heading, values=values, where=_where(line, name)),
+        line, name, "section")

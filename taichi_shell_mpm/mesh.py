@@ -39,7 +39,12 @@ if TYPE_CHECKING:
 MAX_LINES = 10
 """Most problem lines reported per category before a final 'and N more' line."""
 AREA_RTOL = 1e-12
-"""An element whose area is below this fraction of the mean element area is degenerate."""
+"""An element whose area is below this fraction of the median element area is degenerate
+(the median: one stray node, whose elements' areas are huge, leaves the others' scale alone)."""
+STRAY_RATIO = 1e6
+"""An element whose longest edge exceeds this multiple of the median element's longest edge
+has a stray node (a typo, or a fixed-format coordinate overflowing its columns): an error
+naming that node; graded meshes stay far below (a 1e3 grading is already extreme)."""
 DUPLICATE_RTOL = 1e-9
 """Nodes closer than this fraction of the bounding-box diagonal coincide."""
 WARP_WARN_DEG = 5.0
@@ -648,8 +653,9 @@ def check_mesh(points, elements, source: str, labels: tuple[np.ndarray, np.ndarr
     file name or ``'[mesh] plate'``) prefixes every line; ``labels`` = (element ids, node
     ids) of the file (an LS-DYNA deck's), named after the 0-based indices.  Fatal: wrong
     array shapes, no elements, non-finite coordinates or coordinates above MAX_COORDINATE,
-    out-of-range or repeated node ids in an element, zero-area elements (area < AREA_RTOL x
-    mean), inverted or non-convex quads (a corner normal (x_{a+1}-x_a) x (x_{a-1}-x_a) not
+    out-of-range or repeated node ids in an element, stray nodes (an element whose longest edge is
+    above STRAY_RATIO x the median one: the corner farthest from the median node is named),
+    zero-area elements (area < AREA_RTOL x median), inverted or non-convex quads (a corner normal (x_{a+1}-x_a) x (x_{a-1}-x_a) not
     along the element normal (x_3-x_1) x (x_4-x_2)), inverted triangles (folded by more than
     FOLD_DEG over most of their neighbours: a corner on the wrong side of the opposite edge).
     Warnings: coincident nodes (within DUPLICATE_RTOL x bounding-box diagonal: one line with
@@ -705,9 +711,22 @@ def check_mesh(points, elements, source: str, labels: tuple[np.ndarray, np.ndarr
     # -- geometry (a triangle's corner 4 is read as its corner 1: x4 - x2 = x1 - x2)
     safe = np.where(tri[:, None], elements[:, [0, 1, 2, 0]], elements)
     x = points[safe]                                                 # (m, 4, 3)
+    longest = np.linalg.norm(np.roll(x, -1, axis=1) - x, axis=2).max(axis=1)
+    centre = np.median(points[elements[corner]], axis=0)
+    stray = {}
+    for e in np.nonzero(longest > STRAY_RATIO * np.median(longest))[0]:
+        corners = elements[e][corner[e]]
+        i = int(corners[np.argmax(np.linalg.norm(points[corners] - centre, axis=1))])
+        stray.setdefault(i, e)
+    for i, e in stray.items():
+        errors.append(f"{source}: {node(i)} at {points[i].tolist()} is a stray node: element {name(e)} has an edge "
+                      f"{longest[e] / np.median(longest):.3g} times the mesh's median longest edge (a typo, or a "
+                      + ("*NODE field overflowing its fixed columns?)" if labels is not None else "unit mistake?)"))
+    if errors:
+        raise SceneError(_limited(errors, source))
     normal = np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])          # = 2 * vector area
     area = 0.5 * np.linalg.norm(normal, axis=1)
-    degenerate = area <= AREA_RTOL * area.mean()
+    degenerate = area <= AREA_RTOL * np.median(area)
     for e in np.nonzero(degenerate)[0]:
         why = ("collapsed, or a bow-tie whose corners are out of order" if not tri[e]
                else "its corners are collinear")

@@ -1152,6 +1152,22 @@ _SOLVE = {"kind": _choice("static", "dynamic"), "load_steps": _int(1),
           "target_iterations": _int(1), "max_iterations": _int(1), "max_cutbacks": _int(0),
           "increment_tolerance": _number(0, 1, lo_open=True), "energy_tolerance": _number(0, 1, lo_open=True)}
 _OUTPUT = {"every_steps": _int(0), "times": _times, "load_steps": _bool, "history_interval": _non_negative}
+
+
+def value_problem(table: str, key: str, value: Any) -> str | None:
+    """What is wrong with `value` as the key `key` of [material] or [section] (`table`), or
+    None: an LS-DYNA deck's values are checked by the scene's own validators
+    (assembly._deck_specs), so a deck value is held to the same range as the scene key."""
+    try:
+        {"material": _MATERIAL, "section": _SECTION}[table][key](value)
+    except _Invalid as exc:
+        return str(exc)
+    return None
+
+
+def name_hint(word: str, options: Sequence[str], label: str) -> str:
+    """`` (did you mean 'x'?)``, or else `` (label: a, b, ...)``: the scene's hint, for other modules."""
+    return _hint(word, options, label)
 _PLAIN_TABLES: dict[str, tuple[type, dict[str, Validator]]] = {
     "scene": (SceneInfo, _INFO),
     "element": (ElementOptions, _ELEMENT), "output": (Output, _OUTPUT)}
