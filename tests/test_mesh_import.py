@@ -492,3 +492,145 @@ def test_dyna_duplicates_includes_and_options(tmp_path):
            "[[boundary]])" in m.warnings
     assert f"{path}: part 2 (2 shells) has no *PART card" in m.warnings
     assert sets(m) == {"part:1": [0], "skin": [0], "part:2": [1, 2]}
+
+
+# ---------------------------------------------------------------- hostile decks (issue 28, item 9)
+DECK_SCENE = """[scene]
+name = "deck"
+units = "N, mm, MPa"
+[mesh]
+kind = "file"
+path = "plate.k"
+[solve]
+kind = "dynamic"
+end_time = 1e-6
+"""
+ELASTIC_CARD = "         1    7.8e-9  210000.0       0.3"
+SECTION_CARD = "         1         2     0.833         5       1.0         0         0         1"
+STEEL_CARDS = "     250.0       0.0\n       0.0       0.0         7"        # SIGY, ETAN; C, P, LCSS
+
+
+def deck_problems(tmp_path, deck: str, scene: str = "") -> list[str]:
+    """The SceneError lines of validating DECK_SCENE (+ `scene`) on `deck`, [] when it passes."""
+    from taichi_shell_mpm.preflight import prepare
+    (tmp_path / "plate.k").write_text(deck)
+    (tmp_path / "deck.toml").write_text(DECK_SCENE + scene)
+    try:
+        prepare(tmp_path / "deck.toml", ())
+    except SceneError as exc:
+        return exc.messages
+    return []
+
+
+def line_of(deck: str, text: str) -> int:
+    return next(i for i, t in enumerate(deck.splitlines(), 1) if t.startswith(text))
+
+
+@pytest.mark.parametrize("old,new,message", [
+    (ELASTIC_CARD, "         1    7.8e-9 -210000.0       0.3",
+     "*MAT_ELASTIC (mid 1): E (the scene's E): expected a number > 0, got -210000.0"),
+    (ELASTIC_CARD, "         1       0.0  210000.0       0.3",
+     "*MAT_ELASTIC (mid 1): RO (the scene's density): expected a number > 0, got 0.0"),
+    (ELASTIC_CARD, "         1    7.8e-9  210000.0       0.5",
+     "*MAT_ELASTIC (mid 1): PR (the scene's nu): expected a number in (-1, 0.5), got 0.5"),
+    ("       1.5       1.5       1.5       1.5", "       0.0",
+     "*SECTION_SHELL (secid 1): T1 (the scene's thickness): expected a number > 0, got 0.0"),
+    ("       1.5       1.5       1.5       1.5", "      -1.5",
+     "*SECTION_SHELL (secid 1): T1 (the scene's thickness): expected a number > 0, got -1.5"),
+    (SECTION_CARD, SECTION_CARD.replace("     0.833", "    -0.833"),
+     "*SECTION_SHELL (secid 1): SHRF (the scene's shear_factor): expected a number in (0, 1], got -0.833"),
+    (SECTION_CARD, SECTION_CARD.replace("     0.833         5", "     0.833       100"),
+     "*SECTION_SHELL (secid 1): NIP (the scene's points): expected an integer in [1, 10], got 100"),
+    (STEEL_CARDS, "       0.0       0.0\n       0.0       0.0         0",
+     "*MAT_PIECEWISE_LINEAR_PLASTICITY_TITLE (mid 2): SIGY (the scene's yield_stress): expected a number > 0, "
+     "got 0.0"),
+    (STEEL_CARDS, "     250.0  210000.0\n       0.0       0.0         0",
+     "*MAT_PIECEWISE_LINEAR_PLASTICITY_TITLE (mid 2): ETAN = 210000: expected 0 <= ETAN < E = 210000"),
+])
+def test_deck_values_checked_as_scene_values(tmp_path, old, new, message):
+    """A deck card's value is held to the range of the same scene key: one line naming the
+    deck file, the card's line, the keyword and id, the field (was: an internal error, a NaN
+    run, or accepted -- ETAN >= E silently perfectly plastic)."""
+    deck = fixed_deck()
+    assert old in deck
+    bad = deck.replace(old, new)
+    problems = deck_problems(tmp_path, bad)
+    card = line_of(bad, new.split("\n")[0]) if "MAT_PIECEWISE" not in message else \
+        line_of(bad, "         2    7.8e-9")
+    if "SECTION" in message:
+        card = line_of(bad, "         1         2 ")
+    assert len(problems) == 1 and problems[0].startswith(f"{tmp_path / 'plate.k'}:{card}: {message}"), problems
+
+
+def test_deck_value_of_a_replaced_card_is_not_checked(tmp_path):
+    """A scene [sections.sec_1] replaces the deck's card, bad value and all."""
+    bad = fixed_deck().replace("       1.5       1.5       1.5       1.5", "       0.0")
+    assert deck_problems(tmp_path, bad, "[sections.sec_1]\nthickness = 1.0\n") == []
+
+
+def test_deck_negative_element_thickness(tmp_path):
+    path = write_free(tmp_path)
+    path.write_text(FREE_DECK.replace("1.4, 1.4, 1.4, 1.4", "1.4, -1.4, 1.4, 1.4"))
+    with pytest.raises(SceneError) as err:
+        read_deck(path)
+    assert err.value.messages == [f"{path}:8: *ELEMENT_SHELL_THICKNESS: element 1001: THIC2 = -1.4: expected a "
+                                  "thickness > 0 (or 0/blank: the section's T1)"]
+
+
+def test_deck_stray_node_named(tmp_path):
+    """One node at 3e15 (a typo, or an overflowing fixed field) is named; the other elements
+    are not flagged degenerate (the area scale is the median, not the mean)."""
+    path = tmp_path / "stray.k"
+    path.write_text(fixed_deck().replace("     107             3.0", "     107          3.0e15"))
+    with pytest.raises(SceneError) as err:
+        build_mesh(FileMesh(path=path))
+    assert err.value.messages == [f"{path}: node 6 (id 107) at [3000000000000000.0, 0.5, 0.0] is a stray node: "
+                                  "element 2 (id 1003) has an edge 3e+15 times the mesh's median longest edge (a "
+                                  "typo, or a *NODE field overflowing its fixed columns?)"]
+
+
+def test_deck_include_of_a_folder_or_a_text_file(tmp_path):
+    deck = fixed_deck()
+    path = tmp_path / "inc.k"
+    (tmp_path / "notes.txt").write_text("not a deck\n")
+    for name, message in ((".", f". is a folder ({tmp_path}), not a file"),
+                          ("notes.txt", "notes.txt is not an LS-DYNA keyword file (no line starts with a '*' "
+                                        "keyword)"),
+                          ("missing.k", f"included file missing.k not found (looked in {tmp_path})")):
+        path.write_text(deck.replace("*TITLE", f"*INCLUDE\n{name}\n*TITLE"))
+        with pytest.raises(SceneError) as err:
+            read_deck(path)
+        assert err.value.messages[0].startswith(f"{path}:4: *INCLUDE: {message}"), err.value.messages
+
+
+def test_scene_parts_on_a_deck(tmp_path):
+    """A [[part]] names the deck's sec_1 / mat_1; an override of nothing is an error with a
+    suggestion; [material]/[section] beside a deck's parts is a warning."""
+    from taichi_shell_mpm.preflight import prepare
+    deck = fixed_deck()
+    part = '[[part]]\nname = "one"\nmaterial = "mat_1"\nsection = "sec_2"\nelements = "all"\n'
+    assert deck_problems(tmp_path, deck, part) == []
+    scene, mesh, model = prepare(tmp_path / "deck.toml", ())
+    assert [(p.name, p.material, p.section) for p in model.parts] == [("one", "mat_1", "sec_2")]
+    np.testing.assert_array_equal(model.element.thickness, [2.5] * 3)
+    assert deck_problems(tmp_path, deck, "[sections.sec_99]\nthickness = 1.0\n") == [
+        "deck.toml: [sections.sec_99]: replaces nothing: no part of the deck or [[part]] uses 'sec_99' (did you mean "
+        "'sec_2'?)"]
+    assert deck_problems(tmp_path, deck, "[material]\nE = 1.0\nnu = 0.3\ndensity = 1.0\n[section]\nthickness = 1.0\n") \
+        == []
+    scene, mesh, model = prepare(tmp_path / "deck.toml", ())
+    assert any("[material] and [section] cover every element: the deck's 2 *PART cards" in n for n in model.notes)
+
+
+def test_hostile_deck_cli_exit_2(tmp_path):
+    """The CLI: exit 2, one line, no traceback."""
+    import subprocess
+    import sys
+    (tmp_path / "plate.k").write_text(fixed_deck().replace(ELASTIC_CARD, "         1    7.8e-9  210000.0       0.5"))
+    (tmp_path / "deck.toml").write_text(DECK_SCENE)
+    proc = subprocess.run([sys.executable, "-m", "taichi_shell_mpm", "validate", str(tmp_path / "deck.toml")],
+                          capture_output=True, text=True, timeout=300)
+    lines = [t for t in proc.stderr.splitlines() if t.startswith("error")]
+    print(proc.returncode, proc.stderr)
+    assert proc.returncode == 2 and len(lines) == 1 and "Traceback" not in proc.stderr
+    assert "plate.k:36: *MAT_ELASTIC (mid 1): PR" in lines[0]
