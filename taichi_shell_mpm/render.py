@@ -248,9 +248,34 @@ class Undrawable(Exception):
     """A frame that cannot be drawn; the message says why."""
 
 
+ERODED_FIELD = "eroded"
+"""Cell array (output.py, runs with erosion) that is non-zero for an eroded element."""
+
+
+def _without_eroded(m):
+    """The meshio mesh `m` without its eroded cells (``eroded`` != 0) and the nodes only they
+    used: an eroded element carries no force and its nodes may fly anywhere, so drawn it is a
+    line stretched across the picture, and its nodes would set the camera's bounds."""
+    import meshio
+    if not any(ERODED_FIELD in m.cell_data and np.any(m.cell_data[ERODED_FIELD][k])
+               for k in range(len(m.cells))):
+        return m
+    keep = [np.asarray(m.cell_data[ERODED_FIELD][k]) == 0 for k in range(len(m.cells))]
+    cells = [(block.type, block.data[kept]) for block, kept in zip(m.cells, keep)]
+    used = np.unique(np.concatenate([c.ravel() for _, c in cells])) if any(len(c) for _, c in cells) else \
+        np.zeros(0, dtype=np.int64)
+    index = np.full(len(m.points), -1)
+    index[used] = np.arange(len(used))
+    return meshio.Mesh(m.points[used], [(kind, index[c]) for kind, c in cells if len(c)],
+                       point_data={k: np.asarray(v)[used] for k, v in m.point_data.items()},
+                       cell_data={k: [np.asarray(v[b])[kept] for b, kept in enumerate(keep) if kept.any()]
+                                  for k, v in m.cell_data.items()})
+
+
 def _read_frame(path: Path):
-    """The frame as a pyvista mesh, or :class:`Undrawable` (unreadable or truncated file, no
-    cells, non-finite node coordinates)."""
+    """The frame as a pyvista mesh without its eroded elements (:func:`_without_eroded`), or
+    :class:`Undrawable` (unreadable or truncated file, no cells, every element eroded,
+    non-finite node coordinates)."""
     import contextlib
     import io
 
@@ -264,9 +289,12 @@ def _read_frame(path: Path):
         raise Undrawable(f"cannot read it ({' '.join(printed.getvalue().split()) or 'unreadable'})") from None
     except Exception as exc:  # meshio raises many types for a damaged file
         raise Undrawable(f"cannot read it ({' '.join(str(exc).split()) or type(exc).__name__})") from None
-    points = np.asarray(m.points, dtype=float)
     if not sum(len(c.data) for c in m.cells):
         raise Undrawable("it has no cells")
+    m = _without_eroded(m)
+    if not sum(len(c.data) for c in m.cells):
+        raise Undrawable("every element has eroded")
+    points = np.asarray(m.points, dtype=float)
     if not points.size or not np.isfinite(points).all():
         raise Undrawable("its node coordinates are not all finite")
     try:

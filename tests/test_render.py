@@ -260,3 +260,26 @@ def test_render_skips_a_runaway_frame(tmp_path):
     two = Run(out_dir=tmp_path, name="x", key="time", keys=np.array([0.0, 2.0]), files=[files[0], files[2]])
     sequence_stats(two, [0, 1], fld)
     assert list(two.undrawable) == [1]
+
+
+def test_render_skips_eroded_elements(tmp_path):
+    """Issue 28.10: an eroded element (cell array ``eroded`` = 1) whose free node flew away was
+    drawn as a line across the picture and set the camera's bounds.  Its cell and the nodes
+    only it uses are left out; every element eroded is a frame with nothing to draw."""
+    import meshio
+
+    from taichi_shell_mpm.render import Run, frame_mesh
+    points = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [2, 0, 0], [1e6, 1e6, 0]], dtype=float)
+    quads = np.array([[0, 1, 2, 3], [1, 4, 5, 2]])
+    files = []
+    for i, eroded in enumerate(([0, 1], [1, 1])):
+        files.append(tmp_path / f"frame_{i:05d}.vtu")
+        meshio.write(files[-1], meshio.Mesh(points, [("quad", quads)], point_data={"displacement": points},
+                                            cell_data={"eroded": [np.array(eroded, dtype=np.int32)],
+                                                       "thickness": [np.array([0.1, 0.2])]}))
+    run = Run(out_dir=tmp_path, name="x", key="time", keys=np.array([0.0, 1.0]), files=files)
+    mesh = frame_mesh(run, 0)
+    assert mesh.n_cells == 1 and mesh.n_points == 4
+    np.testing.assert_array_equal(np.ptp(np.asarray(mesh.points), axis=0), [1, 1, 0])
+    assert mesh.cell_data["thickness"].tolist() == [0.1]
+    assert frame_mesh(run, 1) is None and run.undrawable[1] == "every element has eroded"
