@@ -8,6 +8,7 @@ and the background-grid geometry.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -853,6 +854,7 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
     min_edge = float(edges.min())
     free = int(np.sum(((fix_mask & 0b111) != 0b111) & (node_body < 0)))
     grid = _grid_geometry(scene, points, min_edge, planes_xyz, free) if scene.method.kind == "mpm" else None
+    _check_arc_length(scene, points)
     contact = scene.contact
     parameters = StepParameters(
         dt_safety=scene.solve.dt_safety, flip_blend=scene.method.flip_blend,
@@ -877,6 +879,27 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
                  walls=walls, tools=tools, node_body=node_body,
                  loading=loading,
                  **(node_neighbors(elements, n) if scene.contact else {}))
+
+
+MAX_ARC_SIZES = 10.0
+"""[solve].arc_length above the arc in which every node moves this many times the
+model's size is refused: such a first point is no path step (Newton then fails on a
+'singular' tangent far from any equilibrium)."""
+
+
+def _check_arc_length(scene: Scene, points: np.ndarray) -> None:
+    """Bound a Newton [solve].arc_length: |W d| (solvers/path.py, translations weighted 1)
+    of every node moving MAX_ARC_SIZES x the bounding-box diagonal (all nodes, fixed or not:
+    the bound is a scale, and one value whatever the boundaries, so one message)."""
+    sol = scene.solve
+    if sol.solver != "newton" or sol.control != "arc_length" or sol.arc_length == 0.0:
+        return
+    size = float(np.linalg.norm(np.ptp(points, axis=0)))
+    bound = MAX_ARC_SIZES * size * math.sqrt(3.0 * len(points))
+    if sol.arc_length > bound:
+        raise SceneError(f"{scene.source.name}: [solve].arc_length: expected at most {bound:.3g} (the arc in which "
+                         f"each of the {len(points)} nodes moves {MAX_ARC_SIZES:g} times the model's size {size:.3g}), "
+                         f"got {sol.arc_length:g}; 0 starts from the linear step at load factor 1 / load_steps")
 
 
 def _rigid_body(scene: Scene, rb, ids: np.ndarray, points: np.ndarray, node_mass: np.ndarray,

@@ -1660,11 +1660,14 @@ class _SceneParser:
             for key in ("materials", "sections"):
                 if key not in raw and not deck:
                     self.error(f"[{key}]", f"missing: [[part]] needs [{key}.NAME] tables")
-            set_names = [s.name for s in elementsets if s is not None]
+            # names as written, valid or not: an invalid table is reported once, by its own check
+            set_names = list(raw["elementsets"]) if isinstance(raw.get("elementsets"), dict) else []
+            written = {key: list(raw[key]) if isinstance(raw.get(key), dict) else [] for key in ("materials", "sections")}
             for i, part in enumerate(parts):
                 if part is None:
                     continue
-                for key, table, label in (("material", materials, "materials"), ("section", sections, "sections")):
+                for key, table, label in (("material", written["materials"], "materials"),
+                                          ("section", written["sections"], "sections")):
                     value = getattr(part, key)
                     if value is not None and table and value not in table and not deck:
                         self.error(f"[[part]][{i}].{key}", f"no [{label}.{value}]" + _hint(value, list(table), "defined"))
@@ -2087,10 +2090,16 @@ class _SceneParser:
                     self.error(f"[solve].{key}", 'is a key of the Newton solver: set solver = "newton"')
         control = v.get("control")
         if control == "displacement":
-            for key in ("control_nodes", "control_displacement"):
-                if not data.get(key):
-                    self.error(f"[solve].{key}", 'missing (a non-zero value) for control = "displacement"')
-        if data.get("control_displacement") and not data.get("control_nodes"):
+            if "control_nodes" not in data:
+                self.error("[solve].control_nodes", 'missing required key for control = "displacement" (the node '
+                                                    "set whose control_dof is prescribed)")
+            if "control_displacement" not in data:
+                self.error("[solve].control_displacement", 'missing required key for control = "displacement" '
+                                                           "(the final mean value of control_dof)")
+            elif data["control_displacement"] == 0:
+                self.error("[solve].control_displacement", 'expected a non-zero number for control = '
+                                                           '"displacement", got 0')
+        elif data.get("control_displacement") and not data.get("control_nodes"):
             self.error("[solve].control_nodes", "missing: control_displacement needs the node set it applies to")
 
     def solve(self, data: Any) -> Solve | None:
