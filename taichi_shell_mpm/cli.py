@@ -129,6 +129,62 @@ def _fail(code: int, lines) -> int:
 STICKING_CELL_RATIO = 0.75    # contact scenes: grid cell / longest edge above this sticks (docs/crush.md)
 
 
+GRID_TRANSFER_KEYS = ("transfer", "flip_blend", "fields", "field_contact", "field_friction")
+"""[method] keys of the grid transfer: set away from their default in fem mode, a warning."""
+THICK_SHELL_RATIO = 1.0      # thickness / shortest edge of an element above this: not a thin shell
+
+
+def thickness_warnings(scene, model) -> list[str]:
+    """A section whose thickness is above THICK_SHELL_RATIO x the shortest edge of some of its
+    elements: a shell element is a thin-shell model (plane stress through t, Reissner-Mindlin
+    shear over the element), so t >> element size is a unit mistake or a solid modelled as a
+    shell (a 1e9 thickness passed every check before)."""
+    import numpy as np
+    points, elements = model.points, model.elements
+    nxt = np.roll(elements, -1, axis=1)
+    tri = elements[:, 3] < 0
+    nxt[tri, 2] = elements[tri, 0]
+    valid = (elements >= 0) & (nxt >= 0)
+    edge = np.linalg.norm(points[np.where(valid, elements, 0)] - points[np.where(valid, nxt, 0)], axis=2)
+    shortest = np.where(valid, edge, np.inf).min(axis=1)
+    lines, seen = [], set()
+    for part in model.parts:
+        ids = part.elements
+        thick = ids[model.element.thickness[ids] > THICK_SHELL_RATIO * shortest[ids]]
+        if not len(thick) or part.section in seen:
+            continue
+        seen.add(part.section)
+        e = int(thick[np.argmax(model.element.thickness[thick] / shortest[thick])])
+        key = "[section].thickness" if part.section == "section" else (
+            f"[sections.{part.section}].thickness" if part.section in scene.sections else
+            f"the deck's {part.section} (T1 or *ELEMENT_SHELL_THICKNESS)")
+        lines.append(f"{scene.source.name}: {key}: {model.element.thickness[e]:g} is above the shortest edge of "
+                     f"{len(thick)} elements of part '{part.name}' (e.g. element {e}: {shortest[e]:.3g}): a shell "
+                     "element models a thin shell (t below its size); check the units or model a solid")
+    return lines
+
+
+def unused_key_warnings(scene) -> list[str]:
+    """Keys that the scene sets but its kind of run does not read: [method] transfer keys in
+    fem mode (not the grid's size and box, which a scene switched to fem by --set keeps),
+    [output].times after a dynamic run's end_time."""
+    lines = []
+    method = scene.method
+    if method.kind == "fem":
+        default = type(method)()
+        for key in GRID_TRANSFER_KEYS:
+            if getattr(method, key) == getattr(default, key):
+                continue
+            lines.append(f"{scene.source.name}: [method].{key}: not used with kind = \"fem\" (no grid: it is "
+                         "for kind = \"mpm\")")
+    if scene.solve.kind == "dynamic":
+        late = [t for t in scene.output.times if t > scene.solve.end_time]
+        if late:
+            lines.append(f"{scene.source.name}: [output].times: {', '.join(f'{t:g}' for t in late)} "
+                         f"after [solve].end_time = {scene.solve.end_time:g}: no frame is written there")
+    return lines
+
+
 def setup_warnings(scene, model) -> list[str]:
     """Set-ups that run but are probably not what the user wants: loads whose set includes
     nodes with all translations fixed (that share of the force does nothing; a set of only
@@ -140,7 +196,7 @@ def setup_warnings(scene, model) -> list[str]:
     with PolyPIC; docs/grid.md)."""
     from .loading import load_shares
     from .nodesets import select_nodes
-    lines = list(model.notes)
+    lines = list(model.notes) + unused_key_warnings(scene) + thickness_warnings(scene, model)
     fixed = (model.fix_mask & 0b111) == 0b111
     for i, ld in enumerate(scene.loads):
         if not any(ld.force) and not any(ld.force_per_length):

@@ -1054,3 +1054,65 @@ def test_erosion_and_selective_mass_scaling_need_a_dynamic_solve(scene_dir):
     raw = raw_of(HEMISPHERE_SCENE)           # (a [solve] with an error is not checked against the materials)
     raw["material"].update(model="j2", yield_stress=1e5, failure_strain=0.3)
     assert errors(raw, scene_dir) == ['case.toml: [material].failure_strain: erosion needs [solve].kind = "dynamic"']
+
+
+# ------------------------------------------------------------------ issue 28, item 10
+def test_invalid_named_tables_do_not_cascade(scene_dir):
+    """An invalid [sections.X] / [materials.X] / [elementsets.X] is reported once, by its own
+    check: no second 'no [sections.X]' from the [[part]] that names it."""
+    for path, value, expected in (
+            ("sections.skin.thickness", -1.0, "[sections.skin].thickness: expected a number > 0, got -1.0"),
+            ("materials.steel.E", 0, "[materials.steel].E: expected a number > 0, got 0"),
+            ("elementsets.a.box", 3, "[elementsets.a].box: expected a table, got 3")):
+        raw = _set(raw_of(PARTS_SCENE), path, value)
+        raw["sections"]["other"] = {"thickness": 1.0}
+        raw["materials"]["other"] = {"E": 1.0, "nu": 0.0, "density": 1.0}
+        assert errors(raw, scene_dir) == ["case.toml: " + expected]
+
+
+def test_newton_displacement_control_messages(scene_dir):
+    raw = raw_of(FULL)
+    raw["solve"].update(solver="newton", control="displacement")
+    del raw["method"]
+    raw["method"] = {"kind": "fem"}
+    raw["element"] = {"drilling": "penalty"}
+    assert errors(raw, scene_dir) == [
+        'case.toml: [solve].control_nodes: missing required key for control = "displacement" (the node set whose '
+        'control_dof is prescribed)',
+        'case.toml: [solve].control_displacement: missing required key for control = "displacement" (the final mean '
+        'value of control_dof)']
+    raw["solve"].update(control_nodes="tip", control_displacement=0)
+    assert errors(raw, scene_dir) == [
+        'case.toml: [solve].control_displacement: expected a non-zero number for control = "displacement", got 0']
+
+
+def test_arc_length_bounded_by_the_model_size():
+    """arc_length = 1e30 was refused only by Newton as a 'singular tangent'; it is a scene
+    error now, naming the key and the bound."""
+    from taichi_shell_mpm.preflight import prepare
+    scene = ROOT / "scenes" / "hinged_roof.toml"
+    with pytest.raises(SceneError) as err:
+        prepare(scene, ["solve.arc_length=1e30"])
+    assert err.value.messages == [
+        "hinged_roof.toml: [solve].arc_length: expected at most 1.06e+05 (the arc in which each of the 289 nodes "
+        "moves 10 times the model's size 359), got 1e+30; 0 starts from the linear step at load factor 1 / load_steps"]
+    prepare(scene, ["solve.arc_length=1e5"])
+
+
+def test_setup_warnings_thick_shell_unused_keys_late_times():
+    """Thickness above an element's shortest edge, grid-transfer keys in fem mode and output
+    times after end_time run, with a warning naming the key."""
+    from taichi_shell_mpm.cli import setup_warnings
+    from taichi_shell_mpm.preflight import prepare
+    scene, mesh, model = prepare(ROOT / "scenes" / "cantilever.toml", [
+        "section.thickness=1e9", "method.kind=fem", "method.transfer=flip", "solve.kind=dynamic",
+        "solve.end_time=1", "output.times=[0.5, 2]"])
+    lines = [w for w in setup_warnings(scene, model) if "[reference]" not in w]
+    print("\n".join(lines))
+    assert lines == [
+        'cantilever.toml: [method].transfer: not used with kind = "fem" (no grid: it is for kind = "mpm")',
+        "cantilever.toml: [output].times: 2 after [solve].end_time = 1: no frame is written there",
+        "cantilever.toml: [section].thickness: 1e+09 is above the shortest edge of 10 elements of part 'all' (e.g. "
+        "element 0: 1): a shell element models a thin shell (t below its size); check the units or model a solid"]
+    scene, mesh, model = prepare(ROOT / "scenes" / "cantilever.toml", ["section.thickness=0.99"])
+    assert not any("thickness" in w or "not used" in w for w in setup_warnings(scene, model))
