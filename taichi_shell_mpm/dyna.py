@@ -21,7 +21,9 @@ Every other keyword is skipped, with one warning listing them.
 Node and element ids are the deck's own: positions in ``points`` and ``elements`` follow the
 order read, and :attr:`Deck.node_ids` / :attr:`Deck.element_ids` map positions back to ids.
 A shell with n3 = n4 is a triangle.  Problems are :class:`~taichi_shell_mpm.scene.SceneError`
-lines naming the file, the line and the keyword.
+lines naming the file, the line and the keyword.  The values of materials and sections are
+checked where they become scene values (assembly._deck_specs, by the scene's own validators),
+so each card keeps its ``where`` (file:line: *KEYWORD) for those messages.
 """
 from __future__ import annotations
 

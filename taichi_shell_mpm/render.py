@@ -5,7 +5,8 @@ Reads what :mod:`taichi_shell_mpm.output` wrote (``frames.pvd`` + ``frames/*.vtu
 into ``OUTDIR/pictures/``:
 
 ``frame_NNNNN.png``
-    one per chosen frame (same stem as its ``.vtu``): the deformed shell coloured by
+    one per chosen frame (same stem as its ``.vtu``): the deformed shell (without its
+    eroded elements) coloured by
     ``plastic_strain_max`` when the frames have it, else by ``|displacement|`` (or by
     ``--field``), with a scalar bar and the time / load factor in the title.  The camera
     (isometric, +z up, fitted to the union of the frames' bounds) and the colour range are
