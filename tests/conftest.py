@@ -252,3 +252,14 @@ def element_pass(sim: Simulation, end, velocity, omega, dt: float, steps: int = 
     internal forces, nodal internal moments, hourglass resultant of element 0)."""
     stress, force, moment, hourglass, _ = element_stage(sim, end, velocity, omega, dt, steps)
     return stress[0], force, moment, hourglass[0]
+
+
+def pytest_collection_modifyitems(config, items):
+    """The whole feature-pair matrix (tests/test_matrix.py, marker `matrix`: a compile per
+    pair, about an hour) runs only when asked for with `-m matrix`; the suite runs its CI subset."""
+    if "matrix" in (config.option.markexpr or ""):
+        return
+    kept = [item for item in items if item.get_closest_marker("matrix") is None]
+    if len(kept) < len(items):
+        config.hook.pytest_deselected(items=[item for item in items if item.get_closest_marker("matrix")])
+        items[:] = kept
