@@ -76,6 +76,11 @@ class RigidBodySpec:
         return bool(self.rotation_free.any()) or self.turned
 
     @property
+    def turns_freely(self) -> bool:
+        """All three rotations free (stages/bodies.py's Simo-Wong drift)."""
+        return bool(np.diag(self.rotation_free).all())
+
+    @property
     def inertia_min(self) -> float:
         """The smallest principal inertia about the free rotation axes (0: none free)."""
         free = np.diag(self.rotation_free) > 0
@@ -876,7 +881,7 @@ def _rigid_body(scene: Scene, rb, ids: np.ndarray, points: np.ndarray, node_mass
     center = given
     if (rotation_free.any() or turned) and np.linalg.norm(given - mass_centre) > 1e-9 * size:
         held = not translation_free.any()
-        if not held and (translation_free.all() if d is None else False) and not moved & set(DOFS[:3]):
+        if d is None and np.diag(translation_free).all() and not moved & set(DOFS[:3]):
             center = mass_centre                           # free: about the mass centre
         elif not held:
             raise SceneError(f"{where}: center: {_vector(given)} is not its mass centre {_vector(mass_centre)}: a "

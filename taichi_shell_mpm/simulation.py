@@ -531,7 +531,7 @@ class Simulation:
         momentum = self.state.read(self.state.bodies.angular_momentum, nb)
         for i, b in enumerate(self.model.rigid_bodies):
             rate = float(np.linalg.norm(omega[i]))
-            if b.inertia_min > 0.0:
+            if b.turns_freely:
                 rate = max(rate, float(np.linalg.norm(momentum[i])) / b.inertia_min)
             if rate > 0.0 and MAX_TURN / rate <= 1.000001 * self.state.step.dt_stable[None]:
                 raise SimulationError(f"the time step collapsed below 1e-3 of the first one at rigid body {b.name!r} "

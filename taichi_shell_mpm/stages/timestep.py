@@ -159,7 +159,7 @@ def initial_dt(model, velocity: np.ndarray, cfg) -> float:
     from .bodies import MAX_TURN
     for b in model.rigid_bodies:      # RigidBodies.step_limit
         rate = float(np.linalg.norm(b.spin0))
-        if b.inertia_min > 0.0 and len(b.spin0):
+        if b.turns_freely:
             rate = max(rate, float(np.linalg.norm(b.inertia @ b.spin0)) / b.inertia_min)
         dt = min(dt, b.stable_step, MAX_TURN / rate if rate > 0.0 else math.inf)
     if cfg.contact:
