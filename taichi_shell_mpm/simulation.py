@@ -27,7 +27,7 @@ from .scene import Scene
 from .solvers.stepper import Stepper
 from .stages.timestep import DT_UNSET, initial_dt
 from .state import (CANDIDATES_PER_NODE, MAX_FIELDS, STATUS_CONTACT_FULL, STATUS_DT_COLLAPSE, STATUS_ENERGY,
-                    STATUS_INVERTED, STATUS_LEFT_GRID, STATUS_MASS_ADDED, STATUS_NONFINITE, STATUS_RETURN_FAILED,
+                    STATUS_BODY_ROTATION, STATUS_INVERTED, STATUS_LEFT_GRID, STATUS_MASS_ADDED, STATUS_NONFINITE, STATUS_RETURN_FAILED,
                     State)
 from . import energy, frontend
 from .energy import ENERGY_COLUMNS, PART_COLUMNS, added_mass, eroded_elements, part_energies, part_names
@@ -64,6 +64,10 @@ FAILURES = {
                            "a strain increment far beyond yield in one step (an excessive load or velocity, "
                            "or a time step too large: [solve].dt_safety) or a material table that is not "
                            "physical"),
+    STATUS_BODY_ROTATION: ("the rotation of rigid body {index} did not converge (the Simo-Wong fixed point, "
+                           "stages/bodies.py)",
+                           "a body whose inertia is far from isotropic turning fast: give its physical inertia "
+                           "([[rigid_body]].inertia) or lower [solve].dt_safety"),
     STATUS_MASS_ADDED: ("selective mass scaling added {added} of the shell's mass, above [solve].added_mass_limit",
                         "the elements are distorted far below [solve].target_dt: lower target_dt, raise "
                         "added_mass_limit, or refine the mesh where they collapse"),
@@ -503,6 +507,10 @@ class Simulation:
                     code, index = STATUS_INVERTED, int(np.argmax(inside_out))
                 elif code == STATUS_DT_COLLAPSE:
                     index = int(np.argmin(length))
+        if code == STATUS_BODY_ROTATION:
+            index = repr(self.model.rigid_bodies[index].name)
+        if code == STATUS_DT_COLLAPSE:
+            self.check_body_step()
         if code in FAILURES:
             what, cause = FAILURES[code]
             ratio = energy.balance_ratio(self.energies())
@@ -511,6 +519,25 @@ class Simulation:
                                   f"{self.where()}: {cause}")
         self.check_hourglass()
         self.check_balance()
+
+    def check_body_step(self) -> None:
+        """A collapsed step that a rigid body's turn limit set (stages/bodies.step_limit) names
+        the body, not an element."""
+        from .stages.bodies import MAX_TURN
+        nb = len(self.model.rigid_bodies)
+        if not nb or not self.cfg.body_rotation:
+            return
+        omega = self.state.read(self.state.bodies.omega, nb)
+        momentum = self.state.read(self.state.bodies.angular_momentum, nb)
+        for i, b in enumerate(self.model.rigid_bodies):
+            rate = float(np.linalg.norm(omega[i]))
+            if b.turns_freely:
+                rate = max(rate, float(np.linalg.norm(momentum[i])) / b.inertia_min)
+            if rate > 0.0 and MAX_TURN / rate <= 1.000001 * self.state.step.dt_stable[None]:
+                raise SimulationError(f"the time step collapsed below 1e-3 of the first one at rigid body {b.name!r} "
+                                      f"at {self.where()}: it turns at {rate:.3g} rad/s (|L| / I_min), and a step "
+                                      f"turns it by at most {MAX_TURN} rad: an excessive moment or too small an "
+                                      "inertia ([[rigid_body]].inertia)")
 
     def check_balance(self) -> None:
         """Warn once when |E_err| exceeds energy.WARN_FRACTION x the limit of the absorbed

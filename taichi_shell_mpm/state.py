@@ -62,7 +62,7 @@ from .scene import MAX_BODIES, MAX_CURVES, MAX_MOTIONS
 from .tools import MAX_TOOLS
 
 (STATUS_OK, STATUS_CONVERGED, STATUS_INVERTED, STATUS_LEFT_GRID, STATUS_NONFINITE, STATUS_DT_COLLAPSE,
- STATUS_CONTACT_FULL, STATUS_ENERGY, STATUS_RETURN_FAILED, STATUS_MASS_ADDED) = range(10)
+ STATUS_CONTACT_FULL, STATUS_ENERGY, STATUS_RETURN_FAILED, STATUS_MASS_ADDED, STATUS_BODY_ROTATION) = range(11)
 ROTATION_HELD, ROTATION_CONSTRAINED, ROTATION_FREE = range(3)    # bodies.rotation_mode (stages/bodies.py)
 CANDIDATES_PER_NODE = 64     # capacity of the contact candidate lists, on average per node
 
@@ -317,11 +317,12 @@ class State:
         nb, nw = len(model.rigid_bodies), len(model.walls)
         g.table("count", ti.field(i32), ())
         g.table("wall_count", ti.field(i32), ())
-        for name in ("wall_energy", "total_mass", "added_mass", "external_work", "kinetic_rotation", "contact_energy"):
+        for name in ("wall_energy", "total_mass", "added_mass", "external_work", "kinetic_rotation", "contact_energy",
+                     "stable_step", "inertia_min"):
             g.table(name, ti.field(f64), (MAX_BODIES,), nb)
         for name in ("velocity", "velocity_start", "displacement", "force", "impulse", "center0", "omega",
                      "omega_start", "angular_momentum", "moment", "applied_force", "applied_moment",
-                     "angular_impulse"):
+                     "angular_impulse", "omega_mid", "center_start"):
             g.table(name, ti.Vector.field(3, f64), (MAX_BODIES,), nb)
         for name in ("inertia", "translation_free", "rotation_free"):
             g.table(name, ti.Matrix.field(3, 3, f64), (MAX_BODIES,), nb)
@@ -344,7 +345,10 @@ class State:
         # applied_moment: added by other stages before the body update (consumed there);
         # impulse, angular_impulse: of walls (tools) this step, applied at its end;
         # wall_energy: work of the walls moving with it, on it; external_work: of gravity on
-        # its added mass and of the applied loads
+        # its added mass and of the applied loads; stable_step: the step its mass and inertia allow
+        # (assembly.body_step); inertia_min: the smallest principal J about its free axes (the
+        # step's turn limit); omega_mid, center_start: the kick's (omega^- + omega^+) / 2 and x_c^n of
+        # this step (the tools moving with it book their work with them)
         g.table("direction", ti.Vector.field(3, f64), (MAX_BODIES,), nb)
         g.table("first_slave", ti.field(i32), (MAX_BODIES,), nb)
         g.table("slave_count", ti.field(i32), (MAX_BODIES,), nb)
@@ -636,6 +640,8 @@ class State:
             bd.rotation_mode[i] = ROTATION_FREE if free == 3 else ROTATION_CONSTRAINED if free else ROTATION_HELD
             bd.omega[i], bd.angular_momentum[i] = b.spin0.tolist(), (b.inertia @ b.spin0).tolist()
             bd.kinetic_rotation[i] = 0.5 * float(b.spin0 @ b.inertia @ b.spin0)
+            bd.stable_step[i] = min(b.stable_step, 1e300)
+            bd.inertia_min[i] = b.inertia_min
             if len(model.loading.body_motion_mask):
                 bd.motion_mask[i], bd.motion[i] = int(model.loading.body_motion_mask[i]), model.loading.body_motion[i].tolist()
             else:

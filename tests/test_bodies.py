@@ -344,6 +344,13 @@ def test_tip_point_mass_sets_the_cantilever_frequency(tmp_path):
      "[[rigid_body]] 'b': the inertia about its free rotation axes is singular: give inertia"),
     ('[[rigid_body]]\nname = "b"\nnodes = "all"\ninertia = [1.0, 1.0, 1.0, 2.0, 0.0, 0.0]',
      "[[rigid_body]][0].inertia: not positive semi-definite"),
+    ('[[rigid_body]]\nname = "b"\nnodes = "all"\nmass_from_nodes = false\nmass = 2.0\ninertia = [1e-30, 1e-30, 1e-30]',
+     "[[rigid_body]] 'b': inertia: 1e-30 about a free axis is near-singular"),
+    ('[[rigid_body]]\nname = "b"\nnodes = "all"\ncenter = [0.0, 0.0, 0.0]\nfixed = ["ux"]',
+     "[[rigid_body]] 'b': center: [0, 0, 0] is not its mass centre [0.5, 0.5, 0]"),
+    ('[nodesets.edge]\nplane = { point = [1.0, 0.0, 0.0], normal = [1.0, 0.0, 0.0] }\n[[rigid_body]]\nname = "b"\n'
+     'nodes = "edge"\nmass_from_nodes = false\nmass = 1e-12\ninertia = [1.0, 1.0, 1.0]',
+     "[[rigid_body]] 'b': mass, inertia: far too small for the elements it carries"),
     ('[[point_mass]]\nname = "p"\nnodes = "all"\nmass = 1.0\ntotal_mass = 2.0',
      "[[point_mass]][0].mass: give one of mass (each node's) or total_mass"),
     ('[[point_mass]]\nname = "p"\nnodes = "nowhere"\nmass = 1.0', "[[point_mass]][0].nodes"),
@@ -496,3 +503,57 @@ def test_plate_struck_by_a_rigid_body_keeps_momentum_and_energy(tmp_path):
     assert plate > 0.01 and spin > 0.1 and energy["wall"][-1] > 0.0      # it struck (measured 0.020, 0.77)
     assert momentum_error < 1e-12           # measured 2.6e-18
     assert balance < 2e-6                   # measured 1.1e-6
+
+
+def test_free_body_spinning_off_its_mass_centre_keeps_linear_momentum(tmp_path):
+    """A free body (the whole 2 x 2 plate, mass_from_nodes) whose `center` is a corner, not its
+    mass centre, spinning about no principal axis (issue 28 item 2): it turns about its mass
+    centre, so the nodes' momentum sum m_c v_c stays at its initial value to round-off
+    (about the corner, omega x M (x_G - x_C) turned with it: the momentum changed with no force)."""
+    import meshio
+
+    from taichi_shell_mpm.assembly import assemble
+    from taichi_shell_mpm.mesh import build_mesh
+    from taichi_shell_mpm.scene import load_scene
+    body = FREE_BODY.replace("mass = 2.0\ninertia", "center = [0.0, 0.0, 0.0]\ninertia").replace(
+        "mass_from_nodes = false", "mass_from_nodes = true")
+    end = 2.0
+    path = tmp_path / "offset.toml"
+    path.write_text(PLATE.format(name="offset", lx=1.0, ly=1.0, nx=2, ny=2, E=500.0, t=0.05, section="", body=body,
+                                 end=end, interval=f"{end / 10}\ntimes = [0.5, 1.0, 1.5, 2.0]"))
+    out, summary = run_scene(tmp_path, path.read_text(), "offset")
+    model = assemble(load_scene(path), build_mesh(load_scene(path).mesh))
+    spec = model.rigid_bodies[0]
+    p0 = model.node_mass.sum() * (VELOCITY + np.cross(SPIN, spec.center - np.zeros(3)))   # given at the corner
+    frames = sorted((out / "frames").glob("*.vtu"))[1:]          # t = 0 holds the nodes' own (zero) velocities
+    momenta = np.array([(model.node_mass[:, None] * meshio.read(f).point_data["velocity"]).sum(axis=0) for f in frames])
+    drift = float(np.abs(momenta - p0).max() / np.linalg.norm(p0))
+    turned = float(np.linalg.norm(summary["rigid_bodies"][0]["rotation_vector"]))
+    print(f"\ncentre {spec.center} (the corner given); sum m v over {len(frames)} frames vs its initial value: {drift:.1e} "
+          f"relative; turned {turned:.2f} rad")
+    assert np.allclose(spec.center, [0.5, 0.5, 0.0]) and len(frames) >= 3 and turned > 1.0
+    assert drift < 1e-12
+
+
+def test_thin_rod_tumbling_keeps_its_energy_with_the_turn_limit(tmp_path):
+    """A free body with J = diag(1, 1, 1e-4) (a thin rod) tumbling (issue 28 item 7): at the
+    elements' step the Simo-Wong map's Lipschitz constant dt |Pi| / (2 J_min) is ~70 and the
+    fixed point diverged; the step limit dt |L| / J_min <= MAX_TURN keeps it a contraction, and
+    the drift keeps the kinetic energy and L to round-off."""
+    from taichi_shell_mpm.stages.bodies import MAX_TURN
+    inertia, spin = (1.0, 1.0, 1.0e-4), np.array([1.0, 0.0, 1.0])
+    body = FREE_BODY.replace(f"inertia = {list(INERTIA)}", f"inertia = {list(inertia)}").replace(
+        f"spin = {SPIN.tolist()}", f"spin = {spin.tolist()}")
+    end = 0.05
+    out, summary = run_scene(tmp_path, PLATE.format(name="rod", lx=1.0, ly=1.0, nx=2, ny=2, E=500.0, t=0.05, section="",
+                                                    body=body, end=end, interval=end / 10), "rod")
+    j = np.diag(inertia)
+    k0 = 0.5 * 2.0 * VELOCITY @ VELOCITY + 0.5 * spin @ j @ spin
+    rod = summary["rigid_bodies"][0]
+    energy_error = abs(rod["kinetic_energy"] / k0 - 1.0)
+    momentum_error = float(np.linalg.norm(np.array(rod["angular_momentum"]) - j @ spin) / np.linalg.norm(j @ spin))
+    needed = end * np.linalg.norm(j @ spin) / inertia[2] / MAX_TURN
+    print(f"\n{summary['steps']} steps (the turn limit needs {needed:.0f}; the elements' step 0.0142 would take "
+          f"{end / 0.0142:.0f}): kinetic energy {energy_error:.1e}, angular momentum {momentum_error:.1e}")
+    assert summary["steps"] >= needed
+    assert energy_error < 1e-12 and momentum_error < 1e-12

@@ -51,16 +51,28 @@ the crush force history sees a lobe that rests on the support plane.
 
 Other stages load a body through add_force (at t^n, before update) and add_impulse (during
 the node update; applied at the end of the step); see /work/notes/bodies_api.md.
+
+Time step (issue 28 item 7): a body limits the next step to its stable step on the elements it
+carries (assembly.body_step, host, from its mass and inertia) and to MAX_TURN of rotation.
 """
 import taichi as ti
 
-from ..state import ROTATION_CONSTRAINED, ROTATION_FREE, ROTATION_HELD
+from ..state import ROTATION_CONSTRAINED, ROTATION_FREE, ROTATION_HELD, STATUS_BODY_ROTATION, STATUS_OK
 from .accumulate import Accumulator
 from .motion import ACCELERATION, DISPLACEMENT
 from .timestep import impulse_time
 
 SIMO_WONG_ITERATIONS = 50      # fixed-point iterations at most (a few at dt |omega| << 1)
 SIMO_WONG_TOLERANCE = 1e-15    # relative change of W that ends them
+# The most a body turns in a step, as dt |L| / J_min (>= dt |omega|; J_min its smallest principal
+# inertia about the free axes; held or constrained rotations: dt |omega|) [choice, issue 28 item 7]:
+# the Simo-Wong map W -> J^-1 (Pi + exp(-dt W^) Pi) / 2 has the Lipschitz constant
+# dt |Pi| / (2 J_min), so at 1/2 it contracts by 1/4 per iteration (to 1e-15 in < 25 of the 50),
+# and the slaves' Cayley factor tan(phi / 2) / (phi / 2), which blows up at phi = pi, stays below
+# 1.021 (phi = dt |omega|).  A thin rod (J = [1, 1, 1e-4]) tumbling at the elements' step had a
+# Lipschitz constant of ~70: the iteration diverged and the body gained energy
+# (tests/test_bodies.py).  The step is limited to it; the bound only binds on such bodies.
+MAX_TURN = 0.5
 
 
 @ti.func
@@ -173,6 +185,8 @@ class RigidBodies:
                 weight = self.s.bodies.added_mass[b] * self.s.loads.gravity_now[None]
                 force = weight
             x_c = self.center(b)
+            if ti.static(self.cfg.body_rotation):
+                self.s.bodies.center_start[b] = x_c
             # a rotating body's loads and contact forces at its slaves, apart (their work is booked here)
             slave_loads = ti.Vector([0.0, 0.0, 0.0])
             slave_load_moment = ti.Vector([0.0, 0.0, 0.0])
@@ -222,6 +236,7 @@ class RigidBodies:
                                                                              + self.s.bodies.velocity[b]))
             if ti.static(self.cfg.body_rotation):
                 omega_mid = self.turn(b, moment)
+                self.s.bodies.omega_mid[b] = omega_mid
                 v_mid = 0.5 * (self.s.bodies.velocity_start[b] + self.s.bodies.velocity[b])
                 self.energy.body_external(b, kick * (slave_loads.dot(v_mid) + slave_load_moment.dot(omega_mid)))
                 if ti.static(self.cfg.contact):
@@ -313,12 +328,17 @@ class RigidBodies:
             j_inv = j.inverse()
             pi = r.transpose() @ after
             w = j_inv @ pi
+            converged = False
             for _ in range(SIMO_WONG_ITERATIONS):
                 w_new = j_inv @ (0.5 * (pi + rotate(-dt * w, pi)))
                 change = (w_new - w).norm()
                 w = w_new
                 if change <= SIMO_WONG_TOLERANCE * w.norm():
+                    converged = True
                     break
+            if not converged and self.s.step.status[None] == STATUS_OK:    # MAX_TURN should prevent it
+                self.s.step.status[None] = STATUS_BODY_ROTATION
+                self.s.step.status_index[None] = b
             omega = r @ w
             q = quaternion_product(q, quaternion_exp(dt * w))
         self.s.bodies.kinetic_rotation[b] = 0.5 * after.dot(omega_after)
@@ -457,6 +477,20 @@ class RigidBodies:
                                 self.energy.body_motion(b, 3 + d, -h[d] * w_mid[d])
                         self.energy.body(b, -h.dot(w_mid))
                 self.s.bodies.angular_impulse[b] = ti.Vector([0.0, 0.0, 0.0])
+            self.s.step.dt_next[None] = ti.min(self.s.step.dt_next[None], self.step_limit(b))
+
+    @ti.func
+    def step_limit(self, b):
+        """The next step body b allows: its stable step on its elements (assembly.body_step) and,
+        turning, MAX_TURN / (|L| / J_min) free or MAX_TURN / |omega| (module constants)."""
+        limit = self.s.bodies.stable_step[b]
+        if ti.static(self.cfg.body_rotation):
+            rate = self.s.bodies.omega[b].norm()
+            if self.s.bodies.rotation_mode[b] == ROTATION_FREE:
+                rate = ti.max(rate, self.s.bodies.angular_momentum[b].norm() / self.s.bodies.inertia_min[b])
+            if rate > 0.0:
+                limit = ti.min(limit, MAX_TURN / rate)
+        return limit
 
     @ti.func
     def add_kinetic_energy(self):

@@ -156,6 +156,12 @@ def initial_dt(model, velocity: np.ndarray, cfg) -> float:
     if cfg.grid_rule:
         dt = min(dt, p.dt_safety * model.grid.h / (model.materials.dilatational_speed
                                                    + float(np.max(np.abs(velocity)))))
+    from .bodies import MAX_TURN
+    for b in model.rigid_bodies:      # RigidBodies.step_limit
+        rate = float(np.linalg.norm(b.spin0))
+        if b.turns_freely:
+            rate = max(rate, float(np.linalg.norm(b.inertia @ b.spin0)) / b.inertia_min)
+        dt = min(dt, b.stable_step, MAX_TURN / rate if rate > 0.0 else math.inf)
     if cfg.contact:
         spread = float(np.linalg.norm(velocity.max(axis=0) - velocity.min(axis=0)))
         if spread > 0.0:

@@ -313,8 +313,11 @@ class RigidTools:
             if ti.static(self.cfg.body_rotation):     # sum f . omega_mid x (x - x_b^n)
                 if self.g.motion[k] == BODY:
                     b = self.g.body[k]
-                    omega_mid = 0.5 * (self.s.bodies.omega_start[b] + self.s.bodies.omega[b])
-                    x_b = self.bodies.center(b) - self.s.step.dt[None] * self.s.bodies.velocity[b]    # t^n
+                    # the kick's time-centred omega and x_b^n, with which the moment about x_b^n
+                    # (on_body) changed the body's KE (RigidBodies.update; the drift's omega and an
+                    # x_b^n rebuilt from the velocity after the wall impulses missed it)
+                    omega_mid = self.s.bodies.omega_mid[b]
+                    x_b = self.s.bodies.center_start[b]
                     work += kick * omega_mid.dot((self.g.centre[k] - x_b).cross(self.g.force[k]) + self.g.moment[k])
             self.g.work[k] += work
             self.g.energy[k] += work
