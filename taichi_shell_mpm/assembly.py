@@ -758,6 +758,17 @@ def _tables(scene: Scene, parts, material_specs: dict, section_specs: dict, fram
                                                       **columns)
 
 
+def node_point_masses(point_masses, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """(n,) the mass and rotary inertia the [[point_mass]] entries put at each node (their sum
+    at a node, in entry order): added to the elements' shares here and by the per-step mass
+    rebuild of erosion and mass scaling (stages/masses.py, state.nodes.point_mass)."""
+    mass, inertia = np.zeros(n), np.zeros(n)
+    for p in point_masses:
+        mass[p.nodes] += p.mass
+        inertia[p.nodes] += p.inertia
+    return mass, inertia
+
+
 def assemble(scene: Scene, mesh: Mesh) -> Model:
     """Build the :class:`Model` for `scene` on `mesh` (raises SceneError on user mistakes)."""
     points, elements = mesh.points.astype(np.float64), mesh.elements.astype(np.int64)
@@ -835,10 +846,11 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
     for pm in scene.point_masses:
         ids = nodes_of(pm.nodes)
         each = pm.mass if pm.mass is not None else pm.total_mass / len(ids)
-        node_mass[ids] += each
-        physical_mass[ids] += each
-        node_inertia[ids] += pm.inertia
         point_masses.append(PointMassSpec(pm.name, ids, each, pm.inertia))
+    point_mass, point_inertia = node_point_masses(point_masses, n)
+    node_mass += point_mass                  # the order of stages/masses.py: elements, then point masses
+    physical_mass += point_mass
+    node_inertia += point_inertia
 
     node_body = np.full(n, -1, dtype=np.int32)
     bodies = []

@@ -102,6 +102,7 @@ def save_checkpoint(sim, position: dict, path: Path | None = None) -> Path:
         "step": int(sim.state.step.step[None]),
         "frames": [[float(k), f] for k, f in (sim.frames.entries if sim.frames else [])],
         "warnings": list(sim.warnings), "hourglass_warned": bool(sim.hourglass_warned),
+        "overflow_warned": bool(sim.overflow_warned),
         "driver": sim.driver_data,
     }
     arrays["meta"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
@@ -214,6 +215,7 @@ def restore_checkpoint(sim, ckpt: Checkpoint) -> list[str]:
     sim.run_cpu_seconds = float(m.get("run_cpu_seconds", 0.0))
     sim.warnings = list(m["warnings"])
     sim.hourglass_warned = bool(m["hourglass_warned"])
+    sim.overflow_warned = bool(m["overflow_warned"])
     sim.driver_data = m["driver"]
     entries = [(float(k), str(f)) for k, f in m["frames"]]
     source = ckpt.path.parent

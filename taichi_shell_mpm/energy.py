@@ -22,6 +22,17 @@ sum in a fixed order (the same bits on any number of threads and across a restar
   its internal, hourglass and drilling energy with that kinetic energy as the eroded
   energy, the element columns being those of the live elements.
 
+Erosion [issue 28].  An element failing in step n+1 has booked that step's stress power,
+U^(n+1), but writes no loads, so its forces f^(n+1) never act on the nodes and it has no
+stagger term S_e = -dt/2 P_e (below).  What the nodes did work on it is U^(n+1) + S_e with the
+forces it would have written, so that stagger term is booked into its internal energy
+(stages/shell.ShellElement.failing_stagger) and is part of its eroded energy.  Without it
+the eroded energy was booked above the work: a scene whose elements all fail in the first
+step stopped as "energy created" (its first step's U^1 is the whole energy, S_e = -U^1 for
+a linear response, and nothing else was absorbed).  Point masses stay at their nodes and
+gravity acts on the physical mass that remains (stages/masses.py), so gravity's work is
+booked on the mass the kinetic energy is measured with.
+
 The step keeps 0-d running totals of the same increments for its in-kernel decisions
 (static convergence, the balance guard); what is reported and written comes from the
 per-entity sums (:func:`totals`).

@@ -200,6 +200,7 @@ class Simulation:
         self.reporter = Progress(quiet, scene.solve.progress_every)
         self.warnings: list[str] = []
         self.hourglass_warned = False
+        self.overflow_warned = False               # the multi-field grid ran out of fields (check_fields)
         self.hourglass_limit = HOURGLASS_STOP      # stop above this (E_hg + E_drill)/E_int (0: never), warn above half
         self.balance_warned = False
         self._last_geometry_check = 0.0
@@ -519,6 +520,7 @@ class Simulation:
                                   f"{self.where()}: {cause}")
         self.check_hourglass()
         self.check_balance()
+        self.check_fields()
 
     def check_body_step(self) -> None:
         """A collapsed step that a rigid body's turn limit set (stages/bodies.step_limit) names
@@ -551,6 +553,21 @@ class Simulation:
             stops = f"the run stops above {100 * self.energy_limit:.3g}%" if self.energy_limit > 0.0 else "no limit set"
             self.warn(f"the energy balance error is {100 * ratio:.2g}% of the energy absorbed at {self.where()} "
                       f"({stops})")
+
+    def check_fields(self) -> None:
+        """Warn once when grid nodes of the multi-field grid ran out of velocity fields (more
+        layers met there than it keeps; stages/grid.py): the extra layers moved with an
+        unrelated one there.  Names the first step it happened in and how many grid nodes."""
+        g = self.state.grid
+        if not self.cfg.multi_field or self.overflow_warned or g.first_overflow_step[None] < 0:
+            return
+        self.overflow_warned = True
+        nodes = int(g.first_overflow_nodes[None])
+        self.warn(f"{nodes} grid node{'s' if nodes != 1 else ''} ran out of velocity fields at "
+                  f"t={g.first_overflow_time[None]:.6g}, step {g.first_overflow_step[None]}: more than {MAX_FIELDS} "
+                  f"layers met there and the extra ones share the last field with an unrelated layer (they move "
+                  f"together there); a smaller [method].cell_size separates them (summary.json grid.field_overflow "
+                  "counts the joins)")
 
     def check_hourglass(self) -> None:
         """Warn once when the zero-energy-mode controls hold more than 10% of E_int (hourglass
@@ -678,7 +695,7 @@ class Simulation:
         per_node = (8 * (4 + 3 * self.cfg.grid_force + 6 * self.cfg.grid_contact)
                     * (MAX_FIELDS if self.cfg.multi_field else 1))
         out = {"slots_used": int(g.slot_count[None]), "slots": int(self.state.grid_slots),
-               "bytes": int(self.state.grid_slots * (per_node + 12 * 4 + 4 * MAX_FIELDS * self.cfg.multi_field)),
+               "bytes": int(self.state.grid_slots * (per_node + 12 * 4 + 4 * (MAX_FIELDS + 1) * self.cfg.multi_field)),
                "collections": int(g.collections[None])}
         if self.cfg.multi_field:
             out["fields"] = MAX_FIELDS

@@ -56,6 +56,7 @@ from types import SimpleNamespace
 import numpy as np
 import taichi as ti
 
+from .assembly import node_point_masses
 from .curves import COLUMNS as CURVE_COLUMNS
 from .materials import MATERIAL_PARAMETERS
 from .scene import MAX_BODIES, MAX_CURVES, MAX_MOTIONS
@@ -220,6 +221,10 @@ class State:
         # loads beyond the plain ones (stages/loads.py): physical mass (gravity), this step's
         # pressure force, CSR node -> curve/follower load entries
         g.entity("physical_mass", ti.field(f64), n, used=fx.loads)
+        # the [[point_mass]] mass and rotary inertia at each node: the per-step mass rebuild of
+        # erosion and mass scaling adds them to the elements' shares (stages/masses.py)
+        g.entity("point_mass", ti.field(f64), n, used=fx.mass_update)
+        g.entity("point_inertia", ti.field(f64), n, used=fx.mass_update)
         g.entity("pressure_force", ti.Vector.field(3, f64), n, persistent=False, used=fx.loads, host=False)
         g.entity("load_start", ti.field(i32), n + 1, used=fx.loads)
 
@@ -545,7 +550,16 @@ class State:
         # its 8 corners (2 bits each; bits 16-23: decided, GPU claim rounds)
         multi = on and fx.multi_field
         g.table("field_radius_sq", ti.field(f64), (), used=multi)         # (FIELD_RADIUS_CELLS h)^2
-        g.table("field_overflow", ti.field(i32), (), used=multi, persistent=False)   # joins of a full node
+        # field overflow (a grid node reached by more layers than MAX_FIELDS): joins of a full
+        # grid node so far; grid nodes overflowed this step (scratch) and a per-slot flag of it
+        # (zero between steps); the first step with an overflow, its time and grid nodes (step
+        # -1: none yet), which the host warns of (Simulation.check_fields)
+        g.table("field_overflow", ti.field(i32), (), used=multi)
+        g.table("overflow_nodes", ti.field(i32), (), used=multi, persistent=False)
+        g.entity("overflowed", ti.field(i32), slots if multi else 0, used=multi, persistent=False, host=False)
+        g.table("first_overflow_step", ti.field(i32), (), used=multi)
+        g.table("first_overflow_time", ti.field(f64), (), used=multi)
+        g.table("first_overflow_nodes", ti.field(i32), (), used=multi)
         g.entity("anchor", ti.field(i32), slots if multi else 0, (MAX_FIELDS,), used=multi, host=False)
         g.entity("node_fields", ti.field(i32), n, used=multi, host=False)
         touch = multi and fx.grid_contact               # the grid contact condition's t_c and mu
@@ -586,6 +600,10 @@ class State:
         q = np.zeros((n, 4))
         q[:, 0] = 1.0
         w(nd.rotation, q)
+        if self.features.mass_update:
+            point_mass, point_inertia = node_point_masses(model.point_masses, n)
+            w(nd.point_mass, point_mass)
+            w(nd.point_inertia, point_inertia)
         w(el.corners, model.elements)
         data = model.element
         for name in ("thickness", "shear_factor", "wave_speed", "rotational_frequency", "hourglass_membrane",
@@ -688,6 +706,7 @@ class State:
             w(gg.node_base, np.full((n, 3), NO_CELL, np.int32))      # every node looks its slots up
             if self.features.multi_field:
                 gg.field_radius_sq[None] = (FIELD_RADIUS_CELLS * geo.h) ** 2
+                gg.first_overflow_step[None] = -1
                 if self.features.grid_contact:
                     gg.field_gap[None] = model.parameters.field_gap
                     gg.field_friction[None] = model.parameters.field_friction

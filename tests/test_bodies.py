@@ -305,6 +305,33 @@ components = ["uz"]
 """
 
 
+TIP_LENGTH, TIP_E, TIP_T, TIP_M = 10.0, 1.2e6, 0.1, 10.0
+
+
+def tip_mass_period():
+    """The closed form T = 2 pi sqrt((M + 33/140 m) L^3 / (3 EI)) of the tip-mass cantilever."""
+    beam = TIP_LENGTH * 1.0 * TIP_T                 # rho = 1
+    ei = TIP_E * TIP_T ** 3 / 12.0
+    return 2.0 * math.pi * math.sqrt((TIP_M + 33.0 / 140.0 * beam) * TIP_LENGTH ** 3 / (3.0 * ei))
+
+
+def run_tip_mass(tmp_path, name: str, material: str = "", solve: str = ""):
+    """The tip-mass cantilever (with `material` and `solve` keys added): its measured period
+    (mean of the upward zero crossings of the tip, interpolated), the crossings and summary.json."""
+    period = tip_mass_period()
+    text = PLATE.format(name=name, lx=TIP_LENGTH, ly=1.0, nx=10, ny=1, E=TIP_E, t=TIP_T,
+                        section='points = 3\nrule = "lobatto"', body=TIP_MASS.format(L=TIP_LENGTH, M=TIP_M, v0=1e-3),
+                        end=2.2 * period, interval=period / 400)
+    text = text.replace("density = 1.0\n", "density = 1.0\n" + material).replace(
+        'kind = "dynamic"\n', 'kind = "dynamic"\n' + solve)
+    out, summary = run_scene(tmp_path, text, name)
+    probes = table(out / "probes.csv")
+    t, w = probes["time"], probes["tipuz"]
+    up = np.nonzero((w[:-1] < 0.0) & (w[1:] >= 0.0))[0]          # upward zero crossings, interpolated
+    crossings = t[up] - w[up] * (t[up + 1] - t[up]) / (w[up + 1] - w[up])
+    return float(np.diff(crossings).mean()), crossings, summary
+
+
 def test_tip_point_mass_sets_the_cantilever_frequency(tmp_path):
     """A point mass M = 10 m (m: the strip's mass) at the tip of a cantilever strip (L = 10,
     b = 1, t = 0.1, E = 1.2e6, rho = 1), struck so that it swings: the period of its
@@ -312,19 +339,8 @@ def test_tip_point_mass_sets_the_cantilever_frequency(tmp_path):
     (Rayleigh's mass of the beam, exact to 0.01 % at M = 10 m): -1.1e-3, the 10 x 1 mesh's
     stiffness; without the point mass the period would be sqrt(10.24 / 0.24) = 6.5 x shorter.
     Its kinetic energy is its own parts.csv row."""
-    length, e_mod, thickness, mass = 10.0, 1.2e6, 0.1, 10.0
-    beam = length * 1.0 * thickness                 # rho = 1
-    ei = e_mod * thickness ** 3 / 12.0
-    period = 2.0 * math.pi * math.sqrt((mass + 33.0 / 140.0 * beam) * length ** 3 / (3.0 * ei))
-    text = PLATE.format(name="tip_mass", lx=length, ly=1.0, nx=10, ny=1, E=e_mod, t=thickness,
-                        section='points = 3\nrule = "lobatto"', body=TIP_MASS.format(L=length, M=mass, v0=1e-3),
-                        end=2.2 * period, interval=period / 400)
-    out, summary = run_scene(tmp_path, text, "tip_mass")
-    probes = table(out / "probes.csv")
-    t, w = probes["time"], probes["tipuz"]
-    up = np.nonzero((w[:-1] < 0.0) & (w[1:] >= 0.0))[0]          # upward zero crossings, interpolated
-    crossings = t[up] - w[up] * (t[up + 1] - t[up]) / (w[up + 1] - w[up])
-    measured = float(np.diff(crossings).mean())
+    mass, period = TIP_M, tip_mass_period()
+    measured, crossings, summary = run_tip_mass(tmp_path, "tip_mass")
     error = measured / period - 1.0
     parts = {p["name"]: p for p in summary["parts"]}
     point = parts["point_mass:weight"]
@@ -333,6 +349,30 @@ def test_tip_point_mass_sets_the_cantilever_frequency(tmp_path):
     assert len(crossings) >= 2
     assert abs(error) < 1.5 * 1.2e-3        # measured -1.1e-3 (the 10 x 1 mesh)
     assert point["mass"] == pytest.approx(mass)
+
+
+def test_tip_point_mass_stays_with_erosion_and_mass_scaling(tmp_path):
+    """The tip-mass cantilever with erosion and selective mass scaling compiled in (issue 28
+    item 1: the per-step mass rebuild took the elements' shares only, so the point mass was
+    gone after step 1, and the period 6.5 x shorter): J2 with a failure strain it never reaches
+    and a target step below every element's (nothing added).  Its period, the point mass's
+    row and the kinetic energy are those of the plain run."""
+    plain, _, base = run_tip_mass(tmp_path, "plain")
+    both, crossings, summary = run_tip_mass(
+        tmp_path, "eroding", material='model = "j2"\nyield_stress = 1e9\nfailure_strain = 1.0\n',
+        solve='mass_scaling = "selective"\ntarget_dt = 1e-9\n')
+    parts = {p["name"]: p for p in summary["parts"]}
+    point, kinetic = parts["point_mass:weight"], summary["energies"]["kinetic"]
+    print(f"\nperiod {both:.6f} against the plain run's {plain:.6f}: {both / plain - 1.0:+.1e} "
+          f"({len(crossings)} crossings); kinetic energy {kinetic:.6e} against {base['energies']['kinetic']:.6e}; "
+          f"point mass row {point['mass']:g}, eroded {summary['erosion']['eroded_elements']}, added "
+          f"{summary['mass_scaling']['added_mass']:g}; balance error {summary['energies']['balance_error']:.1e}")
+    assert summary["erosion"]["eroded_elements"] == 0 and summary["mass_scaling"]["added_mass"] == 0.0
+    assert point["mass"] == pytest.approx(TIP_M)
+    assert abs(both / plain - 1.0) < 1e-6
+    assert kinetic == pytest.approx(base["energies"]["kinetic"], rel=1e-6)
+    assert point["energies"]["kinetic"] == pytest.approx(
+        {p["name"]: p for p in base["parts"]}["point_mass:weight"]["energies"]["kinetic"], rel=1e-6)
 
 
 @pytest.mark.parametrize("block, message", [

@@ -42,6 +42,7 @@ nu = 0.3
 density = 7.85e-6
 model = "j2"
 yield_stress = 0.2
+{steel_failure}
 [materials.weak]
 E = {notch_E}
 nu = 0.3
@@ -51,6 +52,7 @@ yield_stress = 0.1
 hardening = 0.2
 failure_strain = {failure_strain}
 failure_points = 3
+{weak_failure}
 [sections.sheet]
 thickness = 1.0
 points = 3
@@ -86,7 +88,7 @@ plane = {{ point = [100.0, 0.0, 0.0], normal = [1.0, 0.0, 0.0] }}
 box = {{ min = [-1.0, -1.0, -1.0], max = [99.0, 11.0, 1.0] }}
 [[boundary]]
 nodes = "clamp"
-fix = "all"
+fix = {clamp_fix}
 [[boundary]]
 nodes = "flat"
 fix = {flat_fix}
@@ -109,11 +111,12 @@ added_mass_limit = {limit}
 [output]
 times = {times}
 history_interval = {history}
+{extra}
 """
 # dt_rule = "shell": the grid rule (alpha h / c_dil, the stiffest material's) would bind below
 # every element's step on this h = L/2 grid and hide what mass scaling does (docs/scenes.md).
 PULL = dict(notch_E=200.0, failure_strain=0.1, flat_fix='["uz"]', speed=2.0, end_time=1.0, target_dt=1e-5, limit=5.0,
-            times="[0.2, 0.5, 1.0]", history=0.005)
+            times="[0.2, 0.5, 1.0]", history=0.005, clamp_fix='"all"', steel_failure="", weak_failure="", extra="")
 NOTCH = [9, 29]                       # its elements (plate elements run row by row along x)
 RHO, NU, L_E = 7.85e-6, 0.3, 25.0 / math.sqrt(50.0)     # L_e = area / longest diagonal of a 5 mm square
 
@@ -373,3 +376,63 @@ def test_restart_through_mass_scaling_and_erosion_is_bit_for_bit(tmp_path, monke
     print(f"added mass from {parts['time'][parts['part'] == 'notch'][np.argmax(notch > 0.0)]:.3f} ms "
           f"({notch[-1]:.3e} kg at the end), eroded at {eroded_at:.3f} ms")
     assert notch[-1] > 0.0 and energy["eroded"][-1] > 0.0 and eroded_at < 0.6      # before both stops
+
+
+# gravity along the strip (1 g) and a pressure on the notch (along z, which every node but the
+# grip's holds): one compile for the two tests below
+GRAVITY_PRESSURE = '[gravity]\nacceleration = [9.81e-3, 0.0, 0.0]\n[[pressure]]\nelements = "notch"\nvalue = 1e-3'
+ERODES_AT_ONCE = "failure_min_dt = 1.0"      # above every element's step: it fails in step 1
+
+
+def test_after_erosion_gravity_acts_on_the_mass_that_remains(tmp_path):
+    """The strip free along x (clamp and plane hold uz only, the grip at rest) falls along x
+    under gravity; the notch erodes in step 1 (failure_min_dt).  Its corner nodes (x = 45, 50)
+    keep only the left and right elements' shares, and gravity acts on that physical mass: every
+    free node, and the grip, falls at g (with the notch's shares still weighed, those nodes
+    were pulled at up to (m + m_notch)/m g).  The pressure on the notch acts in step 1 (its
+    forces are computed before the element pass erodes it) and never after."""
+    g = 9.81e-3
+    scene = load_scene(strip_scene(tmp_path, clamp_fix='["uz"]', speed=0.0, weak_failure=ERODES_AT_ONCE,
+                                   extra=GRAVITY_PRESSURE))
+    sim = simulation(scene, tmp_path)
+    s, model = sim.state, sim.model
+    sim.stepper.advance(1)
+    eroded = s.fetch("elements.eroded")
+    first = np.abs(s.read(s.nodes.pressure_force, s.n_nodes)).max()
+    sim.stepper.advance(60)
+    after = np.abs(s.read(s.nodes.pressure_force, s.n_nodes)).max()
+    free = model.node_body < 0
+    mass, physical = s.fetch("nodes.mass"), s.fetch("nodes.physical_mass")
+    v = s.fetch("nodes.grid_velocity")[:, 0]
+    t, dt = s.step.time[None], s.step.dt[None]
+    fall = g * (t - 0.5 * dt)                 # v^(n+1/2) of a uniform acceleration from rest
+    spread = np.abs(v[free] / fall - 1.0).max()
+    grip = float(s.read(s.bodies.velocity, 1)[0][0]) / fall - 1.0
+    e = sim.energies()
+    print(f"\neroded {np.flatnonzero(eroded).tolist()}; pressure force max {first:.3e} in step 1, {after:.1e} after; "
+          f"at t = {t:.4f}: free nodes' v_x / g(t - dt/2) - 1 within {spread:.1e}, grip {grip:+.1e}; "
+          f"physical vs nodal mass {np.abs(physical - mass)[free].max():.1e}; balance error "
+          f"{e['balance_error']:.2e} of work {e['external_work']:.3e}")
+    np.testing.assert_array_equal(np.flatnonzero(eroded), NOTCH)
+    assert first > 0.0 and after == 0.0
+    np.testing.assert_allclose(physical[free], mass[free], rtol=1e-14, atol=0.0)     # no mass was added
+    assert spread < 1e-9 and abs(grip) < 1e-9
+    assert abs(e["balance_error"]) <= 1e-6 * e["external_work"]
+
+
+def test_every_element_eroding_in_the_first_step_ends_cleanly(tmp_path):
+    """Every element fails in step 1 (failure_min_dt on both materials): the eroded energy is
+    what the nodes did work on them (their step-1 stress power less the forces they never
+    wrote: ~0), no false "energy created" stop, exit 0 with all 40 eroded."""
+    out = tmp_path / "out"
+    proc = run_cli(strip_scene(tmp_path, steel_failure=ERODES_AT_ONCE, weak_failure=ERODES_AT_ONCE,
+                               extra=GRAVITY_PRESSURE, times="[1.0]"), out)
+    print("\n" + proc.stderr[-1500:])
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    summary = json.loads((out / "summary.json").read_text())
+    e = summary["energies"]
+    print(f"eroded {summary['erosion']['eroded_elements']}, {summary['steps']} steps; eroded energy {e['eroded']:.2e}, "
+          f"balance error {e['balance_error']:.2e}, kinetic {e['kinetic']:.4f}; warnings {summary['warnings']}")
+    assert summary["erosion"]["eroded_elements"] == 40
+    assert abs(e["balance_error"]) <= 1e-9 * e["kinetic"]
+    assert not any("energy" in w for w in summary["warnings"])

@@ -378,3 +378,49 @@ def test_polypic_keeps_the_tube_wave_at_one_cell_per_element(tmp_path, monkeypat
     print(f"\ntube at h = l, multi fields, PolyPIC, 0.5 ms: balance error {loss:.3f} J of {absorbed:.1f} J "
           f"absorbed ({100 * abs(loss) / absorbed:.2f} %; APIC, one field: -8.85 J, 5.7 %)")
     assert abs(loss) < POLYPIC_TUBE_LOSS_TOL * absorbed
+
+
+def stacked_sheets_scene(tmp_path, layers: int = 5, spacing: float = 0.04) -> Path:
+    """`layers` free unit squares of 2 x 2 elements at z = 0, spacing, ..., one part each, all
+    within one cell (h = 0.25) of the multi-field grid, at rest (the features of SHEETS)."""
+    import meshio
+    xs = np.linspace(0.0, 1.0, 3)
+    grid = np.array([[x, y] for y in xs for x in xs])
+    quads = np.array([[j * 3 + i, j * 3 + i + 1, (j + 1) * 3 + i + 1, (j + 1) * 3 + i] for j in range(2) for i in range(2)])
+    meshio.write(tmp_path / "stack.vtu", meshio.Mesh(
+        np.vstack([np.c_[grid, np.full(len(grid), k * spacing)] for k in range(layers)]),
+        [("quad", np.vstack([quads + k * len(grid) for k in range(layers)]))]))
+    parts = "".join(
+        f'[elementsets.s{k}]\nbox = {{ min = [-1.0, -1.0, {(k - 0.5) * spacing!r}], max = [2.0, 2.0, {(k + 0.5) * spacing!r}] }}\n'
+        f'[[part]]\nname = "s{k}"\nmaterial = "soft"\nsection = "sheet"\nelements = "s{k}"\n' for k in range(layers))
+    text = (f'[scene]\nname = "stack"\nunits = "consistent"\n[mesh]\nkind = "file"\npath = "stack.vtu"\n'
+            f'[materials.soft]\nE = 100.0\nnu = 0.0\ndensity = 1.0\n[sections.sheet]\nthickness = 0.02\n{parts}'
+            '[method]\nkind = "mpm"\ncell_size = 0.25\nfields = "multi"\n[contact]\nstiffness = 0.1\ndamping = 0.0\n'
+            '[solve]\nkind = "dynamic"\nend_time = 3.0\ndt_rule = "shell"\n[output]\nhistory_interval = 0.1\n')
+    path = tmp_path / "stack.toml"
+    path.write_text(text)
+    return path
+
+
+def test_stacked_sheets_beyond_the_fields_warn_once_and_restart(tmp_path, monkeypatch):
+    """Five sheets (five parts) within one cell: every grid node they reach holds 5 layers,
+    one more than its MAX_FIELDS fields, so the fifth joins the last field (issue 28 item 6):
+    the run warns once, naming the step and the grid nodes (all 6 x 6 x 2 of the stencils), on
+    the console and in summary.json; the count and the warning are in the checkpoint, so the
+    stopped and restarted run's summary (overflow count and warnings) is the uninterrupted one's."""
+    from .test_restart import restart_roundtrip
+    scene = stacked_sheets_scene(tmp_path)
+    r = cli_run("run", str(scene), "--out", str(tmp_path / "once"), timeout=600)
+    assert r.code == 0, r.out + r.err
+    said = [line for line in (r.out + r.err).splitlines() if "ran out of velocity fields" in line]
+    summary = json.loads((tmp_path / "once" / "summary.json").read_text())
+    print(f"\n{said}\ngrid {summary['grid']}, {summary['steps']} steps")
+    assert len(said) == 1 and "72 grid nodes" in said[0] and "step 1:" in said[0]
+    noted = [w for w in summary["warnings"] if "velocity fields" in w]
+    assert len(noted) == 1 and noted[0].startswith("72 grid nodes") and "step 1:" in noted[0]
+    assert summary["grid"]["field_overflow"] > 0
+    # 20 elements: 20-step batches; stopped at step 50 and restarted, and from the checkpoint at 40
+    restart_roundtrip(tmp_path, monkeypatch, [str(scene)], stop_step=50, every=30, batch_element_steps=400)
+    a, c = (json.loads((tmp_path / d / "summary.json").read_text()) for d in ("a", "c"))
+    assert a["grid"]["field_overflow"] == c["grid"]["field_overflow"] > 0
+    assert a["warnings"] == c["warnings"] and len(a["warnings"]) == 1

@@ -60,6 +60,13 @@ own velocities; by default ([method].field_contact = "penalty") they interact on
 fields (node_slots[c, q], anchor[g, f]): with vector fields indexed at run time, the
 multi-field step segfaulted in its first batch on Taichi 1.7 (CPU), in debug mode too.
 
+A grid node that more than MAX_FIELDS layers reach puts the extra ones into its last field,
+where unrelated layers then move together.  It is counted (field_overflow: joins of a full
+grid node; summary.json ``grid``) and the first step in which it happens is kept with the
+number of grid nodes that overflowed then, so that the run warns of it once, at that
+time (Simulation.check_fields, issue 28), on the console and in summary.json's warnings; the
+record is part of the checkpoint, so a restarted run's summary is that of one run.
+
 Grid contact condition (field_contact = "grid", compiled only then; :meth:`GridUpdate.contact`,
 Bardenhagen et al. 2000, 2001): where a grid node has two or more fields with mass, a field
 approaching the others' centre of mass loses the normal part of its velocity relative to it
@@ -229,7 +236,7 @@ class GridUpdate:
                         f = s
             if f < 0:
                 f = MAX_FIELDS - 1
-                ti.atomic_add(self.s.grid.field_overflow[None], 1)
+                self.overflow(g)
             fields |= f << (2 * q)
         self.s.grid.node_fields[c] = fields
 
@@ -257,8 +264,26 @@ class GridUpdate:
                                 bits |= (s << (2 * q)) | (1 << (16 + q))
                             elif ti.static(s == MAX_FIELDS - 1):
                                 bits |= (s << (2 * q)) | (1 << (16 + q))
-                                ti.atomic_add(self.s.grid.field_overflow[None], 1)
+                                self.overflow(self.s.grid.node_slots[c, q])
                     self.s.grid.node_fields[c] = bits
+
+    @ti.func
+    def overflow(self, g):
+        """A shell node joins the last field of the full grid node in slot g (a layer more
+        than MAX_FIELDS there): count the join, and the grid node once per step."""
+        ti.atomic_add(self.s.grid.field_overflow[None], 1)
+        if ti.atomic_or(self.s.grid.overflowed[g], 1) == 0:
+            ti.atomic_add(self.s.grid.overflow_nodes[None], 1)
+
+    @ti.func
+    def note_overflow(self):
+        """After the claim: remember the first step in which grid nodes overflowed, its time
+        and how many (the host warns of it once: Simulation.check_fields); zero the count."""
+        if self.s.grid.overflow_nodes[None] > 0 and self.s.grid.first_overflow_step[None] < 0:
+            self.s.grid.first_overflow_step[None] = self.s.step.step[None] + 1     # the step being taken
+            self.s.grid.first_overflow_time[None] = self.s.step.time[None]
+            self.s.grid.first_overflow_nodes[None] = self.s.grid.overflow_nodes[None]
+        self.s.grid.overflow_nodes[None] = 0
 
     @ti.func
     def field_of(self, c, q: ti.template()):
@@ -363,6 +388,7 @@ class GridUpdate:
             if ti.static(self.cfg.multi_field):
                 for s in ti.static(range(MAX_FIELDS)):
                     self.s.grid.anchor[slot, s] = 0
+                self.s.grid.overflowed[slot] = 0
             self.s.grid.mass[g] = 0.0
             self.s.grid.momentum[g] = ti.Vector([0.0, 0.0, 0.0])
             if ti.static(self.cfg.grid_force):

@@ -27,6 +27,9 @@ parallelogram, and the frozen CPDI2 weights are consistent only in the reference
 configuration].  The corner forces are written per element slot and summed at each
 loaded node in slot order [choice]: the same bits in every launch and on any number of
 threads, without atomics (as stages/accumulate.CornerLoads does for the element loads).
+An eroded element (stages/masses.py) carries no pressure from the step after its failure on:
+its surface is gone, and its corner nodes may be left without mass.  Gravity acts on the
+physical mass, which the mass rebuild of erosion keeps at what remains (stages/masses.py).
 """
 import taichi as ti
 
@@ -186,7 +189,11 @@ class ExternalLoads:
                     c = ti.max(corners[a], corners[0])       # a triangle's 4th corner: -1
                     for d in ti.static(range(3)):
                         x[a, d] = self.s.nodes.position[c][d]
-                f = (self.s.loads.pressure_value[i] * self.scale(self.s.loads.pressure_curve[i])) * pressure_corner_forces(x, corners[3] < 0)
+                p = self.s.loads.pressure_value[i] * self.scale(self.s.loads.pressure_curve[i])
+                if ti.static(self.cfg.erosion):      # an eroded element carries no load (stages/masses.py)
+                    if self.s.elements.eroded[e] != 0:
+                        p = 0.0
+                f = p * pressure_corner_forces(x, corners[3] < 0)
                 for a in ti.static(range(4)):
                     self.s.loads.pressure_corner_force[i, a] = ti.Vector([f[a, 0], f[a, 1], f[a, 2]])
             for j in range(self.s.loads.pressure_node_count[None]):

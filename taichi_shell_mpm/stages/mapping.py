@@ -221,6 +221,8 @@ class Mapping:
                     p = 2 * q + parity
                     for i in range(self.s.grid.slab_start[p], self.s.grid.slab_start[p + 1]):
                         self.scatter(self.s.grid.slab_nodes[i])
+        if ti.static(self.cfg.multi_field):
+            self.grid.note_overflow()
 
     @ti.func
     def grid_to_particles(self):

@@ -24,9 +24,17 @@ once the total added mass exceeds ``[solve].added_mass_limit`` percent of the sh
 physical mass (STATUS_MASS_ADDED).  The grid rule of ``dt_rule = "both"`` and the contact
 limit are not changed: mass scaling acts on the element rule only.
 
-Nodal masses are recomputed every step from the elements' shares, m_c = sum_e f_e
-alive_e m_ea, in element order (the order of assembly.py's sums, so an unchanged node keeps
-its mass to the bit), through the CSR node -> element slots (state.elements.node_slots).
+Nodal masses are recomputed every step from the elements' shares and the node's
+[[point_mass]] entries M_c (state.nodes.point_mass; rotary J^pm_c likewise),
+m_c = sum_e f_e alive_e m_ea + M_c, in element order, then the point masses (the order of
+assembly.py's sums, so an unchanged node keeps its mass to the bit), through the CSR node ->
+element slots (state.elements.node_slots).  A point mass never erodes and takes no added
+mass: a node whose elements have all eroded keeps it and moves on as a free point mass
+(issue 28: the rebuild took element shares only, so a point mass was lost after the first
+step while gravity and parts.csv still counted it).  With erosion under ``[gravity]`` the
+physical mass that gravity acts on, m^phys_c = sum_e alive_e m_ea + M_c (no density
+factors), is rebuilt alike: gravity acts on the mass that remains, so a node that lost an
+eroded element's share accelerates at g, not at (m + m_ea)/m g.
 """
 import taichi as ti
 
@@ -99,19 +107,26 @@ class MassUpdate:
 
     @ti.func
     def node_masses(self):
-        """m_c and J_c from the live elements' shares x f_e (module docstring); a node whose
-        mass has gone stands still from now on.  Rigid-body slaves keep theirs.  The step's
-        kinetic energy (booked by the node update with the old masses) is brought to the new
-        ones, so that the balance guard sees the eroded and added kinetic energy once."""
+        """m_c and J_c from the live elements' shares x f_e and the node's point masses, and
+        with erosion under gravity the physical mass (module docstring); a node whose mass has
+        gone stands still from now on.  Rigid-body slaves keep theirs.  The step's kinetic
+        energy (booked by the node update with the old masses) is brought to the new ones, so
+        that the balance guard sees the eroded and added kinetic energy once."""
         for c in range(self.s.nodes.count[None]):
             if self.s.nodes.body[c] < 0:
-                mass, inertia = 0.0, 0.0
+                mass, inertia, physical = 0.0, 0.0, 0.0
                 for i in range(self.s.elements.node_slot_start[c], self.s.elements.node_slot_start[c + 1]):
                     slot = self.s.elements.node_slots[i]
                     e, a = slot // 4, slot % 4
                     share = self.factor(e) * self.alive(e)
                     mass += self.s.elements.corner_mass[e][a] * share
                     inertia += self.s.elements.corner_inertia[e][a] * share
+                    if ti.static(self.cfg.erosion and self.cfg.loads):
+                        physical += self.s.elements.corner_mass[e][a] * self.alive(e)
+                mass += self.s.nodes.point_mass[c]
+                inertia += self.s.nodes.point_inertia[c]
+                if ti.static(self.cfg.erosion and self.cfg.loads):
+                    self.s.nodes.physical_mass[c] = physical + self.s.nodes.point_mass[c]
                 self.acc.total(self.s.step.kinetic,
                                0.5 * ((mass - self.s.nodes.mass[c]) * self.s.nodes.grid_velocity[c].norm_sqr()
                                       + (inertia - self.s.nodes.inertia[c]) * self.s.nodes.omega[c].norm_sqr()))

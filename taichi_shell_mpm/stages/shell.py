@@ -196,6 +196,22 @@ class ShellElement:
         self.energy.element(e, 0.0, 0.0, 0.0, 0.0, 0.0)
 
     @ti.func
+    def element_power(self, fg, mg, v, w, corners: ti.template()):
+        """P_e = sum_a f_a . v_a + m_a . omega_a: the element's power with its (global) corner
+        forces fg and moments mg at x^(n+1) and the step's velocities (energy.py's stagger term)."""
+        out = 0.0
+        for a, d in ti.static(ti.ndrange(corners, 3)):
+            out += fg[a, d] * v[a, d] + mg[a, d] * w[a, d]
+        return out
+
+    @ti.func
+    def failing_stagger(self, fg, mg, v, w, dt, corners: ti.template()):
+        """The stagger term -dt/2 P_e of an element failing now, with the forces it would have
+        written (fg, mg): booked into its internal energy, which becomes eroded energy
+        (energy.py, "Erosion"), since it writes no loads and so has no stagger term of its own."""
+        return -0.5 * dt * self.element_power(fg, mg, v, w, corners)
+
+    @ti.func
     def step_limit(self, e, c, v, w, limit, corners: ti.template()):
         """Element e's stable step `limit` (physical mass) with selective mass scaling, and
         whether the element fails now (erosion; then its stress, hourglass and drilling
@@ -370,9 +386,11 @@ class ShellElement:
             f += fd
             m += md
             drill_energy = dt * 0.5 * (drill_old + drill_new).dot(drill_rate)
+        internal = dt * area_m * 0.5 * t * power
         if ti.static(self.cfg.erosion):              # erosion (stages/masses.py): decided before the
             if self.step_limit(e, c, v, w, self.quad_limit(e, x, area), 4):    # scatter, as a failing
-                f = ti.Matrix.zero(ti.f64, 4, 3)                               # element writes no loads
+                internal += self.failing_stagger(f @ rot, m @ rot, v, w, dt, 4)  # element writes no loads
+                f = ti.Matrix.zero(ti.f64, 4, 3)
                 m = ti.Matrix.zero(ti.f64, 4, 3)
         # --- to global (paper eq 37) and scatter
         fg = f @ rot
@@ -382,10 +400,8 @@ class ShellElement:
             self.loads.add(e, a, c[a], ti.Vector([fg[a, 0], fg[a, 1], fg[a, 2]]), ti.Vector([mg[a, 0], mg[a, 1], mg[a, 2]]),
                            area * e3, area)
         # the element's power at x^(n+1) with the step's velocities: energy.py's stagger term
-        element_power = 0.0
-        for a, d in ti.static(ti.ndrange(4, 3)):
-            element_power += fg[a, d] * v[a, d] + mg[a, d] * w[a, d]
-        self.energy.element(e, dt * area_m * 0.5 * t * power, area_m * 0.5 * t * plastic_work,
+        element_power = self.element_power(fg, mg, v, w, 4)
+        self.energy.element(e, internal, area_m * 0.5 * t * plastic_work,
                             dt * 0.5 * (q_old + q_new).dot(q_rate), drill_energy, -0.5 * dt * element_power)
         # --- element time-step limit (method.md 5), with selective mass scaling (stages/masses.py)
         # [choice: after the scatter without erosion, where it was before issue 18: Taichi's fast

@@ -244,8 +244,10 @@ class TriangleElement:
             f += fd
             m += md
             drill_energy = dt * 0.5 * (drill_old + drill_new).dot(drill_rate)
+        internal = dt * area_m * 0.5 * t * power
         if ti.static(self.cfg.erosion):              # erosion: before the scatter (ShellElement.update)
             if self.quad.step_limit(e, c, v, w, self.limit(e, x, xh, yh, area), 3):
+                internal += self.quad.failing_stagger(f @ rot, m @ rot, v, w, dt, 3)
                 f = ti.Matrix.zero(ti.f64, 3, 3)
                 m = ti.Matrix.zero(ti.f64, 3, 3)
         # --- to global and scatter
@@ -255,10 +257,8 @@ class TriangleElement:
         for a in ti.static(range(3)):
             self.quad.loads.add(e, a, c[a], ti.Vector([fg[a, 0], fg[a, 1], fg[a, 2]]),
                                 ti.Vector([mg[a, 0], mg[a, 1], mg[a, 2]]), area * e3, area)
-        element_power = 0.0
-        for a, d in ti.static(ti.ndrange(3, 3)):
-            element_power += fg[a, d] * v[a, d] + mg[a, d] * w[a, d]
-        self.quad.energy.element(e, dt * area_m * 0.5 * t * power, area_m * 0.5 * t * plastic_work, 0.0,
+        element_power = self.quad.element_power(fg, mg, v, w, 3)
+        self.quad.energy.element(e, internal, area_m * 0.5 * t * plastic_work, 0.0,
                                  drill_energy, -0.5 * dt * element_power)
         # --- time-step limit, with selective mass scaling (shell.ShellElement.step_limit; after the
         # scatter without erosion, as ShellElement.update)
