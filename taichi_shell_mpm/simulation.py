@@ -525,7 +525,7 @@ class Simulation:
     def check_body_step(self) -> None:
         """A collapsed step that a rigid body's turn limit set (stages/bodies.step_limit) names
         the body, not an element."""
-        from .stages.bodies import MAX_TURN
+        from .stages.timestep import MAX_TURN
         nb = len(self.model.rigid_bodies)
         if not nb or not self.cfg.body_rotation:
             return

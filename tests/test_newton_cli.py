@@ -131,7 +131,7 @@ def validate(tmp_path: Path, *sets: str, scene: str = "hinged_roof.toml") -> sub
     (("method.kind=mpm",), '[solve].solver: "newton" runs in fem mode'),
     (("solve.kind=dynamic", "solve.end_time=1"), '[solve].solver: "newton" solves static scenes'),
     (("element.drilling=projection",), "drilling spring"),
-    (("solve.control=displacement", "solve.control_displacement=0"), "[solve].control_displacement: missing"),
+    (("solve.control=displacement", "solve.control_displacement=0"), "[solve].control_displacement: expected a non-zero number"),
     (("gravity.acceleration=[0,0,-9.81]",), '[solve].solver: "newton" does not handle [gravity]'),
 ])
 def test_newton_scene_checks(tmp_path, sets, message):

@@ -60,19 +60,10 @@ import taichi as ti
 from ..state import ROTATION_CONSTRAINED, ROTATION_FREE, ROTATION_HELD, STATUS_BODY_ROTATION, STATUS_OK
 from .accumulate import Accumulator
 from .motion import ACCELERATION, DISPLACEMENT
-from .timestep import impulse_time
+from .timestep import MAX_TURN, impulse_time
 
 SIMO_WONG_ITERATIONS = 50      # fixed-point iterations at most (a few at dt |omega| << 1)
 SIMO_WONG_TOLERANCE = 1e-15    # relative change of W that ends them
-# The most a body turns in a step, as dt |L| / J_min (>= dt |omega|; J_min its smallest principal
-# inertia about the free axes; held or constrained rotations: dt |omega|) [choice, issue 28 item 7]:
-# the Simo-Wong map W -> J^-1 (Pi + exp(-dt W^) Pi) / 2 has the Lipschitz constant
-# dt |Pi| / (2 J_min), so at 1/2 it contracts by 1/4 per iteration (to 1e-15 in < 25 of the 50),
-# and the slaves' Cayley factor tan(phi / 2) / (phi / 2), which blows up at phi = pi, stays below
-# 1.021 (phi = dt |omega|).  A thin rod (J = [1, 1, 1e-4]) tumbling at the elements' step had a
-# Lipschitz constant of ~70: the iteration diverged and the body gained energy
-# (tests/test_bodies.py).  The step is limited to it; the bound only binds on such bodies.
-MAX_TURN = 0.5
 
 
 @ti.func

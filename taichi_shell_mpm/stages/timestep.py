@@ -27,6 +27,15 @@ from ..state import STATUS_DT_COLLAPSE, STATUS_OK, State
 DT_UNSET = 1.0e300
 CONTACT_STEP = 0.2      # approach per step / t_c at contact stiffness 0.1 (TimeStep.contact_limit)
 LANDING_STEPS = 1000
+# The most a body turns in a step, as dt |L| / J_min (>= dt |omega|; J_min its smallest principal
+# inertia about the free axes; held or constrained rotations: dt |omega|) [choice, issue 28 item 7]:
+# the Simo-Wong map W -> J^-1 (Pi + exp(-dt W^) Pi) / 2 has the Lipschitz constant
+# dt |Pi| / (2 J_min), so at 1/2 it contracts by 1/4 per iteration (to 1e-15 in < 25 of the 50),
+# and the slaves' Cayley factor tan(phi / 2) / (phi / 2), which blows up at phi = pi, stays below
+# 1.021 (phi = dt |omega|).  A thin rod (J = [1, 1, 1e-4]) tumbling at the elements' step had a
+# Lipschitz constant of ~70: the iteration diverged and the body gained energy
+# (tests/test_bodies.py; stages/bodies.py).  The step is limited to it; the bound only binds on such bodies.
+MAX_TURN = 0.5
 
 
 def landing_step(remaining: float, dt_stable: float) -> float:
@@ -156,7 +165,6 @@ def initial_dt(model, velocity: np.ndarray, cfg) -> float:
     if cfg.grid_rule:
         dt = min(dt, p.dt_safety * model.grid.h / (model.materials.dilatational_speed
                                                    + float(np.max(np.abs(velocity)))))
-    from .bodies import MAX_TURN
     for b in model.rigid_bodies:      # RigidBodies.step_limit
         rate = float(np.linalg.norm(b.spin0))
         if b.turns_freely:
