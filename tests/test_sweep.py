@@ -255,13 +255,49 @@ def test_plan_names_and_errors(tmp_path):
     _, cases = plan(["a.x=1", "b.x=2"])
     assert cases[0].name == "a.x=1__b.x=2"                  # "x" alone would not tell them apart
     for bad, message in ((["section.thickness"], "expected KEY=V1,V2"), (["=1,2"], "expected a scene key"),
-                         (["a=1,,2"], "empty value"), (["a=1,1"], "given twice"), ([], "nothing to sweep")):
+                         (["a=1,,2"], "empty value"), (["a=1,1"], "a value is given twice"), (["a.x=1,2", "a.x=3"], "--param a.x: given twice in --param"),
+                         ([], "nothing to sweep")):
         with pytest.raises(SweepError, match=message):
             plan(bad)
     file = tmp_path / "c.csv"
     file.write_text("section.thickness,mesh.nx\n0.1,4\n0.2\n")
     with pytest.raises(SweepError, match="row 3 has 1 cells"):
         plan([], file)
+
+
+def sweep_here(capsys, *args: str) -> tuple[int, str]:
+    """The sweep command in this process (argument errors: nothing runs): exit code, stderr."""
+    from taichi_shell_mpm.cli import main
+    code = main(["sweep", str(SCENE), *args])
+    return code, capsys.readouterr().err
+
+
+def test_a_malformed_scheduler_address_is_a_command_line_error(capsys, tmp_path):
+    code, err = sweep_here(capsys, "--param", "mesh.nx=4,8", "--scheduler", "not an address", "--out", str(tmp_path))
+    print(err)
+    assert code == 2 and len(err.splitlines()) == 1
+    assert err.startswith("error: --scheduler not an address: not a scheduler address") and "tcp://host:8786" in err
+    assert not (tmp_path / "sweep.csv").exists()
+
+
+def test_resume_refuses_a_table_it_would_lose(capsys, tmp_path):
+    """--resume on a sweep.csv that is not UTF-8, not a sweep table, or from other --param
+    values: exit 2, one line naming the difference, the file untouched."""
+    from taichi_shell_mpm.sweep import case_row, write_csv
+    table = tmp_path / "sweep.csv"
+    keys, cases = plan(["mesh.nx=4,16"])
+    write_csv(table, [case_row(c, keys, None, [], error="x", exit_code=3) for c in cases], keys)
+    foreign_values = table.read_bytes()
+    for content, expected in ((b"case,nx\n\xff\xfe4,8\n", "not a UTF-8 CSV file"),
+                              (b"time,force\n0,1\n", "its first columns are time, force, this study's are case, "
+                                                        "mesh.nx"),
+                              (foreign_values, "1 of its 2 rows are not cases of this study (first: 'nx=16'")):
+        table.write_bytes(content)
+        code, err = sweep_here(capsys, "--param", "mesh.nx=4,8", "--resume", "--out", str(tmp_path))
+        print(err)
+        assert code == 2 and len(err.splitlines()) == 1 and expected in err, err
+        assert table.read_bytes() == content
+    assert not (tmp_path / "cases").exists()
 
 
 def test_metric_paths():
