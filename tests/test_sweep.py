@@ -12,7 +12,7 @@ about a second once its kernels are in the offline cache):
 * ``--resume`` after a case's row and folder were lost runs that case only;
 * ``--scheduler`` against a scheduler and a worker this test starts on localhost;
 * Ctrl-C (SIGINT to the process group, as a terminal sends it) stops the study with exit
-  130, no traceback, and a ``--resume`` command to continue.
+  130, no traceback, and a ``--resume`` command to continue; SIGTERM the same with exit 143.
 The rest are in-process checks of the case planning, the metric paths and the plots.
 """
 from __future__ import annotations
@@ -195,8 +195,10 @@ def _interruptible() -> None:
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
-def test_ctrl_c_stops_the_study_cleanly(tmp_path):
-    """SIGINT to the process group (a terminal's Ctrl-C) while two full cantilever cases run."""
+@pytest.mark.parametrize("signum, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)], ids=["SIGINT", "SIGTERM"])
+def test_ctrl_c_stops_the_study_cleanly(tmp_path, signum, code):
+    """SIGINT to the process group (a terminal's Ctrl-C) while two full cantilever cases run;
+    SIGTERM (`timeout`, a batch job's wall-time limit) stops it the same way."""
     out = tmp_path / "out"
     proc = subprocess.Popen([sys.executable, "-m", "taichi_shell_mpm", "sweep", str(SCENE), "--param",
                              "element.hourglass=0.05,0.1", "--set", "mesh.nx=40", "--workers", "2", "--out", str(out)],
@@ -210,11 +212,11 @@ def test_ctrl_c_stops_the_study_cleanly(tmp_path):
         time.sleep(0.1)
     time.sleep(1)
     t0 = time.perf_counter()
-    os.killpg(proc.pid, signal.SIGINT)
+    os.killpg(proc.pid, signum)
     stdout, stderr = proc.communicate(timeout=600)
-    print(first + stdout, stderr, f"stopped {time.perf_counter() - t0:.1f} s after SIGINT")
+    print(first + stdout, stderr, f"stopped {time.perf_counter() - t0:.1f} s after {signal.Signals(signum).name}")
     assert "local Dask cluster" in first
-    assert proc.returncode == 130
+    assert proc.returncode == code
     assert "Traceback" not in stderr and "interrupted" in stderr and "--resume" in stderr
     assert [r["status"] for r in read_csv(out / "sweep.csv")] == []    # nothing finished, nothing recorded
 
