@@ -1,4 +1,4 @@
-"""No lost work: checkpoints, restart, and a clean stop on Ctrl-C.
+"""No lost work: checkpoints, restart, and a clean stop on Ctrl-C, SIGTERM or SIGHUP.
 
 A checkpoint (``OUTDIR/checkpoint.npz``, written atomically) holds
 
@@ -11,8 +11,9 @@ A checkpoint (``OUTDIR/checkpoint.npz``, written atomically) holds
   ``frames.pvd``, the step counters, the warnings given so far;
 * the driver's position (static: load level and steps taken in it; dynamic: the next
   output/history event), and
-* a hash of the scene (every resolved key except the scene file's own path) and of the
-  mesh (node coordinates and element connectivity).
+* a hash of the scene (every resolved key except the scene file's own path and the
+  display-only keys, :data:`DISPLAY_ONLY`) and of the mesh (node coordinates and element
+  connectivity).
 
 ``run --restart DIR`` restores all of it into a freshly built Simulation of the same scene
 and continues: the result is bit-for-bit that of an uninterrupted run, because the
@@ -23,6 +24,15 @@ state.
 periodic checkpoint (``--checkpoint-every N``: at the first boundary at or after each
 multiple of N steps) and turns a Ctrl-C into a clean stop there (checkpoint, then
 ``KeyboardInterrupt``); a second Ctrl-C interrupts at once.
+
+SIGTERM (``timeout``, a batch scheduler's wall-time limit, ``kill``) and SIGHUP (the
+terminal closed) are stops like a Ctrl-C (issue 28): the same clean stop at the next batch
+boundary, raised as :class:`Interrupted`, a ``KeyboardInterrupt`` that carries the signal,
+so every ``except KeyboardInterrupt`` on the way out (cli.py, executor.py, sweep/) writes
+the results so far and the command exits with 128 + the signal's number (130 SIGINT,
+129 SIGHUP, 143 SIGTERM), the shell's convention for a process ended by a signal.  A signal
+the process was started with ignored (``nohup`` ignores SIGHUP, a shell's background job
+SIGINT) stays ignored.
 """
 from __future__ import annotations
 
@@ -48,6 +58,63 @@ stop_hook: Callable[[Any], bool] | None = None
 True stops the run there exactly as a Ctrl-C does."""
 
 
+STOP_SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name))
+"""The signals that stop a run cleanly (SIGHUP does not exist on Windows)."""
+
+
+class Interrupted(KeyboardInterrupt):
+    """A stop by `signum` (one of STOP_SIGNALS), handled wherever a Ctrl-C is."""
+
+    def __init__(self, signum: int = signal.SIGINT):
+        self.signum = int(signum)
+        super().__init__(signal.Signals(self.signum).name)
+
+
+def exit_code(exc: KeyboardInterrupt) -> int:
+    """The exit status of a command stopped by `exc`: 128 + the signal (a plain
+    KeyboardInterrupt is Python's own Ctrl-C: SIGINT, 130)."""
+    return 128 + getattr(exc, "signum", int(signal.SIGINT))
+
+
+def signal_name(exc: KeyboardInterrupt) -> str:
+    """' (SIGTERM)' / ' (SIGHUP)' for a stop by those signals, '' for a Ctrl-C."""
+    signum = getattr(exc, "signum", int(signal.SIGINT))
+    return "" if signum == signal.SIGINT else f" ({signal.Signals(signum).name})"
+
+
+@contextlib.contextmanager
+def _handlers(handler, signals=STOP_SIGNALS, only_default=False):
+    """`handler` for each of `signals` (only those at their default action with
+    `only_default`; never one that is ignored or handled outside Python), in the main thread
+    only; the previous handlers back afterwards.  Yields {signal: previous handler} of those
+    replaced."""
+    if threading.current_thread() is not threading.main_thread():
+        yield {}
+        return
+    previous = {}
+    try:
+        for signum in signals:
+            now = signal.getsignal(signum)
+            if now is signal.SIG_DFL or (callable(now) and not only_default):
+                previous[signum] = signal.signal(signum, handler)
+        yield previous
+    finally:
+        for signum, old in previous.items():
+            signal.signal(signum, old)
+
+
+def _raise_interrupted(signum, frame):
+    raise Interrupted(signum)
+
+
+def stop_on_signals():
+    """SIGTERM and SIGHUP raise :class:`Interrupted` as Python's own handler raises
+    KeyboardInterrupt on SIGINT (cli.main: around the whole command, e.g. while the kernels
+    compile).  Their default action would end the process at once, with nothing written and
+    no checkpoint."""
+    return _handlers(_raise_interrupted, [s for s in STOP_SIGNALS if s != signal.SIGINT], only_default=True)
+
+
 class CheckpointError(SceneError):
     """A checkpoint that cannot be used (missing, unreadable, written for another scene)."""
 
@@ -67,10 +134,29 @@ def _canonical(obj: Any) -> Any:
     return obj
 
 
+DISPLAY_ONLY = (("solve", "progress_every"), ("info", "description"))
+"""Scene keys that change what is printed, never a number of the run nor a file it writes:
+``[solve].progress_every`` (seconds between progress lines) and ``[scene].description``
+(free text).  A checkpoint's identity leaves them out, so a run may be continued with other
+values of them (issue 28).  Every other key changes the computation or its outputs (even
+``[output]``: the dynamic driver's batches end at the output times)."""
+
+
+def _without_display(scene):
+    """`scene` with the DISPLAY_ONLY keys at their defaults (so that the identity of a
+    scene using the defaults is the one it had before these keys were left out)."""
+    for table, key in DISPLAY_ONLY:
+        part = getattr(scene, table)
+        default = next(f.default for f in dataclasses.fields(part) if f.name == key)
+        scene = dataclasses.replace(scene, **{table: dataclasses.replace(part, **{key: default})})
+    return scene
+
+
 def scene_hash(scene, points: np.ndarray, quads: np.ndarray) -> str:
-    """SHA-256 of the resolved scene (not its file's location) and the mesh arrays."""
+    """SHA-256 of the resolved scene (not its file's location, nor its DISPLAY_ONLY keys)
+    and the mesh arrays: a checkpoint's identity."""
     h = hashlib.sha256()
-    h.update(repr(_canonical(scene)).encode())
+    h.update(repr(_canonical(_without_display(scene))).encode())
     h.update(np.ascontiguousarray(points, dtype=np.float64).tobytes())
     h.update(np.ascontiguousarray(quads, dtype=np.int64).tobytes())
     return h.hexdigest()
@@ -103,6 +189,7 @@ def save_checkpoint(sim, position: dict, path: Path | None = None) -> Path:
         "frames": [[float(k), f] for k, f in (sim.frames.entries if sim.frames else [])],
         "warnings": list(sim.warnings), "hourglass_warned": bool(sim.hourglass_warned),
         "overflow_warned": bool(sim.overflow_warned),
+        "balance_warned": bool(sim.balance_warned),
         "driver": sim.driver_data,
     }
     arrays["meta"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
@@ -216,6 +303,7 @@ def restore_checkpoint(sim, ckpt: Checkpoint) -> list[str]:
     sim.warnings = list(m["warnings"])
     sim.hourglass_warned = bool(m["hourglass_warned"])
     sim.overflow_warned = bool(m["overflow_warned"])
+    sim.balance_warned = bool(m["balance_warned"])     # warned once per run, not per session
     sim.driver_data = m["driver"]
     entries = [(float(k), str(f)) for k, f in m["frames"]]
     source = ckpt.path.parent
@@ -252,6 +340,7 @@ class RunControl:
         self.checkpoint_every = int(checkpoint_every or 0)
         self.resume = resume
         self.stop_requested = False
+        self.stop_signal = int(signal.SIGINT)     # the signal of a requested stop
         self.checkpoints_written = 0
         self.last_checkpoint: Path | None = None
         self._seconds0 = self._cpu_seconds0 = 0.0
@@ -281,7 +370,7 @@ class RunControl:
             self.write(sim, position, step)
         if self.stop_requested or (stop_hook is not None and stop_hook(sim)):
             self.write(sim, position, step)
-            raise KeyboardInterrupt
+            raise Interrupted(self.stop_signal)
 
     def write(self, sim, position: dict, step: int) -> None:
         t0, cpu0 = time.perf_counter(), time.process_time()
@@ -295,37 +384,29 @@ class RunControl:
 
     @contextlib.contextmanager
     def catch_interrupts(self):
-        """First Ctrl-C: stop at the next batch boundary; second: stop at once."""
-        if threading.current_thread() is not threading.main_thread():
-            yield
-            return
-
+        """First Ctrl-C, SIGTERM or SIGHUP: stop at the next batch boundary; second: stop at once."""
         def handler(signum, frame):
             if self.stop_requested:
-                raise KeyboardInterrupt
-            self.stop_requested = True
+                raise Interrupted(signum)
+            self.stop_requested, self.stop_signal = True, int(signum)
 
-        previous = signal.signal(signal.SIGINT, handler)
-        try:
+        with _handlers(handler):
             yield
-        finally:
-            signal.signal(signal.SIGINT, previous)
 
 
 @contextlib.contextmanager
 def deferred_interrupt():
-    """Hold a Ctrl-C until the block is done (a file being written is finished first)."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
+    """Hold a Ctrl-C, SIGTERM or SIGHUP until the block is done (a file being written is
+    finished first), then act on the first one as the handler before would have."""
     received = []
-    previous = signal.signal(signal.SIGINT, lambda signum, frame: received.append(signum))
     try:
-        yield
+        with _handlers(lambda signum, frame: received.append(signum)) as previous:
+            yield
     finally:
-        signal.signal(signal.SIGINT, previous)
         if received:
-            if callable(previous) and previous not in (signal.SIG_IGN, signal.SIG_DFL):
-                previous(signal.SIGINT, None)
-            elif previous != signal.SIG_IGN:
-                raise KeyboardInterrupt
+            signum = received[0]
+            handler = previous[signum]
+            if callable(handler):      # Python's KeyboardInterrupt, RunControl's stop request, ...
+                handler(signum, None)
+            else:                      # SIG_DFL: the signal would have ended the process
+                raise Interrupted(signum)

@@ -7,7 +7,8 @@ all problems at once; for render: a bad output directory or option), 3 run-time 
 written; the last good frame stays the last one, frames.pvd and the results so far are
 written; for render: nothing could be drawn), 130 interrupted
 (Ctrl-C: the run stops at the next batch boundary, writes a checkpoint, the last frame and
-the results so far).
+the results so far), 143 / 129 stopped by SIGTERM / SIGHUP (``timeout``, a batch
+scheduler's wall-time limit, a closed terminal: handled as a Ctrl-C; checkpoint.py).
 """
 from __future__ import annotations
 
@@ -20,7 +21,7 @@ from pathlib import Path
 
 from .preflight import assembly_problems, prepare  # noqa: F401  (moved to preflight.py, still importable from here)
 
-EXIT_INTERNAL, EXIT_SCENE, EXIT_RUNTIME, EXIT_INTERRUPT = 1, 2, 3, 130
+EXIT_INTERNAL, EXIT_SCENE, EXIT_RUNTIME = 1, 2, 3      # interrupted: 128 + the signal (checkpoint.exit_code)
 
 
 def _positive_int(text: str) -> int:
@@ -63,7 +64,8 @@ def _parser() -> argparse.ArgumentParser:
                                      "in the output directory.",
                          epilog="Scene keys: docs/scenes.md.  Exit codes: 0 done, 2 a mistake in the scene, "
                                 "mesh or command line, 3 a run-time failure (the results so far are written), "
-                                "130 interrupted, 1 a bug (README.md, 'When something goes wrong').")
+                                "130 interrupted (143 SIGTERM, 129 SIGHUP; a checkpoint is written), 1 a bug "
+                                "(README.md, 'When something goes wrong').")
     run.add_argument("scene", type=Path, help=SCENE_HELP)
     run.add_argument("--out", type=_directory, default=None,
                      help="output directory (default outputs/<scene name>, or the --restart directory); "
@@ -111,7 +113,7 @@ def _parser() -> argparse.ArgumentParser:
                                                "--cases) on Dask; sweep.csv, sweep.md and plots in --out.",
                                    epilog="docs/sweep.md.  Exit codes: 0 every case ok, 2 a mistake in the "
                                           "options or the scene, 3 some case failed (recorded in sweep.csv), "
-                                          "130 interrupted."))
+                                          "130 interrupted (143 SIGTERM, 129 SIGHUP)."))
     return p
 
 
@@ -345,8 +347,8 @@ def _finish(sim, message: str, interrupted: bool = False) -> str | None:
 
 
 def _run(args) -> int:
-    from .checkpoint import (CheckpointError, RunControl, check_compatible, finished_run, load_checkpoint,
-                             restore_checkpoint, summary_is_final)
+    from .checkpoint import (CheckpointError, RunControl, check_compatible, exit_code, finished_run,
+                             load_checkpoint, restore_checkpoint, signal_name, summary_is_final)
     from .output import OutputError, clear_run_files
     from .progress import format_summary
     from .scene import SceneError
@@ -441,15 +443,16 @@ def _run(args) -> int:
             + " (disk full, read-only or no permission?); the results that could be written are there")
         more = _finish(sim, what)
         return _fail(EXIT_RUNTIME, [what] + ([more] if more and not isinstance(exc, OutputError) else []))
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:      # Ctrl-C, SIGTERM, SIGHUP (checkpoint.Interrupted)
         more = _finish(sim, "interrupted", interrupted=True)
+        code, by = exit_code(exc), signal_name(exc)
         if sim is None:
-            return _fail(EXIT_INTERRUPT, ["interrupted before the run started; nothing written"])
+            return _fail(code, [f"interrupted{by} before the run started; nothing written"])
         sets = "".join(f" --set {o}" for o in args.overrides)
         follow = (f"; continue with: run {args.scene}{sets} --restart {sim.out_dir}"
                   if control.last_checkpoint is not None else "")
-        return _fail(EXIT_INTERRUPT, [f"interrupted at {sim.where()}; results so far written to {sim.out_dir}"
-                                      + follow] + ([more] if more else []))
+        return _fail(code, [f"interrupted{by} at {sim.where()}; results so far written to {sim.out_dir}"
+                            + follow] + ([more] if more else []))
     except Exception as exc:  # a bug: results so far, then one line
         more = _finish(sim, f"internal error: {type(exc).__name__}: {_one_line(exc)}")
         code = _internal_error(exc)
@@ -491,12 +494,15 @@ def _sweep(args) -> int:
 
 def main(argv=None) -> int:
     import numpy as np
+
+    from .checkpoint import exit_code, signal_name, stop_on_signals
     args = _parser().parse_args(argv)
     command = {"validate": _validate, "render": _render, "bench": _bench, "sweep": _sweep}.get(args.command, _run)
     try:
-        with np.errstate(all="ignore"):      # a diverging run overflows: reported as a failure, not warnings
+        # SIGTERM / SIGHUP stop like a Ctrl-C; a diverging run overflows: reported as a failure, not warnings
+        with stop_on_signals(), np.errstate(all="ignore"):
             return command(args)
-    except KeyboardInterrupt:
-        return _fail(EXIT_INTERRUPT, ["interrupted"])
+    except KeyboardInterrupt as exc:
+        return _fail(exit_code(exc), [f"interrupted{signal_name(exc)}"])
     except Exception as exc:
         return _internal_error(exc)

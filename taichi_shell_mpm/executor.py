@@ -57,6 +57,23 @@ def _one_line(text: object) -> str:
     return " ".join(str(text).split())
 
 
+def address_problem(address: str) -> str | None:
+    """Why `address` is no Dask scheduler address (parsed as ``distributed`` parses it:
+    ``[scheme://]host:port`` for tcp, tls, ws and wss, the scheme's own form for the
+    others), or None.  Checked before anything is written: a malformed address is a mistake
+    in the command line, not a cluster that cannot be reached."""
+    from distributed.comm.addressing import parse_address, parse_host_port
+    try:
+        scheme, location = parse_address(address)
+        if scheme in ("tcp", "tls", "ws", "wss"):
+            host, _ = parse_host_port(location)
+            if not host or any(c.isspace() for c in host):
+                raise ValueError(f"no host name in {address!r}")
+    except ValueError as exc:
+        return f"not a scheduler address ({' '.join(str(exc).split())}); expected e.g. tcp://host:8786"
+    return None
+
+
 class Executor:
     """Context manager: ``with Executor(workers=2) as ex: ex.run(tasks, on_done)`` (entering
     calls :meth:`start`, leaving closes the client and the local cluster)."""

@@ -13,16 +13,31 @@ within a process, and are remembered here:
   ``textwrap.TextWrapper`` (~100 000 wraps of a few thousand distinct lines; 0.4-0.8 s).
 
 The functions Taichi calls are replaced by ones that remember their answers (pure functions
-of their arguments, the sources being read once per process), only for the Taichi release
-this was measured with.  The IR is the same, and so are the offline cache's keys.
+of their arguments, the sources being read once per process).  The IR is the same, and so
+are the offline cache's keys (tests/test_frontend.py compares a kernel's key with and
+without the patch).
+
+Private names are used only where they were measured [issue 28]: :func:`private_api`
+allows them on the exact Taichi release tested (TESTED_WITH) unless the environment sets
+``TAICHI_SHELL_MPM_NO_FRONTEND_PATCH=1``; on any other release, or when a private module or
+name is missing, Taichi's own public path is taken (the frontend unpatched; in
+solvers/stepper.load_kernel, the kernels compiled at their first launch).
 """
 from __future__ import annotations
 
+import os
 import textwrap
 
 import taichi as ti
 
-MEASURED_WITH = (1, 7)       # Taichi releases whose private names are replaced
+TESTED_WITH = (1, 7, 4)       # the Taichi release whose private names are used
+NO_PATCH_ENV = "TAICHI_SHELL_MPM_NO_FRONTEND_PATCH"
+
+
+def private_api() -> bool:
+    """Whether Taichi's private names may be used: the tested release, and not switched off
+    by ``TAICHI_SHELL_MPM_NO_FRONTEND_PATCH`` (any value but "", "0")."""
+    return tuple(ti.__version__) == TESTED_WITH and os.environ.get(NO_PATCH_ENV, "") in ("", "0")
 
 
 class RememberingWrapper(textwrap.TextWrapper):
@@ -59,13 +74,17 @@ def remembered_sources(getsourcefile, getsourcelines):
 
 
 def speed_up() -> bool:
-    """Install both in Taichi's frontend (once; returns whether they are installed)."""
-    from taichi.lang import kernel_impl
-    from taichi.lang.ast import ast_transformer_utils as utils
-    if ti.__version__[:2] != MEASURED_WITH:
+    """Install both in Taichi's frontend (once; returns whether they are installed): only when
+    :func:`private_api` allows it and the private modules and names are all there."""
+    if not private_api():
         return False
-    if utils.TextWrapper is textwrap.TextWrapper:
+    try:
+        from taichi.lang import kernel_impl
+        from taichi.lang.ast import ast_transformer_utils as utils
+        wrapper, sourcefile, sourcelines = utils.TextWrapper, kernel_impl.getsourcefile, kernel_impl.getsourcelines
+    except (ImportError, AttributeError):
+        return False
+    if wrapper is textwrap.TextWrapper:
         utils.TextWrapper = RememberingWrapper
-        kernel_impl.getsourcefile, kernel_impl.getsourcelines = remembered_sources(kernel_impl.getsourcefile,
-                                                                                  kernel_impl.getsourcelines)
+        kernel_impl.getsourcefile, kernel_impl.getsourcelines = remembered_sources(sourcefile, sourcelines)
     return utils.TextWrapper is RememberingWrapper

@@ -14,7 +14,12 @@ from __future__ import annotations
 
 import filecmp
 import json
+import os
 import shutil
+import signal
+import subprocess
+import sys
+import time
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -25,6 +30,7 @@ from taichi_shell_mpm import checkpoint
 from taichi_shell_mpm.solvers import static
 
 from .conftest import ROOT, write_scene
+from .test_sweep import env
 from .test_reliability import cli_run
 
 TABLES = ("probes.csv", "energy.csv", "force.csv", "frames.pvd")
@@ -140,6 +146,20 @@ def test_dynamic_restart_is_bit_for_bit(tmp_path, monkeypatch):
     assert stopped["event"] > 0
 
 
+def test_a_restarted_run_gives_its_warnings_once(tmp_path, monkeypatch):
+    """A warning given once per run (here the energy balance warning: --energy-limit 1e-3
+    warns above 2e-4 of the energy absorbed, which the flap passes at t ~ 1.7, max 5.4e-4)
+    before the stop is not given again, at another time, after the restart: summary.json's
+    warnings are those of the uninterrupted run."""
+    scene = write_scene(tmp_path, FLAP, "flap.toml")
+    restart_roundtrip(tmp_path, monkeypatch, [str(scene), "--energy-limit", "1e-3"], stop_step=1900, every=700,
+                      batch_element_steps=4000)
+    warnings = {d: json.loads((tmp_path / d / "summary.json").read_text())["warnings"] for d in "acd"}
+    print(warnings)
+    assert warnings["c"] == warnings["a"] == warnings["d"]          # none repeated after the restart, none lost
+    assert sum("energy balance error" in w for w in warnings["c"]) == 1
+
+
 def test_restart_refuses_a_missing_or_foreign_checkpoint(tmp_path):
     r = cli_run("run", *CANTILEVER, "--restart", str(tmp_path / "nowhere"))
     print(r.err)
@@ -152,7 +172,43 @@ def test_restart_refuses_a_missing_or_foreign_checkpoint(tmp_path):
                 "--restart", str(out))
     print(r.err)
     assert r.code == 2 and "checkpoint was written for a different scene" in r.err
+    # display-only keys (checkpoint.DISPLAY_ONLY) are no part of the identity: accepted (and the
+    # run is finished, so there is nothing to do)
+    r = cli_run("run", *CANTILEVER, "--set", "solve.load_steps=1", "--set", "solve.progress_every=30",
+                "--set", "scene.description=another text", "--restart", str(out))
+    print(r.out, r.err)
+    assert r.code == 0 and "nothing to do" in r.out, r.err
     (out / "checkpoint.npz").write_bytes(b"not a checkpoint")
     r = cli_run("run", *CANTILEVER, "--set", "solve.load_steps=1", "--restart", str(out))
     print(r.err)
     assert r.code == 2 and "cannot read the checkpoint" in r.err and len(r.err.splitlines()) == 1
+
+
+def test_sigterm_stops_like_ctrl_c_and_the_run_continues(tmp_path):
+    """`timeout` or a batch scheduler's wall-time limit sends SIGTERM: the run (a subprocess
+    of the CLI; 100 load levels of the 4-element cantilever, ~300 000 steps) stops at the
+    next batch boundary as on Ctrl-C: exit 143, checkpoint, probes.csv and summary.json of
+    the converged levels, the restart command; --restart then finishes it."""
+    out = tmp_path / "run"
+    args = [*CANTILEVER, "--set", "solve.load_steps=100"]
+    proc = subprocess.Popen([sys.executable, "-m", "taichi_shell_mpm", "run", *args, "--out", str(out), "--quiet"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env())
+    deadline = time.perf_counter() + COMPILE_TIMEOUT
+    while len(list((out / "frames").glob("frame_*.vtu"))) < 2 and proc.poll() is None \
+            and time.perf_counter() < deadline:        # two load levels converged
+        time.sleep(0.02)
+    proc.send_signal(signal.SIGTERM)
+    t0 = time.perf_counter()
+    _, err = proc.communicate(timeout=120)
+    levels = len((out / "probes.csv").read_text().splitlines()) - 1
+    print(err, f"stopped {time.perf_counter() - t0:.2f} s after SIGTERM with {levels} load levels recorded")
+    assert proc.returncode == 143, err
+    assert len(err.splitlines()) == 1 and err.startswith("error: interrupted (SIGTERM) at load factor"), err
+    assert f"--restart {out}" in err and "Traceback" not in err
+    assert (out / "checkpoint.npz").is_file() and 2 <= levels < 100
+    assert json.loads((out / "summary.json").read_text())["error"] == "interrupted"
+    before = (out / "probes.csv").read_text().splitlines()
+    r = cli_run("run", *args, "--restart", str(out), "--quiet", timeout=COMPILE_TIMEOUT)
+    assert r.code == 0, r.err
+    after = (out / "probes.csv").read_text().splitlines()
+    assert len(after) == 101 and after[:len(before)] == before

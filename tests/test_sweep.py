@@ -12,7 +12,7 @@ about a second once its kernels are in the offline cache):
 * ``--resume`` after a case's row and folder were lost runs that case only;
 * ``--scheduler`` against a scheduler and a worker this test starts on localhost;
 * Ctrl-C (SIGINT to the process group, as a terminal sends it) stops the study with exit
-  130, no traceback, and a ``--resume`` command to continue.
+  130, no traceback, and a ``--resume`` command to continue; SIGTERM the same with exit 143.
 The rest are in-process checks of the case planning, the metric paths and the plots.
 """
 from __future__ import annotations
@@ -195,8 +195,10 @@ def _interruptible() -> None:
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
-def test_ctrl_c_stops_the_study_cleanly(tmp_path):
-    """SIGINT to the process group (a terminal's Ctrl-C) while two full cantilever cases run."""
+@pytest.mark.parametrize("signum, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)], ids=["SIGINT", "SIGTERM"])
+def test_ctrl_c_stops_the_study_cleanly(tmp_path, signum, code):
+    """SIGINT to the process group (a terminal's Ctrl-C) while two full cantilever cases run;
+    SIGTERM (`timeout`, a batch job's wall-time limit) stops it the same way."""
     out = tmp_path / "out"
     proc = subprocess.Popen([sys.executable, "-m", "taichi_shell_mpm", "sweep", str(SCENE), "--param",
                              "element.hourglass=0.05,0.1", "--set", "mesh.nx=40", "--workers", "2", "--out", str(out)],
@@ -210,11 +212,11 @@ def test_ctrl_c_stops_the_study_cleanly(tmp_path):
         time.sleep(0.1)
     time.sleep(1)
     t0 = time.perf_counter()
-    os.killpg(proc.pid, signal.SIGINT)
+    os.killpg(proc.pid, signum)
     stdout, stderr = proc.communicate(timeout=600)
-    print(first + stdout, stderr, f"stopped {time.perf_counter() - t0:.1f} s after SIGINT")
+    print(first + stdout, stderr, f"stopped {time.perf_counter() - t0:.1f} s after {signal.Signals(signum).name}")
     assert "local Dask cluster" in first
-    assert proc.returncode == 130
+    assert proc.returncode == code
     assert "Traceback" not in stderr and "interrupted" in stderr and "--resume" in stderr
     assert [r["status"] for r in read_csv(out / "sweep.csv")] == []    # nothing finished, nothing recorded
 
@@ -255,13 +257,49 @@ def test_plan_names_and_errors(tmp_path):
     _, cases = plan(["a.x=1", "b.x=2"])
     assert cases[0].name == "a.x=1__b.x=2"                  # "x" alone would not tell them apart
     for bad, message in ((["section.thickness"], "expected KEY=V1,V2"), (["=1,2"], "expected a scene key"),
-                         (["a=1,,2"], "empty value"), (["a=1,1"], "given twice"), ([], "nothing to sweep")):
+                         (["a=1,,2"], "empty value"), (["a=1,1"], "a value is given twice"), (["a.x=1,2", "a.x=3"], "--param a.x: given twice in --param"),
+                         ([], "nothing to sweep")):
         with pytest.raises(SweepError, match=message):
             plan(bad)
     file = tmp_path / "c.csv"
     file.write_text("section.thickness,mesh.nx\n0.1,4\n0.2\n")
     with pytest.raises(SweepError, match="row 3 has 1 cells"):
         plan([], file)
+
+
+def sweep_here(capsys, *args: str) -> tuple[int, str]:
+    """The sweep command in this process (argument errors: nothing runs): exit code, stderr."""
+    from taichi_shell_mpm.cli import main
+    code = main(["sweep", str(SCENE), *args])
+    return code, capsys.readouterr().err
+
+
+def test_a_malformed_scheduler_address_is_a_command_line_error(capsys, tmp_path):
+    code, err = sweep_here(capsys, "--param", "mesh.nx=4,8", "--scheduler", "not an address", "--out", str(tmp_path))
+    print(err)
+    assert code == 2 and len(err.splitlines()) == 1
+    assert err.startswith("error: --scheduler not an address: not a scheduler address") and "tcp://host:8786" in err
+    assert not (tmp_path / "sweep.csv").exists()
+
+
+def test_resume_refuses_a_table_it_would_lose(capsys, tmp_path):
+    """--resume on a sweep.csv that is not UTF-8, not a sweep table, or from other --param
+    values: exit 2, one line naming the difference, the file untouched."""
+    from taichi_shell_mpm.sweep import case_row, write_csv
+    table = tmp_path / "sweep.csv"
+    keys, cases = plan(["mesh.nx=4,16"])
+    write_csv(table, [case_row(c, keys, None, [], error="x", exit_code=3) for c in cases], keys)
+    foreign_values = table.read_bytes()
+    for content, expected in ((b"case,nx\n\xff\xfe4,8\n", "not a UTF-8 CSV file"),
+                              (b"time,force\n0,1\n", "its first columns are time, force, this study's are case, "
+                                                        "mesh.nx"),
+                              (foreign_values, "1 of its 2 rows are not cases of this study (first: 'nx=16'")):
+        table.write_bytes(content)
+        code, err = sweep_here(capsys, "--param", "mesh.nx=4,8", "--resume", "--out", str(tmp_path))
+        print(err)
+        assert code == 2 and len(err.splitlines()) == 1 and expected in err, err
+        assert table.read_bytes() == content
+    assert not (tmp_path / "cases").exists()
 
 
 def test_metric_paths():

@@ -13,6 +13,7 @@ import sys
 import time
 from pathlib import Path
 
+from ..checkpoint import exit_code, signal_name
 from ..executor import Executor, Task
 from .cases import peers_available, plan, select
 from .machine import machine_info, machine_tag
@@ -139,10 +140,10 @@ def main(args: argparse.Namespace) -> int:
             if workers:
                 print(f"bench: {ex.describe()}", flush=True)
             ex.run([Task(c.name, run_case, (c, out.resolve(), args.arch, tag)) for c in todo], on_done)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:      # Ctrl-C, SIGTERM, SIGHUP (checkpoint.Interrupted)
         regenerate(out, report, planned, command, info, args.arch, peers, args.quick)
-        print(f"\ninterrupted; continue with: {command} --resume", file=sys.stderr)
-        return 130
+        print(f"\ninterrupted{signal_name(exc)}; continue with: {command} --resume", file=sys.stderr)
+        return exit_code(exc)
     regenerate(out, report, planned, command, info, args.arch, peers, args.quick)
     print(f"bench: done in {time.perf_counter() - start:.0f} s; {failures} failed; wrote {results}, {report}",
           flush=True)

@@ -111,11 +111,11 @@ def run_case(case: Case, out: Path, arch: str, machine: str, echo=print) -> dict
         proc = subprocess.Popen(cmd, stdout=fh, stderr=subprocess.STDOUT, env=env, cwd=ROOT)
         try:
             _, status, usage = os.wait4(proc.pid, 0)
-        except KeyboardInterrupt:          # a terminal's Ctrl-C reaches the child too: let it write its results
-            try:
+        except KeyboardInterrupt as exc:   # a terminal's Ctrl-C (or a job's SIGTERM) reaches the child too:
+            try:                           # let it write its results
                 proc.wait(timeout=10)
             except subprocess.TimeoutExpired:   # it did not get the signal (e.g. `kill -INT` of this process)
-                proc.send_signal(signal.SIGINT)
+                proc.send_signal(getattr(exc, "signum", signal.SIGINT))
                 proc.wait()
             raise
         proc.returncode = os.waitstatus_to_exitcode(status)

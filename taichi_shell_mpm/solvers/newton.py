@@ -200,6 +200,8 @@ def run_newton(sim: Simulation, eq: ShellEquations, control: RunControl | None =
 
     try:
         jumps = JumpMonitor(sim.warn) if sol.control == "load" else None
+        if jumps is not None:
+            jumps.replay(data.get("level_increments", []))      # a restart: the steps before it
         follow(eq, settings, plan, accept, position=control.resume, log=data,
                boundary=lambda pos: control.boundary(sim, pos), note=sim.progress, jumps=jumps)
         if jumps is not None:

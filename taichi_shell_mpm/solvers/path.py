@@ -341,7 +341,7 @@ def _follow_steps(eq, settings, plan, accept, pos, log, boundary, note, jumps):
     done = (j - 1) / n * final
     sub = float(pos.get("step") or final / n)
     last = None                                      # (d, control increment, load factor increment)
-    sign = None                                      # of det K at the last converged point
+    sign = log.get("det_sign")                       # of det K at the last converged point (kept for a restart)
     while j <= n:
         target = j / n * final
         cuts, moved, sign_change, lam_start = 0, 0.0, False, lam
@@ -371,7 +371,7 @@ def _follow_steps(eq, settings, plan, accept, pos, log, boundary, note, jumps):
             last = (outcome.d, value - done, outcome.lam - lam)
             moved += weighted(outcome.d, eq.weight)
             sign_change |= sign is not None and outcome.sign != sign
-            sign = outcome.sign
+            sign = log["det_sign"] = int(outcome.sign)
             accept(outcome, lam, reached)
             lam, done = outcome.lam, (target if reached else value)
             peak = max(peak, abs(lam))
@@ -379,6 +379,7 @@ def _follow_steps(eq, settings, plan, accept, pos, log, boundary, note, jumps):
                 sub *= 2.0
         if jumps is not None and not displacement:
             jumps.add(lam, moved, sign_change)
+            log.setdefault("level_increments", []).append((lam, moved))
         _turn(log, lam_start, lam)
         j += 1
         pos = {"level": j, "lam": lam, "step": sub, "peak": peak}
@@ -449,6 +450,14 @@ class JumpMonitor:
         self.levels: list[float] = []
         self.sizes: list[float] = []
         self.reported: set[int] = set()
+
+    def replay(self, increments) -> None:
+        """A restarted run: the (level, size) of the steps before the checkpoint, without
+        checks: those of every step but the last were made (and reported) before it, the
+        last one's is made with the next step, as in an uninterrupted run."""
+        for level, size in increments:
+            self.levels.append(level)
+            self.sizes.append(size)
 
     def add(self, level: float, size: float, sign_change: bool = False) -> None:
         self.levels.append(level)

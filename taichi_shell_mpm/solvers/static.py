@@ -98,8 +98,7 @@ def run_static(sim: Simulation, control: RunControl | None = None) -> dict:
     j, steps, started = int(pos["level"]), int(pos["steps"]), bool(pos["started"])
     control.start(sim)
     jumps = JumpMonitor(sim.warn)            # a jump to a remote branch between two levels (issue 19)
-    for level, size in sim.driver_data.get("level_increments", []):
-        jumps.add(level, size)
+    jumps.replay(sim.driver_data.get("level_increments", []))
     previous = sim.state.fetch("nodes.position")
     reporter = sim.reporter
     reporter.start(int(s.step[None]), (j - 1) / n_levels)

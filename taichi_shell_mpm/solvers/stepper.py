@@ -24,6 +24,7 @@ in-kernel at the end of each step, so a batch stops exactly at convergence.
 
 import taichi as ti
 
+from .. import frontend
 from ..energy import EnergyLedger
 from ..state import STATUS_CONVERGED, STATUS_OK, State
 from ..stages.accumulate import Accumulator
@@ -253,15 +254,25 @@ class Stepper:
         return done
 
 
-def load_kernel(method) -> None:
+def load_kernel(method) -> bool:
     """Build a kernel method of a ``ti.data_oriented`` object (no other arguments) and compile
     it, or load it from the offline cache, without launching it.  Taichi 1.7 has no public
     call for this: it is what ``Kernel.__call__`` does before its launch (``ensure_compiled``,
     then ``Program.compile_kernel``, which keeps the result for the launch).  Left for the
     first launch: the backend's loading of the compiled code (LLVM JIT on the CPU, ~0.2 s
-    for the tube's step kernel)."""
-    from taichi.lang import impl
-    kernel = method._primal
-    key = kernel.ensure_compiled(method._kernel_owner)
-    prog = impl.get_runtime().prog
-    prog.compile_kernel(prog.config(), prog.get_device_caps(), kernel.compiled_kernels[key])
+    for the tube's step kernel).  Those private names are used only where
+    frontend.private_api allows them and all are there; otherwise nothing is done here and
+    the kernel is compiled by Taichi's own path, at its first launch (returns False)."""
+    if not frontend.private_api():
+        return False
+    try:
+        from taichi.lang import impl
+        kernel, owner = method._primal, method._kernel_owner
+        ensure_compiled, compiled = kernel.ensure_compiled, kernel.compiled_kernels
+        prog = impl.get_runtime().prog
+        compile_kernel = prog.compile_kernel
+    except (ImportError, AttributeError):
+        return False
+    key = ensure_compiled(owner)
+    compile_kernel(prog.config(), prog.get_device_caps(), compiled[key])
+    return True

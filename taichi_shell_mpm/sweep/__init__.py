@@ -23,5 +23,5 @@ from .cases import SweepCase, SweepError, parse_param, plan, read_cases_file, sh
 from .cli import add_arguments, command_line, main
 from .metrics import default_metrics, extract, lookup, parse_metrics
 from .plot import plot_all, plot_metric
-from .results import case_row, columns, metric_columns, read_csv, retabulate, write_csv, write_markdown
+from .results import case_row, columns, metric_columns, read_study, retabulate, write_csv, write_markdown
 from .task import run_case

@@ -138,14 +138,25 @@ def case_name(params: tuple[tuple[str, str], ...], short: dict[str, str]) -> str
     return safe
 
 
+def _given_again(key: str, in_param: int, in_file: bool, cases_file: Path | None) -> str:
+    """The error of a key given more than once: where its copies are (a --cases header names
+    a column once at most, read_cases_file)."""
+    column = f"a column of --cases {cases_file}"
+    if in_param == 1:
+        return f"{key}: given in --param and as {column}; give it in one of them"
+    times = "twice" if in_param == 2 else f"{in_param} times"
+    return (f"--param {key}: given {times} in --param" + (f" and as {column}" if in_file else "")
+            + f"; give each key once, with all its values (--param {key}=V1,V2,...)")
+
+
 def plan(params: list[str], cases_file: Path | None = None) -> tuple[list[str], list[SweepCase]]:
     """The study's keys (CSV columns first, then the --param keys) and its cases."""
     grid = [parse_param(p) for p in params]
     file_keys, file_rows = read_cases_file(cases_file) if cases_file is not None else ([], [(None, {})])
     keys = file_keys + [k for k, _ in grid]
     if len(set(keys)) != len(keys):
-        twice = sorted({k for k in keys if keys.count(k) > 1})
-        raise SweepError(f"{', '.join(twice)}: given more than once (--param and --cases columns)")
+        raise SweepError([_given_again(k, [g for g, _ in grid].count(k), k in file_keys, cases_file)
+                          for k in dict.fromkeys(keys) if keys.count(k) > 1])
     if not keys:
         raise SweepError("nothing to sweep: give --param KEY=V1,V2,... or --cases FILE")
     short = short_keys(keys)

@@ -12,14 +12,15 @@ import sys
 import time
 from pathlib import Path
 
-from ..executor import Executor, Task
+from ..checkpoint import exit_code, signal_name
+from ..executor import Executor, Task, address_problem
 from .cases import SweepError, plan, short_keys
 from .metrics import default_metrics, parse_metrics
 from .plot import plot_all
-from .results import case_row, fmt, metric_columns, read_csv, retabulate, write_csv, write_markdown
+from .results import case_row, fmt, metric_columns, read_study, retabulate, write_csv, write_markdown
 from .task import run_case
 
-EXIT_SCENE, EXIT_FAILED, EXIT_INTERRUPT = 2, 3, 130
+EXIT_SCENE, EXIT_FAILED = 2, 3      # interrupted: 128 + the signal (checkpoint.exit_code)
 
 
 def _positive_int(text: str) -> int:
@@ -124,6 +125,9 @@ def main(args: argparse.Namespace, run) -> int:
     if args.scheduler is not None and args.workers is not None:
         return _fail(EXIT_SCENE, ["--workers and --scheduler: give one (--workers starts a local cluster, "
                                   "--scheduler uses an existing one)"])
+    problem = address_problem(args.scheduler) if args.scheduler is not None else None
+    if problem:
+        return _fail(EXIT_SCENE, [f"--scheduler {args.scheduler}: {problem}"])
     try:
         keys, cases = plan(args.param, args.cases)
         metrics = parse_metrics(args.metrics)
@@ -140,17 +144,19 @@ def main(args: argparse.Namespace, run) -> int:
             print(f"{c.name:50s} {' '.join('--set ' + shlex.quote(o) for o in c.overrides)}")
         return 0
     out = args.out if args.out is not None else Path("outputs") / f"sweep_{scene.info.name}"
+    study = _Study(out, keys, cases, f"{scene.info.name} ({args.scene})", command_line(args))
+    try:                            # --resume: the ok rows stay, their metrics read again from their summary.json
+        previous = read_study(study.csv, keys, cases) if args.resume else []
+    except SweepError as exc:
+        return _fail(EXIT_SCENE, exc.messages)
     try:
         (out / "cases").mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         return _fail(EXIT_SCENE, [f"--out {out}: cannot create the directory ({exc.strerror or exc})"])
-    study = _Study(out, keys, cases, f"{scene.info.name} ({args.scene})", command_line(args))
-    if args.resume:                 # the ok rows stay, their metrics read again from their summary.json
-        planned = {c.name for c in cases}
-        for r in read_csv(study.csv):
-            if r.get("case") in planned and r.get("status") == "ok":
-                summary = _summary(out / "cases" / r["case"])
-                study.table[r["case"]] = retabulate(r, keys, summary, metrics) if summary else r
+    for r in previous:
+        if r.get("status") == "ok":
+            summary = _summary(out / "cases" / r["case"])
+            study.table[r["case"]] = retabulate(r, keys, summary, metrics) if summary else r
     todo, failed_before = [], []
     for case in cases:
         if case.name in study.table:
@@ -189,8 +195,8 @@ def _execute(study: _Study, todo, metrics: list[str], args: argparse.Namespace, 
     except OSError as exc:          # no scheduler at --scheduler, a port or process that cannot be had
         return _fail(EXIT_SCENE, [f"{'--scheduler ' + args.scheduler if args.scheduler else 'local cluster'}: "
                                   f"cannot start ({type(exc).__name__}: {exc})"])
-    except KeyboardInterrupt:
-        return _fail(EXIT_INTERRUPT, ["interrupted while the cluster started; nothing run"])
+    except KeyboardInterrupt as exc:      # Ctrl-C, SIGTERM, SIGHUP (checkpoint.Interrupted)
+        return _fail(exit_code(exc), [f"interrupted{signal_name(exc)} while the cluster started; nothing run"])
     scene_file = str(args.scene.resolve())
     by_name = {c.name: c for c in todo}
 
@@ -209,10 +215,10 @@ def _execute(study: _Study, todo, metrics: list[str], args: argparse.Namespace, 
             ex.run([Task(c.name, run_case, (run, scene_file, (*args.overrides, *c.overrides),
                                             str((study.out / "cases" / c.name).resolve()), args.arch, ex.case_threads))
                     for c in todo], on_done)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:      # Ctrl-C, SIGTERM, SIGHUP: the cluster is closed, its cases stop
         study.record(final=True)
-        return _fail(EXIT_INTERRUPT, [f"interrupted; the finished cases are in {study.csv}; continue with: "
-                                      f"{study.command} --resume"])
+        return _fail(exit_code(exc), [f"interrupted{signal_name(exc)}; the finished cases are in {study.csv}; "
+                                      f"continue with: {study.command} --resume"])
     except OSError as exc:          # output.OutputError: sweep.csv / sweep.md / a plot could not be written
         return _fail(EXIT_FAILED, [f"{exc} (disk full, read-only or no permission?)"])
     study.record(final=True)

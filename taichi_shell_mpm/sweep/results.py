@@ -3,7 +3,8 @@ time, steps, compile and run time, the metrics, the worker, the error message) a
 Markdown table ``sweep.md``; the row of a case from its result.
 
 Both files are rewritten (atomically) after every case, so they show every case finished
-so far; ``--resume`` reads sweep.csv back and skips the cases whose status is ``ok``.
+so far; ``--resume`` reads sweep.csv back (:func:`read_study`, which refuses a file whose
+rows the study would lose) and skips the cases whose status is ``ok``.
 """
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ import math
 import os
 from pathlib import Path
 
+from .cases import SweepError
 from .metrics import RUN_COLUMNS, extract
 
 FRONT = ["case"]
@@ -82,11 +84,37 @@ def write_csv(path: Path, rows: list[dict], keys: list[str]) -> None:
     atomic_write(path, write)
 
 
-def read_csv(path: Path) -> list[dict]:
-    if not path.exists():
+def read_study(path: Path, keys: list[str], cases) -> list[dict]:
+    """``--resume``: the rows of `path` (a study's sweep.csv; none when there is no file),
+    refused with a :class:`SweepError` naming the difference, before anything is written,
+    when rewriting the file would lose rows: not a UTF-8 CSV file, not the table of a study
+    with these keys (other --param or --cases keys, or none), or rows of cases that are not
+    among `cases` (other values)."""
+    try:
+        with open(path, newline="", encoding="utf-8") as fh:
+            reader = csv.DictReader(fh)
+            header, rows = list(reader.fieldnames or []), list(reader)
+    except FileNotFoundError:
         return []
-    with open(path, newline="") as fh:
-        return list(csv.DictReader(fh))
+    except OSError as exc:
+        raise SweepError(f"--resume: {path}: cannot read the file ({exc.strerror or exc})") from None
+    except (UnicodeDecodeError, csv.Error) as exc:
+        raise SweepError(f"--resume: {path}: not a sweep.csv table (not a UTF-8 CSV file: "
+                         f"{' '.join(str(exc).split())}); give another --out, or move the file away") from None
+    expected = FRONT + keys
+    if header[:len(expected)] != expected or not set(MIDDLE) <= set(header):
+        got = ", ".join(header[:len(expected)]) or "nothing"
+        raise SweepError(f"--resume: {path}: not the table of this study: its first columns are {got}, this "
+                         f"study's are {', '.join(expected)} followed by {', '.join(MIDDLE[:2])}, ... (other "
+                         "--param or --cases keys?); give the same keys, or another --out")
+    planned = {c.name: dict(c.params) for c in cases}
+    foreign = [r.get("case") or "" for r in rows
+               if r.get("case") not in planned or any(r.get(k, "") != planned[r["case"]].get(k, "") for k in keys)]
+    if foreign:
+        raise SweepError(f"--resume: {path}: {len(foreign)} of its {len(rows)} rows are not cases of this study "
+                         f"(first: {foreign[0]!r}; other --param values or --cases rows?) and would be lost; "
+                         "give the same values, or another --out")
+    return rows
 
 
 def number(v) -> float:
