@@ -169,4 +169,9 @@ def initial_dt(model, velocity: np.ndarray, cfg) -> float:
         spread = float(np.linalg.norm(velocity.max(axis=0) - velocity.min(axis=0)))
         if spread > 0.0:
             dt = min(dt, contact_step(p.contact_stiffness) * p.contact_thickness / spread)
+    if cfg.tools:
+        from ..tools import first_step_limit
+        tt = model.tools
+        dt = min(dt, first_step_limit(tt, model.points, model.node_thickness, velocity, model.node_body,
+                                      np.array([contact_step(a) for a in tt.coefficients[:, 0]])))
     return dt
