@@ -180,7 +180,7 @@ def _closed_forms(q: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray, np.n
     d = np.where(over, l3, rim_d)
     n_local = np.where(over[:, None], [0.0, 0.0, 1.0], rim / rim_d[:, None])
     n = n_local @ np.stack([e1, e2, e3])
-    out["board"] = (d, n, over | (l3 >= 0))
+    out["board"] = (d, n, (over & (l3 > -T)) | (~over & (l3 >= 0)))   # over it: within reach (one thickness) behind
     # plane through c3 with normal (1, 2, 2)/3
     c3, nn = np.array([0.0, -0.3, 0.0]), np.array([1.0, 2.0, 2.0]) / 3.0
     out["floor"] = ((q - c3) @ nn, np.tile(nn, (len(q), 1)), np.ones(len(q), bool))

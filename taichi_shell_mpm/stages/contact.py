@@ -8,8 +8,10 @@ node takes its single closest penetrating segment [choice: no double counting wh
 segments meet]; the force k g + c g' along the closest-point direction (so edges and
 vertices are handled too) goes to the node and, with the barycentric weights, back to the
 segment's corners.  k = alpha_c m*/dt^2 (stable for any dt, like LS-DYNA SOFT=1), damping
-a fraction of critical.  Friction [choice]: Coulomb regularised by the tangential slip
-speed, mu |F_n| v_t / sqrt(|v_t|^2 + v_eps^2), which needs no per-pair history.  Contact
+a fraction of critical (at most (2 - alpha_c) / (2 sqrt(alpha_c)): scene.penalty_damping_limit).
+Friction [choice]: Coulomb regularised by the tangential slip speed,
+mu |F_n| v_t / sqrt(|v_t|^2 + v_eps^2), which needs no per-pair history, capped at
+m* |v_t| / dt (:func:`coulomb_friction`).  Contact
 energy is the work done against the contact forces (booked at the node update,
 :mod:`.constraints`).
 
