@@ -424,8 +424,6 @@ class State:
         g.table("centre", ti.Vector.field(3, f64), (MAX_TOOLS,), nt, persistent=False, used=on)
         g.table("axes", ti.Matrix.field(3, 3, f64), (MAX_TOOLS,), nt, persistent=False, used=on)
         g.table("velocity", ti.Vector.field(3, f64), (MAX_TOOLS,), nt, persistent=False, used=on)
-        # this step's shortest step by the nodes' speeds relative to the tool (stages/tools.py, Step limit)
-        g.table("touch_limit", ti.field(f64), (MAX_TOOLS,), nt, persistent=False, used=on)
         # force and moment (about the centre) the tool exerts on the shell this step; nodes touching
         g.table("force", ti.Vector.field(3, f64), (MAX_TOOLS,), nt, used=on)
         g.table("moment", ti.Vector.field(3, f64), (MAX_TOOLS,), nt, used=on)
