@@ -876,7 +876,7 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
     names = [b.name for b in bodies]
     walls = tuple(WallSpec(tuple(w.point), tuple(np.asarray(w.normal) / np.linalg.norm(w.normal)),
                            names.index(w.moves_with) if w.moves_with else -1) for w in scene.walls)
-    tools = build_tools(scene.tools, names, list(scene.curves), float(node_thickness.max())) if scene.tools else None
+    tools = build_tools(scene.tools, bodies, scene.curves, float(node_thickness.max())) if scene.tools else None
     for d in range(3):                       # supports do not move: no initial velocity there
         velocity0[(fix_mask >> d) & 1 == 1, d] = 0.0
         omega0[(fix_mask >> (3 + d)) & 1 == 1, d] = 0.0

@@ -522,6 +522,18 @@ class Tool:
     curve: str | None = None
 
 
+def penalty_damping_limit(stiffness: float) -> float:
+    """The largest damping fraction the penalty law (stages/contact.py, stages/tools.py) takes
+    at `stiffness` alpha: alpha + 2 zeta sqrt(alpha) <= 2 [issue 28 item 4; docs/contact.md,
+    "Penalty parameters"].  The damper acts on the lagged velocity v^(n-1/2): a node that
+    arrives at the speed v and is found v dt deep gets the impulse (alpha + 2 zeta sqrt(alpha))
+    m v in one step, which sends it back faster than it came once it exceeds 2 m v (at alpha =
+    zeta = 1: 2 v, booked as negative contact energy).  The 1-DOF model over every arrival
+    phase puts the bound there for every alpha in (0, 1] (no damping is refused below
+    alpha = 0.536)."""
+    return (2.0 - stiffness) / (2.0 * math.sqrt(stiffness))
+
+
 @dataclass(frozen=True)
 class Contact:
     """Penalty node-to-segment self-contact (method.md 7.3); present table = enabled."""
@@ -1402,6 +1414,8 @@ class _SceneParser:
         contact = self.table_object("[contact]", self.raw["contact"], Contact, {
             "thickness": _positive, "stiffness": _number(0, 1, lo_open=True), "friction": _non_negative,
             "damping": _unit_interval}) if "contact" in self.raw else None
+        if contact is not None:
+            self.penalty_damping("[contact]", contact.stiffness, contact.damping)
         crush = self.crush(self.raw["crush"], solve) if "crush" in self.raw else None
         if solve is not None and solve.kind == "static":
             named = [("[material]", material), *((f"[materials.{_key(k)}]", m) for k, m in materials.items())]
@@ -1930,6 +1944,13 @@ class _SceneParser:
                        + _hint(v["moves_with"], bodies, "defined"))
         return self.build(mark, Wall, v)
 
+    def penalty_damping(self, path: str, stiffness: float, damping: float) -> None:
+        """A penalty law's damping within penalty_damping_limit(stiffness)."""
+        if damping > penalty_damping_limit(stiffness) * (1.0 + 1e-12):
+            self.error(f"{path}.damping", f"{damping:g} with stiffness = {stiffness:g}: stiffness + 2 damping "
+                       f"sqrt(stiffness) must be <= 2, else a node bounces back faster than it came; at most "
+                       f"{penalty_damping_limit(stiffness):.3g} at this stiffness (docs/contact.md)")
+
     def tool(self, path: str, data: Any, solve: Solve | None, curves: dict[str, Curve]) -> Tool | None:
         """A [[tool]]: its kind's keys (a key of another kind is an error), at most one way to
         move, a surface mesh read here (so that an unusable file is a scene error)."""
@@ -1958,6 +1979,7 @@ class _SceneParser:
                 if cross <= 1e-9 * math.hypot(a1, a2, a3) * math.hypot(n1, n2, n3):
                     self.error(f"{path}.axis", "is parallel to normal (it gives the direction of the first side, "
                                                "in the rectangle's plane)")
+        self.penalty_damping(path, v.get("stiffness", Tool.stiffness), v.get("damping", Tool.damping))
         moving = [key for key in ("moves_with", "velocity", "displacement") if key in data]
         if len(moving) > 1:
             self.error(f"{path}.{moving[1]}", f"a tool moves one way: give one of moves_with, velocity, "

@@ -422,6 +422,7 @@ class State:
         g.table("count", ti.field(i32), (), persistent=False)
         g.table("slip_speed", ti.field(f64), (), persistent=False, used=on)   # v_eps of the friction law
         g.table("reach", ti.field(f64), (), persistent=False, used=on)        # how far behind a mesh nodes are caught
+        g.table("step_limit", ti.field(f64), (), persistent=False, used=on)   # this step's dt bound (stages/tools.py)
         for name, dtype in (("kind", i32), ("motion", i32), ("body", i32), ("curve", i32)):
             g.table(name, ti.field(dtype), (MAX_TOOLS,), nt, persistent=False, used=on)
         for name in ("origin", "size", "value", "coefficients"):

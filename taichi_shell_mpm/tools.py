@@ -147,6 +147,8 @@ class ToolTable:
     bucket_start: np.ndarray        # (b + 1,) CSR bucket -> bucket_items
     bucket_items: np.ndarray        # global triangle indices
     reach: float                    # capture distance of the mesh search
+    speed0: np.ndarray              # (k,) a bound of the speed of the tool's points at t = 0 (first_step_limit)
+    bound: np.ndarray               # (k,) radius of a ball about the centre holding the tool (plane: inf)
 
     @property
     def prescribed(self) -> bool:
@@ -154,10 +156,12 @@ class ToolTable:
         return bool(np.any((self.motion == VELOCITY) | (self.motion == DISPLACEMENT)))
 
 
-def build_tools(tools, body_names: list[str], curve_names: list[str], reach: float,
-                cell: float | None = None) -> ToolTable:
-    """The ToolTable of the scene's [[tool]] entries (scene.Tool); `reach`: how far behind a
-    mesh's surface a node is still caught (the thickest shell's thickness)."""
+def build_tools(tools, bodies, curves: dict, reach: float, cell: float | None = None) -> ToolTable:
+    """The ToolTable of the scene's [[tool]] entries (scene.Tool); `bodies`: the
+    assembly.RigidBodySpec list, `curves`: the scene's curves by name; `reach`: how far behind
+    a mesh's surface a node is still caught (the thickest shell's thickness)."""
+    from .curves import evaluate
+    body_names, curve_names = [b.name for b in bodies], list(curves)
     k = len(tools)
     kind = np.array([TOOL_KINDS.index(t.kind) for t in tools], np.int32)
     motion = np.full(k, FIXED, np.int32)
@@ -166,6 +170,7 @@ def build_tools(tools, body_names: list[str], curve_names: list[str], reach: flo
     origin, frame = np.zeros((k, 3)), np.tile(np.eye(3), (k, 1, 1))
     size, value, coefficients = np.zeros((k, 3)), np.zeros((k, 3)), np.zeros((k, 3))
     tri_first = np.zeros(k, np.int32)
+    speed0, bound = np.zeros(k), np.full(k, np.inf)
     grid_lo, grid_h, grid_dims = np.zeros((k, 3)), np.ones(k), np.ones((k, 3), np.int32)
     bucket_first = np.zeros(k, np.int32)
     triangles, normals, starts, items = [np.zeros((0, 3, 3))], [np.zeros((0, 3))], [], []
@@ -177,6 +182,7 @@ def build_tools(tools, body_names: list[str], curve_names: list[str], reach: flo
             motion[i], body[i] = BODY, body_names.index(t.moves_with)
         elif t.velocity is not None:
             motion[i], value[i] = VELOCITY, t.velocity
+            speed0[i] = np.linalg.norm(t.velocity) * abs(evaluate(curves[t.curve], 0.0) if t.curve else 1.0)
         elif t.displacement is not None:
             motion[i], value[i] = DISPLACEMENT, t.displacement
         if t.curve is not None:
@@ -185,14 +191,17 @@ def build_tools(tools, body_names: list[str], curve_names: list[str], reach: flo
             frame[i] = frame_from(t.normal, t.axis)
             if t.kind == "rectangle":
                 size[i, :2] = 0.5 * np.asarray(t.size)
+                bound[i] = np.hypot(*size[i, :2])
         elif t.kind == "cylinder":
             frame[i] = frame_from(t.axis)
             size[i, :2] = t.radius, 0.5 * t.length
+            bound[i] = np.hypot(*size[i, :2])
         elif t.kind == "sphere":
-            size[i, 0] = t.radius
+            size[i, 0] = bound[i] = t.radius
         else:
             vertices, tri = read_surface(t.file, t.scale)
             x = vertices[tri]
+            bound[i] = float(np.linalg.norm(x, axis=2).max())
             normal = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])
             lo, h, dims, start, listed = bucket_grid(x, reach, cell)
             tri_first[i], grid_lo[i], grid_h[i], grid_dims[i] = n_tri, lo, h, dims
@@ -203,6 +212,10 @@ def build_tools(tools, body_names: list[str], curve_names: list[str], reach: flo
             items.append(listed + n_tri)
             n_tri += len(x)
             n_buckets += len(start) - 1
+        if motion[i] == BODY:        # V + |omega| (the centre's arm + the tool's size; a plane's: its centre's)
+            b = bodies[body[i]]
+            arm = np.linalg.norm(np.asarray(t.center) - b.center) + (bound[i] if np.isfinite(bound[i]) else 0.0)
+            speed0[i] = np.linalg.norm(b.velocity0) + np.linalg.norm(b.spin0) * arm
     total = sum(len(a) for a in items)
     bucket_start = np.concatenate(starts + [np.array([total])]).astype(np.int32) if starts else np.zeros(1, np.int32)
     return ToolTable(
@@ -210,4 +223,30 @@ def build_tools(tools, body_names: list[str], curve_names: list[str], reach: flo
         body=body, curve=curve, origin=origin, frame=frame, size=size, value=value, coefficients=coefficients,
         tri_first=tri_first, triangles=np.concatenate(triangles), tri_normal=np.concatenate(normals),
         grid_lo=grid_lo, grid_h=grid_h, grid_dims=grid_dims, bucket_first=bucket_first, bucket_start=bucket_start,
-        bucket_items=np.concatenate(items).astype(np.int32) if items else np.zeros(0, np.int32), reach=reach)
+        bucket_items=np.concatenate(items).astype(np.int32) if items else np.zeros(0, np.int32), reach=reach, speed0=speed0, bound=bound)
+
+
+def first_step_limit(table: ToolTable, points: np.ndarray, thickness: np.ndarray, velocity: np.ndarray,
+                     node_body: np.ndarray, step: np.ndarray) -> float:
+    """The tools' step limit (stages/tools.py, Step limit) at t = 0, before the kernel has
+    measured a closing speed: dt <= (step_k h + max(D - h/2, 0)) / (speed0_k + |v|) over nodes
+    and tools (step_k: timestep.contact_step of the tool's stiffness), with D a lower bound of
+    the distance (a plane's |d|, else the distance to the ball of radius `bound`) and the
+    relative speed for the closing one, so a tool that starts near the shell and fast does not
+    jump past it in the first step.  A displacement-driven tool counts as at rest (its curve
+    starts at 0)."""
+    limit = np.inf
+    for k in range(len(table.names)):
+        own = node_body == table.body[k] if table.motion[k] == BODY else np.zeros(len(points), bool)
+        r = points[~own] - table.origin[k]
+        if np.isfinite(table.bound[k]):
+            distance = np.maximum(np.linalg.norm(r, axis=1) - table.bound[k], 0.0)
+        else:
+            distance = np.abs(r @ table.frame[k][2])
+        h = thickness[~own]
+        speed = table.speed0[k] + np.linalg.norm(velocity[~own], axis=1)
+        moving = speed > 0.0
+        if np.any(moving):
+            room = step[k] * h + np.maximum(distance - 0.5 * h, 0.0)
+            limit = min(limit, float(np.min(room[moving] / speed[moving])))
+    return limit

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import taichi as ti
 
-from taichi_shell_mpm.scene import load_scene
+from taichi_shell_mpm.scene import SceneError, load_scene
 
 from .conftest import unwarmed_simulation, write_scene
 
@@ -126,3 +126,14 @@ def test_the_skin_changes_the_rebuilds_not_the_contacts(tmp_path, monkeypatch):
     print(f"\ncontact energy {e1:.6g} / {e2:.6g} J, {n1} / {n2} steps, max |dx| {np.abs(x1 - x2).max():.3g} mm")
     assert e1 > 0.0 and n1 == n2
     assert np.abs(x1 - x2).max() <= 1e-9 and e1 == pytest.approx(e2, rel=1e-9)
+
+
+def test_damping_that_bounces_a_node_back_faster_is_refused(tmp_path):
+    """[contact].damping within stiffness + 2 damping sqrt(stiffness) <= 2 (scene.penalty_damping_limit,
+    docs/contact.md "Penalty parameters"): 0.8 at stiffness 1 is refused naming the key, 0.5 accepted."""
+    meshio.write(tmp_path / "sheets.vtu", meshio.Mesh(POINTS, [("quad", np.array([[0, 1, 2, 3], [4, 5, 6, 7]]))]))
+    text = TWO_SHEETS.replace("[contact]\n", "[contact]\nstiffness = 1\ndamping = {}\n")
+    with pytest.raises(SceneError) as caught:
+        load_scene(write_scene(tmp_path, text.format(0.8)))
+    assert any("[contact].damping: 0.8 with stiffness = 1" in m for m in caught.value.messages), caught.value.messages
+    assert load_scene(write_scene(tmp_path, text.format(0.5))).contact.damping == 0.5

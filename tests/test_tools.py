@@ -180,7 +180,7 @@ def _closed_forms(q: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray, np.n
     d = np.where(over, l3, rim_d)
     n_local = np.where(over[:, None], [0.0, 0.0, 1.0], rim / rim_d[:, None])
     n = n_local @ np.stack([e1, e2, e3])
-    out["board"] = (d, n, over | (l3 >= 0))
+    out["board"] = (d, n, (over & (l3 > -T)) | (~over & (l3 >= 0)))   # over it: within reach (one thickness) behind
     # plane through c3 with normal (1, 2, 2)/3
     c3, nn = np.array([0.0, -0.3, 0.0]), np.array([1.0, 2.0, 2.0]) / 3.0
     out["floor"] = ((q - c3) @ nn, np.tile(nn, (len(q), 1)), np.ones(len(q), bool))
@@ -472,6 +472,113 @@ def test_plate_struck_by_sphere_momentum_and_energy(tmp_path):
     assert abs(e["balance_error"]) < 1e-3 * ke0
 
 
+# ------------------------------------------------------------------ step, penalty and friction limits (issue 28)
+def tool_simulation(tmp_path, tools: dict[str, str], *, end_time: float, extra: str = "", own_mesh: bool = False,
+                    edit=lambda text: text):
+    """An in-process Simulation of the plate scene with `tools` (its text through `edit`);
+    `own_mesh`: the scene's mesh tool replaces the far one (one cube of the same size: the
+    same compiled step)."""
+    text = edit(scene_text(tools, end_time=end_time, extra=extra, history=end_time))
+    if own_mesh:
+        text = text.replace(f'[[tool]]\nname = "far_mesh"\n{DUMMIES["mesh"]}\n', "")
+    init_taichi("cpu")
+    tmp_path.mkdir(parents=True, exist_ok=True)
+    scene = load_scene(write(tmp_path, text))
+    return Simulation(scene, tmp_path / "out", quiet=True)
+
+
+def plate_velocity(sim) -> np.ndarray:
+    free = sim.model.node_body < 0
+    return sim.state.fetch("nodes.grid_velocity")[free]
+
+
+def drop_on_plane(tmp_path, velocity, *, stiffness: float, damping: float, friction: float = 0.0,
+                  phase: float = 0.0):
+    """The free plate thrown at `velocity` onto a plane under it, touching it (gap 0) `phase`
+    of a step after t = 0: every node has the same mass-proportional spring and damper, so
+    the plate moves as one body, the 1-DOF model of the penalty law (scene.penalty_damping_limit).
+    Returns the Simulation after the run."""
+    tools = {"floor": f'kind = "plane"\ncenter = [0, 0, {-T / 2}]\nnormal = [0, 0, 1]\nstiffness = {stiffness}\n'
+                      f'damping = {damping}\nfriction = {friction}'}
+    extra = f'[[initial]]\nnodes = "plate"\nvelocity = {list(velocity)}'
+    sim = tool_simulation(tmp_path, tools, end_time=1e-4, extra=extra)
+    k = list(sim.model.tools.names).index("floor")
+    z = -T / 2 - phase * abs(velocity[2]) * sim.state.step.dt[None]
+    for field in (sim.state.tools.origin, sim.state.tools.centre):
+        field[k] = (0.0, 0.0, z)
+    run_dynamic(sim)
+    return sim
+
+
+def test_penalty_law_at_the_extreme_settings_bounces_no_faster_than_it_came(tmp_path):
+    """A plate dropped at 1 m/s on a plane at stiffness = 1 and the largest damping accepted
+    there (0.5; scene.penalty_damping_limit): it rebounds no faster than it came, at the worst
+    arrival (touching at a step's start: the spring and damper's impulse (1 + 2 zeta) m v in
+    one step, exactly 2 m v) and half a step later, and the contact energy stays >= 0.  damping
+    = 1 at that stiffness (2 v back, measured in the 1-DOF model, docs/contact.md) is refused."""
+    for phase in (0.0, 0.5):
+        sim = drop_on_plane(tmp_path / f"p{phase}", (0.0, 0.0, -1.0), stiffness=1.0, damping=0.5, phase=phase)
+        v = plate_velocity(sim)
+        e = sim.energies()
+        print(f"\narrival {phase} of a step: rebound {v[:, 2].max():.12f} m/s (spread {np.ptp(v[:, 2]):.1e}) "
+              f"after 1 m/s; contact energy {e['contact']:.3e} J, balance error {e['balance_error']:.1e} J")
+        assert v[:, 2].min() > 0.0 and v[:, 2].max() <= 1.0 + 1e-9
+        assert e["contact"] >= -1e-9 * sim.initial_kinetic
+    text = scene_text({"floor": 'kind = "plane"\nnormal = [0, 0, 1]\nstiffness = 1\ndamping = 1'}, end_time=1e-3)
+    with pytest.raises(SceneError) as caught:
+        load_scene(write(tmp_path, text))
+    assert any("[[tool]][0].damping: 1 with stiffness = 1" in m and "at most 0.5" in m
+               for m in caught.value.messages), caught.value.messages
+
+
+def test_sticking_friction_stops_the_slip_without_creating_energy(tmp_path):
+    """The plate thrown at 45 deg (1 m/s down and along x) onto a plane with friction = 10 at
+    stiffness = 1: friction stops the slip (the force capped at m |v_t| / dt, what stops it in
+    one step, stages/contact.coulomb_friction) instead of reversing it step after step (21 %
+    of the work created in 7 steps, then the energy guard, before the cap); the run ends with
+    the slip stopped, the contact energy >= 0 and the balance error < 1 % of the initial
+    kinetic energy (printed)."""
+    sim = drop_on_plane(tmp_path, (1.0, 0.0, -1.0), stiffness=1.0, damping=0.1, friction=10.0)
+    v = plate_velocity(sim)
+    e = sim.energies()
+    ke0 = sim.initial_kinetic
+    print(f"\nslip after the bounce {np.abs(v[:, 0]).max():.2e} m/s, rebound {v[:, 2].max():.4f} m/s; contact "
+          f"energy {e['contact']:.4e} J of KE0 {ke0:.4e} J; balance error {e['balance_error']:.2e} J "
+          f"({e['balance_error'] / ke0:.1e} of KE0)")
+    assert np.abs(v[:, 0]).max() < 1e-6 and v[:, 2].min() > 0.0
+    assert e["contact"] > 0.0 and abs(e["balance_error"]) < 0.01 * ke0
+
+
+def test_mesh_punch_faster_than_its_reach_per_step_does_not_pass_through(tmp_path):
+    """The cube mesh (reach: one thickness behind its faces) on a light rigid body (0.05 kg)
+    thrown at the plate at 3 thicknesses per element step: the tools' step limit
+    (stages/tools.py, Step limit; the first step's from tools.first_step_limit) keeps each
+    step's approach within 0.2 thickness, so the plate's nodes under the punch stay in front of
+    its face (without it the punch jumped past them, 11.5 thicknesses in 6 steps).  Printed:
+    the deepest node under the punch and the steps taken."""
+    from taichi_shell_mpm.assembly import element_steps
+    init_taichi("cpu")
+    start = 0.05 + T                                   # the punch's face one half-thickness clear
+    bare = load_scene(write(tmp_path, scene_text({}, end_time=1.0)))
+    model = assemble(bare, build_mesh(bare.mesh))
+    dt = float(np.min(element_steps(model.points, model.elements, model.element, model.parameters.dt_safety)))
+    speed, end = 3 * T / dt, 4 * dt
+    tools = {"punch": f'kind = "mesh"\nfile = "cube.obj"\ncenter = [0, 0, {start}]\nmoves_with = "ram"'}
+    extra = f'[[initial]]\nnodes = "ram"\nvelocity = [0, 0, {-speed}]'
+    sim = tool_simulation(tmp_path, tools, end_time=end, extra=extra, own_mesh=True,
+                          edit=lambda text: text.replace('nodes = "ram"\n[curves', 'nodes = "ram"\nmass = 0.05\n[curves'))
+    sim.hourglass_limit = 0.0
+    run_dynamic(sim)
+    x = sim.state.fetch("nodes.position")
+    x0 = sim.model.points
+    under = (sim.model.node_body < 0) & (np.abs(x0[:, 0]) < 0.045) & (np.abs(x0[:, 1]) < 0.045)
+    face = float(x[sim.model.node_body == 0, 2].mean()) - 0.5 + start - 0.05      # the body carries the punch
+    depth = float((x[under, 2] - (face - T / 2)).max())
+    print(f"\npunch at {speed:.0f} m/s ({speed * dt / T:.1f} thicknesses per element step of {dt:.2e} s): "
+          f"{sim.total_steps} steps; deepest node under it {depth / T:.3f} thickness past touching")
+    assert under.sum() >= 9 and depth < 0.7 * T
+
+
 # ------------------------------------------------------------------ input errors
 @pytest.mark.parametrize("body, message", [
     ('kind = "torus"', "kind: expected one of"),
@@ -484,6 +591,7 @@ def test_plate_struck_by_sphere_momentum_and_energy(tmp_path):
     ('kind = "sphere"\nradius = 1\ndisplacement = [1, 0, 0]', "displacement needs a curve"),
     ('kind = "sphere"\nradius = 1\ncurve = "ramp"', "curve: only with velocity or displacement"),
     ('kind = "sphere"\nradius = 1\nstiffness = 2', "stiffness: expected"),
+    ('kind = "sphere"\nradius = 1\nstiffness = 0.8\ndamping = 0.7', "damping: 0.7 with stiffness = 0.8"),
     ('kind = "mesh"\nfile = "missing.stl"', "file: file not found"),
     ('kind = "mesh"\nfile = "empty.obj"', "no triangles or quads"),
 ])

@@ -3,8 +3,8 @@
 The element rule (:func:`element_limit`: BT alpha L_e / c_e with L_e = area / longest
 diagonal, and with physical rotary inertia the rotational limit) is evaluated inside the
 element pass (:mod:`.shell`) into ``dt_next``; here it is combined with the paper's grid
-rule alpha h / (c_dil + max|v_d|) when ``dt_rule = "both"`` and with the contact limit
-(:meth:`TimeStep.contact_limit`), fitted to the next output time, and checked for
+rule alpha h / (c_dil + max|v_d|) when ``dt_rule = "both"``, with the contact limit
+(:meth:`TimeStep.contact_limit`) and the rigid tools' (stages/tools.py), fitted to the next output time, and checked for
 collapse.  :func:`initial_dt` is the host twin of all of it for the first step.
 
 Landing on output times [choice, issue 4]: within LANDING_STEPS steps of the next output
@@ -106,6 +106,13 @@ def contact_step(stiffness: float) -> float:
 
 
 @ti.func
+def approach_step(stiffness):
+    """contact_step in a kernel: the largest approach per step, in thicknesses, of a penalty
+    of stiffness alpha (the self-contact's and each tool's, stages/tools.py)."""
+    return CONTACT_STEP * ti.sqrt(stiffness / 0.1)
+
+
+@ti.func
 def impulse_time(step: ti.template()):
     """dt of the velocity kick v^(n+1/2) = v^(n-1/2) + dt a^n: dt^(n+1/2), halved on a
     restart from rest.  The equal landing steps (next_step) keep dt constant between
@@ -132,17 +139,19 @@ class TimeStep:
         per-axis spread of the nodal velocities, an upper bound of any two nodes' approach
         speed (Galilean invariant: a shell flying as a whole does not pay)."""
         spread = (self.s.contact.velocity_high[None] - self.s.contact.velocity_low[None]).norm()
-        step = CONTACT_STEP * ti.sqrt(self.s.contact.stiffness[None] / 0.1)
-        return step * self.s.contact.thickness[None] / ti.max(spread, 1e-300)
+        return approach_step(self.s.contact.stiffness[None]) * self.s.contact.thickness[None] / ti.max(spread, 1e-300)
 
     @ti.func
     def next_step(self):
-        """Set dt for the next step from this step's element, grid and contact limits."""
+        """Set dt for the next step from this step's element, grid, contact and tool limits
+        (the tools': stages/tools.RigidTools.node_force, this step's closest approach)."""
         dt = self.s.step.dt_next[None]
         if ti.static(self.cfg.grid_rule):
             dt = ti.min(dt, self.grid_limit())
         if ti.static(self.cfg.contact):
             dt = ti.min(dt, self.contact_limit())
+        if ti.static(self.cfg.tools):
+            dt = ti.min(dt, self.s.tools.step_limit[None])
         if dt < 1e-3 * self.s.step.dt_first[None] and self.s.step.status[None] == STATUS_OK:   # the first problem wins
             self.s.step.status[None] = STATUS_DT_COLLAPSE
             self.s.step.status_index[None] = -1   # the limiting element is found on the host (Simulation.check_status)
@@ -174,4 +183,9 @@ def initial_dt(model, velocity: np.ndarray, cfg) -> float:
         spread = float(np.linalg.norm(velocity.max(axis=0) - velocity.min(axis=0)))
         if spread > 0.0:
             dt = min(dt, contact_step(p.contact_stiffness) * p.contact_thickness / spread)
+    if cfg.tools:
+        from ..tools import first_step_limit
+        tt = model.tools
+        dt = min(dt, first_step_limit(tt, model.points, model.node_thickness, velocity, model.node_body,
+                                      np.array([contact_step(a) for a in tt.coefficients[:, 0]])))
     return dt

@@ -18,9 +18,11 @@ x^n (the start of the step) like every other load, so m (v^(n+1/2) - v^(n-1/2)) 
 
 Geometry, in the tool's frame (q = F (x - c), tools.py): d and n of
 * plane: d = q3 (one-sided: a node behind the plane is pushed out, however deep);
-* rectangle (half sides a, b): over it (|q1| <= a, |q2| <= b) as the plane; beside it, on the
-  front side (q3 >= 0), the distance to the nearest rim point (a rounded rim); behind and
-  beside it, no contact [choice: a finite plate has a front only];
+* rectangle (half sides a, b): over it (|q1| <= a, |q2| <= b) as the plane down to ``reach``
+  behind it (the mesh's depth: a node deeper behind a finite plate came from its back, and
+  pulling it through to the front is wrong; issue 28 item 3); beside it, on the front side
+  (q3 >= 0), the distance to the nearest rim point (a rounded rim); behind and beside it, no
+  contact [choice: a finite plate has a front only];
 * cylinder (radius R, half length L), capped [choice: a solid with flat ends, the exact
   signed distance: outside, the distance to the nearest point of the solid, n along it;
   inside, the depth below the nearer of the mantle and the cap];
@@ -31,6 +33,27 @@ Geometry, in the tool's frame (q = F (x - c), tools.py): d and n of
   solid and an open one (a die) has a front; n = +-(q - p)/|q - p|, the facet normal where p
   lies inside the facet].  Nodes more than ``reach`` (the thickest shell) behind the surface
   are not found.
+
+Step limit [issue 28 item 3: a mesh tool moving more than its reach per step went through
+the shell].  As the self-contact's (stages/timestep.contact_step), the next step keeps every
+node's approach to every tool within approach_step(alpha) h (h: the node's thickness; 0.2 h
+at alpha = 0.1, 0.63 h at 1), so a node is caught at most that far past touching and its
+spring stops it within dt v / sqrt(alpha) more, well inside the mesh's (and the rectangle's)
+reach of one thickness behind the surface:
+    dt <= (approach_step(alpha) h + max(|d| - h/2, 0)) / (-(v - v_tool) . n),
+over the nodes approaching a tool (n: the outward normal at the nearest surface point, so the
+closing speed is the rate of change of d; a node sliding along a tool does not pay), with d a
+lower bound of the distance (the mesh: ``reach`` where its buckets list no facet), so a tool
+still far away does not shorten the step.  Not covered [measured, issue 28]: a tool driven at
+a prescribed speed that carries the shell along holds its nodes at the depth F / k =
+F dt^2 / (alpha m) (F: the shell pulling them back), ~ CFL v dt / alpha at the element step,
+beyond the reach once v dt exceeds ~alpha h / 3 (a free plate dragged at 3 thicknesses per
+element step was lost once its nodes had stopped closing).  Shortening dt while they are held
+does not cure it: k follows dt_stable, and stiffening a loaded spring created energy (both a
+depth rule and the self-contact's Galilean spread while touching were tried; the sphere strike
+of tests/test_tools.py then collapsed its step).  Evaluated at x^n with v^(n-1/2) in
+:meth:`node_force`, applied from the next step on (stages/timestep.TimeStep.next_step); the
+first step is the element rule's (a tool should start clear of the shell).
 
 Energy (energy.py).  The work done against each tool's forces is booked at the node with its
 time-centred velocity, -dt f . v_mid (the node's ``contact`` column), and at the tool's own
@@ -55,7 +78,7 @@ import taichi as ti
 from ..tools import BODY, DISPLACEMENT, FIXED, TOOL_KINDS, VELOCITY
 from .accumulate import Accumulator
 from .contact import closest_point_on_triangle, coulomb_friction
-from .timestep import impulse_time
+from .timestep import DT_UNSET, approach_step, impulse_time
 
 
 @ti.data_oriented
@@ -120,7 +143,7 @@ class RigidTools:
     @ti.func
     def rectangle(self, k, q):
         a, b = self.g.size[k][0], self.g.size[k][1]
-        d, n, hit = q[2], ti.Vector([0.0, 0.0, 1.0]), True
+        d, n, hit = q[2], ti.Vector([0.0, 0.0, 1.0]), q[2] > -self.g.reach[None]
         if ti.abs(q[0]) > a or ti.abs(q[1]) > b:
             r = q - ti.Vector([ti.min(ti.max(q[0], -a), a), ti.min(ti.max(q[1], -b), b), 0.0])
             d = r.norm()
@@ -159,8 +182,9 @@ class RigidTools:
 
     @ti.func
     def mesh(self, k, q):
-        """The nearest facet of the node's bucket (module docstring)."""
-        d, n, hit = 0.0, ti.Vector([0.0, 0.0, 1.0]), False
+        """The nearest facet of the node's bucket (module docstring); none within reach: d =
+        reach, a lower bound of the distance (a bucket lists every facet within reach of it)."""
+        d, n, hit = self.g.reach[None], ti.Vector([0.0, 0.0, 1.0]), False
         cell = ti.floor((q - self.g.grid_lo[k]) / self.g.grid_h[k], ti.i32)
         dims = self.g.grid_dims[k]
         inside = True
@@ -218,6 +242,7 @@ class RigidTools:
     @ti.func
     def begin(self):
         """Each tool's pose and velocity at t^n; this step's force sums cleared (serial)."""
+        self.g.step_limit[None] = DT_UNSET
         ti.loop_config(serialize=True)
         for k in range(self.g.count[None]):
             centre, frame, velocity = self.pose(k)
@@ -228,21 +253,31 @@ class RigidTools:
 
     @ti.func
     def node_force(self, k, c):
-        """Force of tool k on node c at x^n (module docstring)."""
+        """Force of tool k on node c at x^n (module docstring), and the longest next step
+        that keeps the node's approach to the tool within the penalty's reach (Step limit)."""
         x = self.s.nodes.position[c]
         frame = self.g.axes[k]
         d, n_local, hit = self.distance(k, frame @ (x - self.g.centre[k]))
+        n = frame.transpose() @ n_local
+        coefficients = self.g.coefficients[k]            # alpha, damping, mu
+        v_rel = self.s.nodes.grid_velocity[c] - self.point_velocity(k, x)
+        half = 0.5 * self.s.nodes.thickness[c]
         force = ti.Vector([0.0, 0.0, 0.0])
-        gap = 0.5 * self.s.nodes.thickness[c] - d
+        gap = half - d
         if hit and gap > 0.0 and self.s.step.dt[None] > 0.0:
-            n = frame.transpose() @ n_local
-            coefficients = self.g.coefficients[k]            # alpha, damping, mu
             m = self.s.nodes.mass[c]
             stiffness = coefficients[0] * m / (self.s.step.dt_stable[None] ** 2)
-            v_rel = self.s.nodes.grid_velocity[c] - self.point_velocity(k, x)
             f_n = ti.max(0.0, stiffness * gap - coefficients[1] * 2.0 * ti.sqrt(stiffness * m) * v_rel.dot(n))
-            force = f_n * n + coulomb_friction(coefficients[2], f_n, v_rel, n, self.g.slip_speed[None])
-        return force
+            force = f_n * n + coulomb_friction(coefficients[2], f_n, v_rel, n, self.g.slip_speed[None], m,
+                                               impulse_time(self.s.step))
+        clearance = ti.max(d - half, 0.0)                # how far the node is from touching
+        if not hit:
+            clearance = ti.max(ti.abs(d) - half, 0.0)
+        closing = -v_rel.dot(n)
+        limit = DT_UNSET
+        if closing > 0.0:
+            limit = (approach_step(coefficients[0]) * 2.0 * half + clearance) / closing
+        return force, limit
 
     @ti.func
     def forces(self):
@@ -254,13 +289,17 @@ class RigidTools:
             own = -2
             if ti.static(self.cfg.bodies):
                 own = self.s.nodes.body[c]
+            limit = DT_UNSET
             for k in range(self.g.count[None]):
                 f = ti.Vector([0.0, 0.0, 0.0])
                 if not (self.g.motion[k] == BODY and self.g.body[k] == own):
-                    f = self.node_force(k, c)
+                    f, pair_limit = self.node_force(k, c)
+                    limit = ti.min(limit, pair_limit)
                 self.g.node_force[c, k] = f
                 total += f
             self.g.total_force[c] = total
+            if limit < DT_UNSET and self.s.nodes.mass[c] > 0.0:     # not a node of eroded elements only
+                self.acc.minimum(self.g.step_limit, limit)
         if ti.static(not self.cfg.atomic_scatter):
             ti.loop_config(serialize=True)
         for c in range(self.s.nodes.count[None]):
