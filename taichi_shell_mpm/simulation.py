@@ -259,16 +259,18 @@ class Simulation:
         """Nodal displacement (n,3) and accumulated rotation vector (n,3).
 
         The orientation quaternion q = (cos phi/2, a sin phi/2) is composed continuously by
-        both static solvers and the dynamic step (never sign-normalised), so it holds the
-        angle phi about the axis a modulo 4 pi.  Its principal vector (phi in [0, 2 pi])
-        jumps from 2 pi a to 2 pi (-a) as a node passes a full turn: a strip rolled up by
-        M_max read ry = -6.282 by relaxation (just short of the turn) and +6.283 by Newton
-        (just past it).  The rotation reported [choice: the angle turned, as a rotation probe
-        of a roll-up wants] is the vector (phi + 4 pi k) a nearest the one reported last:
-        any number of turns, provided a node turns by less than half a turn between two reads
-        (each record, frame and history row reads; a load level or a Newton point turns a
-        node far less).  The last vectors of the nodes turned by more than pi are kept in
-        ``driver_data["rotations"]`` (checkpointed); any other node's is taken as zero."""
+        both static solvers and the dynamic step (each increment's quaternion times q, never
+        sign-normalised; a rigid body's nodes take its quaternion, composed the same way), so
+        it holds the angle phi about the axis a modulo 4 pi.  Its principal vector (phi in
+        [0, 2 pi]) jumps from 2 pi a to 2 pi (-a) as a node passes a full turn: a strip
+        rolled up by M_max read ry = -6.282 by relaxation (just short of the turn) and +6.283
+        by Newton (just past it).  The rotation reported [choice: the angle turned, as a
+        rotation probe of a roll-up wants] is the vector (phi + 4 pi k) a nearest the one
+        reported last: any number of turns, provided a node turns by less than half a turn
+        between two reads (each record, frame and history row reads; the roll-up turns its
+        tip by a quarter turn per level).  The last vectors of the nodes turned by more than
+        pi are kept in ``driver_data["rotations"]`` (checkpointed); any other node's is
+        taken as zero.  (A body's own rotation in force.csv is still the principal one.)"""
         u = self.state.fetch("nodes.position") - self.model.points
         q = self.state.fetch("nodes.rotation")
         s = np.linalg.norm(q[:, 1:], axis=1)
