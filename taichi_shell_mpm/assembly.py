@@ -733,7 +733,7 @@ def _tables(scene: Scene, parts, material_specs: dict, section_specs: dict, fram
         # artificial stiffnesses of a laminate: the effective isotropic moduli of laminate.Layup
         values = {"thickness": t, "shear_factor": kappa, "wave_speed": lay.wave_speed,
                   "rotational_frequency": (np.sqrt(12.0 * kappa * lay.transverse_shear_max / lay.rotary_density) / t
-                                           if scene.solve.rotary_inertia == "physical" else 0.0),
+                                           if scene.solve.physical_rotary_inertia else 0.0),
                   "hourglass_membrane": r * lay.membrane_modulus * t / 8.0,
                   "hourglass_bending": r * lay.bending_modulus * t ** 3 / 192.0,
                   "hourglass_transverse": r * kappa * lay.transverse_shear_modulus * t ** 3 / 12.0,
@@ -791,7 +791,7 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
     node_area = np.zeros(n)
     node_inertia = np.zeros(n)
     inertia_arm = element.thickness ** 2 / 12.0 * (element.rotary_density / element.density)   # I / (rho t)
-    if scene.solve.rotary_inertia == "scaled":
+    if not scene.solve.physical_rotary_inertia:
         # a triangle max(t^2/12, A/4) g [choice, measured]: g (triangle_shear_gain) brings its
         # shear-rotation frequency, kappa G g / (rho arm), to that of an element whose shear
         # takes the mean rotation, and A/4 keeps it below the membrane's: the largest
@@ -897,6 +897,10 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
         **({"target_dt": scene.solve.target_dt,
             "added_mass_cap": 0.01 * scene.solve.added_mass_limit * float(corner_mass.sum())}
            if scene.solve.kind == "dynamic" and scene.solve.mass_scaling == "selective" else {}))
+    if scene.solve.rotary_inertia == "physical" and not scene.solve.physical_rotary_inertia:
+        notes.append(f"{scene.source.name}: [solve].rotary_inertia = \"physical\" is for dynamic solves: a static "
+                     "solve keeps the scaled rotary inertia (its masses are fictitious; with the physical one the "
+                     "relaxation stalls, docs/scenes.md)")
     return Model(points=points, elements=elements.astype(np.int32), parts=parts, element=element,
                  parameters=parameters, notes=tuple(notes),
                  sections=sections, materials=material_table, area0=area0, corner_weight=weight, node_mass=node_mass,

@@ -130,7 +130,7 @@ class Features:
             kirchhoff_w_hourglass=el.w_hourglass == "kirchhoff", drilling_spring=el.drilling == "penalty",
             warping_correction=el.warping == "bwc",
             triangles=bool((model.elements[:, 3] < 0).any()),
-            physical_rotary_inertia=scene.solve.rotary_inertia == "physical",
+            physical_rotary_inertia=scene.solve.physical_rotary_inertia,
             grid_rule=scene.solve.dt_rule == "both" and scene.method.kind == "mpm",
             grid_planes=model.grid is not None and bool(model.grid.planes),
             bodies=bool(model.rigid_bodies), walls=bool(model.walls),

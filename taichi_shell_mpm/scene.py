@@ -622,6 +622,16 @@ class Solve:
     energy_tolerance: float = 1e-6
     """Newton: |correction . residual| of the last iteration over the first's."""
 
+    @property
+    def physical_rotary_inertia(self) -> bool:
+        """Whether the nodes get the physical rotary inertia m t^2/12: ``rotary_inertia =
+        "physical"`` in a dynamic solve.  A static solve's masses are the relaxation's own
+        (Newton has none), so it keeps the scaled inertia [measured: the 10 x 1 cantilever in
+        fem at 2 load levels relaxes in 10 098 steps with it; with the physical one its
+        rotational mode sets dt 7.9x smaller (7.35e-5 against 5.81e-4) and FIRE stalls at a
+        residual of 0.70 of the load after 400 000 steps, with or without mass scaling]."""
+        return self.rotary_inertia == "physical" and self.kind == "dynamic"
+
 
 @dataclass(frozen=True)
 class Output:

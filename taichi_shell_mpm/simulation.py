@@ -180,6 +180,7 @@ class Simulation:
         self.model: Model = model if model is not None else assemble(scene, self.mesh)
         launch = choose_launch(arch, len(self.model.elements), scene.solve.kind == "static")
         self.cfg, self.state, self.stepper = prepare(scene, self.model, launch)
+        self.driver_data: dict = {}          # driver counters (and the last rotations read) kept in checkpoints
         self._initial_geometry()
         t0, cpu0 = time.perf_counter(), time.process_time()
         self._compile()
@@ -204,7 +205,6 @@ class Simulation:
         self.hourglass_limit = HOURGLASS_STOP      # stop above this (E_hg + E_drill)/E_int (0: never), warn above half
         self.balance_warned = False
         self._last_geometry_check = 0.0
-        self.driver_data: dict = {}          # driver counters kept in checkpoints
 
     # ------------------------------------------------------------------ set-up helpers
     def _initial_geometry(self) -> None:
@@ -261,12 +261,33 @@ class Simulation:
         return energy.totals(self.state, self.model, self.initial_kinetic)
 
     def displacements(self) -> tuple[np.ndarray, np.ndarray]:
-        """Nodal displacement (n,3) and rotation vector (n,3) from the orientation quaternion."""
+        """Nodal displacement (n,3) and accumulated rotation vector (n,3).
+
+        The orientation quaternion q = (cos phi/2, a sin phi/2) is composed continuously by
+        both static solvers and the dynamic step (each increment's quaternion times q, never
+        sign-normalised; a rigid body's nodes take its quaternion, composed the same way), so
+        it holds the angle phi about the axis a modulo 4 pi.  Its principal vector (phi in
+        [0, 2 pi]) jumps from 2 pi a to 2 pi (-a) as a node passes a full turn: a strip
+        rolled up by M_max read ry = -6.282 by relaxation (just short of the turn) and +6.283
+        by Newton (just past it).  The rotation reported [choice: the angle turned, as a
+        rotation probe of a roll-up wants] is the vector (phi + 4 pi k) a nearest the one
+        reported last: any number of turns, provided a node turns by less than half a turn
+        between two reads (each record, frame and history row reads; the roll-up turns its
+        tip by a quarter turn per level).  The last vectors of the nodes turned by more than
+        pi are kept in ``driver_data["rotations"]`` (checkpointed); any other node's is
+        taken as zero.  (A body's own rotation in force.csv is still the principal one.)"""
         u = self.state.fetch("nodes.position") - self.model.points
         q = self.state.fetch("nodes.rotation")
         s = np.linalg.norm(q[:, 1:], axis=1)
         angle = 2.0 * np.arctan2(s, q[:, 0])
-        rot = q[:, 1:] * (angle / np.maximum(s, 1e-300))[:, None]
+        axis = q[:, 1:] / np.maximum(s, 1e-300)[:, None]
+        last = np.zeros_like(axis)
+        for row in self.driver_data.get("rotations", []):
+            last[int(row[0])] = row[1:]
+        turns = np.round((np.einsum("ij,ij->i", last, axis) - angle) / (4.0 * math.pi))
+        rot = axis * (angle + 4.0 * math.pi * turns)[:, None]
+        turned = np.flatnonzero(np.linalg.norm(rot, axis=1) > math.pi)
+        self.driver_data["rotations"] = [[int(c), *map(float, rot[c])] for c in turned]
         return u, rot
 
     def probe_values(self) -> list[float]:

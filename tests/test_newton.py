@@ -272,3 +272,33 @@ def test_quadratic_convergence_on_the_cantilever(tmp_path):
         eq.forces.commit(eq.full(outcome.d))
         lam = target
     assert orders and min(orders) >= ORDER
+
+
+# ---------------------------------------------------------------- a rotation probe past a half turn
+ROLL_LEVELS, ROLL_LOAD = 5, 1.25        # 5 load levels to 1.25 M_max: the tip turns by 5 pi / 2
+ROLL_BOUND = 1.5e-7                     # |ry - closed form| / (2 pi) (measured 9.4e-8: the Newton tolerance)
+
+
+def test_rotation_probe_accumulates_past_a_full_turn(tmp_path):
+    """Issue 28 item 8c: scenes/rollup.toml in fem by Newton, 5 load levels to 1.25 M_max.
+    The tip's ry is the angle turned, -M L / (EI) = -2 pi M / M_max (Euler-Bernoulli, constant
+    curvature), at every level: down to -5 pi / 2, where the principal rotation vector of
+    the orientation reads +3 pi / 2 (Newton's ry read +6.283 at the full turn, relaxation's
+    -6.282: Simulation.displacements)."""
+    from .conftest import simulation, write_scene
+    from .test_grid import rollup_scene
+    from taichi_shell_mpm.scene import load_scene
+    from taichi_shell_mpm.solvers.newton import run_newton
+    text = rollup_scene(tmp_path, ROLL_LEVELS, ROLL_LOAD).replace('components = ["ux", "uz"]',
+                                                                   'components = ["ux", "uz", "ry"]')
+    scene = load_scene(write_scene(tmp_path, text), ["method.kind=fem", "solve.solver=newton"])
+    sim = simulation(scene, tmp_path)
+    run_newton(sim, ShellEquations.compiled(sim))
+    rows = np.array(sim.history.probe_rows)
+    lam, ry = rows[:, 0], rows[:, sim.history.probe_header.index("tip.ry")]
+    exact = -2.0 * math.pi * ROLL_LOAD * lam
+    error = np.abs(ry - exact).max() / (2.0 * math.pi)
+    print(f"\nroll-up to {ROLL_LOAD} M_max by Newton: tip ry {np.round(ry, 6).tolist()} vs -M L / EI "
+          f"{np.round(exact, 6).tolist()}: max error {error:.1e} of a turn (bound {ROLL_BOUND:.1e})")
+    assert len(lam) == ROLL_LEVELS and exact[-1] < -2.0 * math.pi
+    assert error < ROLL_BOUND

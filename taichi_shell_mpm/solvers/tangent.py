@@ -66,11 +66,17 @@ def newton_is_serial(n_elements: int) -> bool:
 def virtual_model(model, slots: int):
     """`model` with each element repeated `slots` times, slot-major (virtual element
     s * m + e), each copy on 4 private nodes (virtual node 4 v + a); nothing is loaded,
-    fixed or inertial there (the virtual state only runs the element pass)."""
+    fixed or inertial there (the virtual state only runs the element pass).  Each per-element
+    array is repeated along its first axis, whatever its rank (the (m, 2) material axis
+    included: tiling along the last axis gave an (m, 2 slots) array whose rows were read as
+    the wrong elements' axes)."""
     m = len(model.elements)
     count = m * slots
     el = model.element
-    tile = {f.name: np.tile(getattr(el, f.name), slots) for f in dataclasses.fields(el)}
+
+    def repeat(a):
+        return np.tile(a, (slots,) + (1,) * (np.ndim(a) - 1))
+    tile = {f.name: repeat(getattr(el, f.name)) for f in dataclasses.fields(el)}
     corners = np.arange(4 * count, dtype=np.int32).reshape(count, 4)
     corners[np.tile(model.elements[:, 3] < 0, slots), 3] = -1        # a triangle stays one
     n = 4 * count
@@ -78,8 +84,8 @@ def virtual_model(model, slots: int):
     ones = np.ones(n)
     return dataclasses.replace(
         model, points=points, elements=corners, element=type(el)(**tile),
-        area0=np.tile(model.area0, slots), corner_weight=np.tile(model.corner_weight, (slots, 1)),
-        corner_mass=np.tile(model.corner_mass, (slots, 1)), corner_inertia=np.tile(model.corner_inertia, (slots, 1)),
+        area0=repeat(model.area0), corner_weight=repeat(model.corner_weight),
+        corner_mass=repeat(model.corner_mass), corner_inertia=repeat(model.corner_inertia),
         node_mass=ones, node_inertia=ones, node_area=ones, node_thickness=np.ones(n),
         fix_mask=np.zeros(n, np.int32), load_force=np.zeros((n, 3)), load_moment=np.zeros((n, 3)),
         velocity0=np.zeros((n, 3)), omega0=np.zeros((n, 3)), grid=None, probes=(), rigid_bodies=(), walls=(),
