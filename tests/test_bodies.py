@@ -597,3 +597,23 @@ def test_thin_rod_tumbling_keeps_its_energy_with_the_turn_limit(tmp_path):
           f"{end / 0.0142:.0f}): kinetic energy {energy_error:.1e}, angular momentum {momentum_error:.1e}")
     assert summary["steps"] >= needed
     assert energy_error < 1e-12 and momentum_error < 1e-12
+
+
+def test_light_body_named_when_it_sets_the_step_and_refused_far_below(tmp_path):
+    """Issue 28 item 7 (host checks: no kernels): a body with its nodes' masses on the matrix
+    sheet's edge sets the step (its stable step on the elements it carries is below theirs):
+    a warning naming it; the same body with a user mass and inertia 1e-9 of its own (not its
+    nodes') would need a step below 1e-3 of the elements': refused, naming the body."""
+    from taichi_shell_mpm.preflight import prepare
+    from taichi_shell_mpm.scene import SceneError
+    from .test_matrix import write_case
+    scene = write_case(tmp_path, ("body",))
+    _, _, model = prepare(scene, [])
+    said = [n for n in model.notes if "[[rigid_body]] 'bar' limits the time step" in n]
+    print("\n" + "\n".join(said))
+    assert len(said) == 1
+    with pytest.raises(SceneError) as err:
+        prepare(scene, ["rigid_body.0.mass_from_nodes=false", "rigid_body.0.mass=1e-9",
+                        "rigid_body.0.inertia=[1e-9, 1e-9, 1e-9]"])
+    print(err.value.messages)
+    assert any("[[rigid_body]] 'bar': mass, inertia: far too small" in m for m in err.value.messages)
