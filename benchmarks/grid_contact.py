@@ -25,7 +25,6 @@ import tempfile
 import time
 from pathlib import Path
 
-import meshio
 import numpy as np
 
 from tests.test_grid import SHEETS, sheets_mesh

@@ -32,7 +32,6 @@ from __future__ import annotations
 import copy
 import itertools
 
-import meshio
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -46,6 +45,7 @@ from taichi_shell_mpm.solvers.dynamic import run_dynamic
 from .conftest import simulation, write_scene
 from .test_fuzz_run import dump_toml
 from .test_restart import restart_roundtrip
+from .test_tools import cube_surface
 
 GRAVITY = [0.0, 0.0, -9.81]
 
@@ -101,10 +101,6 @@ FEATURES = {
                                     "velocity": [0.0, 0.0, 0.5]}]}, external=True, mesh_file=True),
 }
 
-# the tables a section of plies replaces (sections.sheet.thickness) and a layered part leaves out
-LAYERED_DROP = ("thickness",)
-
-
 def merge(into: dict, fragment: dict, append: bool = True) -> None:
     """Merge a fragment into a scene document: tables merge key by key; arrays of tables
     ([[tool]], [[initial]] ...) get the fragment's entries appended, or replaced (`append`
@@ -124,19 +120,10 @@ def scene_doc(names: tuple[str, ...]) -> dict:
     doc["scene"]["name"] = "matrix_" + "_".join(names)
     for name in names:
         merge(doc, FEATURES[name].fragment)
-    if "layered" in names:
-        for key in LAYERED_DROP:
-            doc["sections"]["sheet"].pop(key, None)
+    if "layered" in names:       # the plies replace the section's thickness and the part's material
+        doc["sections"]["sheet"].pop("thickness", None)
         doc["part"][0].pop("material")
     return doc
-
-
-def write_cube(path) -> None:
-    """A closed cube surface of side 0.2 (12 triangles) centred at the origin."""
-    c = np.array([[x, y, z] for z in (-0.1, 0.1) for y in (-0.1, 0.1) for x in (-0.1, 0.1)])
-    quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]]
-    tris = [t for q in quads for t in ([q[0], q[1], q[2]], [q[0], q[2], q[3]])]
-    meshio.write(str(path), meshio.Mesh(c, [("triangle", np.array(tris))]))
 
 
 def compatible(names: tuple[str, ...]) -> bool:
@@ -150,7 +137,7 @@ def write_case(tmp_path, names: tuple[str, ...], values: dict | None = None):
     doc = scene_doc(names)
     merge(doc, values or {}, append=False)
     if any(FEATURES[n].mesh_file for n in names):
-        write_cube(tmp_path / "cube.vtu")
+        cube_surface(tmp_path, half=0.1, name="cube.vtu")
     return write_scene(tmp_path, dump_toml(doc), "matrix.toml")
 
 
