@@ -182,8 +182,10 @@ class StepParameters:
     contact_friction: float = 0.0
     field_gap: float = 0.0              # grid contact condition (stages/grid.py): t_c
     field_friction: float = 0.0         # and its Coulomb coefficient
-    target_dt: float = 0.0              # selective mass scaling: the step (0: none)
-    added_mass_cap: float = 0.0         # its limit on the added mass (0: none)
+    target_dt: float = 0.0              # mass scaling: the step (0: none)
+    added_mass_cap: float = 0.0         # conventional: its limit on the added mass (0: none)
+    sms_tolerance: float = 0.0          # selective: the solve's relative residual
+    sms_max_iterations: int = 0         # and its iterations per step
 
 
 @dataclass(frozen=True)
@@ -341,10 +343,32 @@ def element_steps(points: np.ndarray, elements: np.ndarray, element: "ElementDat
     return dt_safety / inv
 
 
-def selective_mass_factor(steps: np.ndarray, target_dt: float) -> np.ndarray:
-    """Selective mass scaling [issue 18, as LS-DYNA's DT2MS < 0]: the density factor
+def added_mass_geometry(x: np.ndarray, elements: np.ndarray, corner_mass: np.ndarray) -> tuple:
+    """Selective mass scaling's element geometry at positions x (host twin of
+    stages/selective_mass.SelectiveMass.geometry): the corners' arms r_a about the element's
+    mass centre (m, 4, 3; 0 at a triangle's fourth), J^-1 (m, 3, 3) with
+    J = sum_a m_a (|r_a|^2 I - r_a r_a^T), the unit normal (m, 3) and rho^2 = sum m_a |r_a|^2 / (2 m_e)."""
+    valid = elements >= 0
+    m = corner_mass * valid
+    corner_x = x[np.where(valid, elements, 0)]
+    mass = m.sum(axis=1)
+    centre = np.einsum("ea,eak->ek", m, corner_x) / mass[:, None]
+    arm = (corner_x - centre[:, None]) * valid[..., None]
+    r2 = np.sum(arm ** 2, axis=2)
+    inertia = (np.einsum("ea,ea->e", m, r2)[:, None, None] * np.eye(3)
+               - np.einsum("ea,eak,eal->ekl", m, arm, arm))
+    tri = ~valid[:, 3]
+    normal = np.where(tri[:, None], np.cross(corner_x[:, 1] - corner_x[:, 0], corner_x[:, 2] - corner_x[:, 0]),
+                      np.cross(corner_x[:, 2] - corner_x[:, 0], corner_x[:, 3] - corner_x[:, 1]))
+    normal /= np.linalg.norm(normal, axis=1)[:, None]
+    return arm, np.linalg.inv(inertia), normal, np.einsum("ea,ea->e", m, r2) / (2.0 * mass)
+
+
+def element_mass_factor(steps: np.ndarray, target_dt: float) -> np.ndarray:
+    """Mass scaling [issue 18; conventional as LS-DYNA's DT2MS < 0]: the factor
     f_e = (target / dt_e)^2 of each element whose stable step dt_e is below the target (its
-    step, which goes as 1/sqrt(density), becomes the target), 1 for the others."""
+    step, which goes as 1/sqrt(mass), becomes the target), 1 for the others: the density
+    factor of conventional scaling, 1 + beta_e of selective scaling (stages/selective_mass.py)."""
     return np.maximum(1.0, (target_dt / steps) ** 2)
 
 
@@ -784,9 +808,10 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
     if scene.solve.kind == "static" and scene.solve.mass_scaling != "none":
         element_mass *= uniform_dt_mass_factor(points, elements, area0)
     mass_factor = np.ones(m)
-    if scene.solve.kind == "dynamic" and scene.solve.mass_scaling == "selective":
-        mass_factor = selective_mass_factor(element_steps(points, elements, element, scene.solve.dt_safety),
-                                            scene.solve.target_dt)
+    scaling = scene.solve.mass_scaling if scene.solve.kind == "dynamic" else "none"
+    if scaling in ("selective", "conventional"):
+        mass_factor = element_mass_factor(element_steps(points, elements, element, scene.solve.dt_safety),
+                                          scene.solve.target_dt)
     node_mass = np.zeros(n)
     node_area = np.zeros(n)
     node_inertia = np.zeros(n)
@@ -804,9 +829,11 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
     corners = np.where(elements >= 0, elements, 0)       # a triangle's 4th weight is 0
     corner_mass = weight * element_mass[:, None]
     corner_inertia = weight * (element_mass * inertia_arm)[:, None]
-    np.add.at(node_mass, corners, corner_mass * mass_factor[:, None])      # the order of stages/masses.py
+    # the order of stages/masses.py; selective scaling leaves the lumped masses and rotary
+    # inertias physical (its added mass is a matrix, stages/selective_mass.py)
+    np.add.at(node_mass, corners, corner_mass * (mass_factor[:, None] if scaling == "conventional" else 1.0))
     np.add.at(node_area, corners, weight * area0[:, None])
-    np.add.at(node_inertia, corners, corner_inertia * mass_factor[:, None])
+    np.add.at(node_inertia, corners, corner_inertia * (mass_factor[:, None] if scaling == "conventional" else 1.0))
     node_thickness = np.zeros(n)
     valid = elements >= 0
     np.maximum.at(node_thickness, elements[valid], np.repeat(element.thickness, 4).reshape(-1, 4)[valid])
@@ -894,9 +921,11 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
         **({"field_gap": (contact.thickness if contact is not None and contact.thickness else
                           float(element.thickness.max())),
             "field_friction": scene.method.field_friction} if scene.method.field_contact == "grid" else {}),
-        **({"target_dt": scene.solve.target_dt,
-            "added_mass_cap": 0.01 * scene.solve.added_mass_limit * float(corner_mass.sum())}
-           if scene.solve.kind == "dynamic" and scene.solve.mass_scaling == "selective" else {}))
+        **({"target_dt": scene.solve.target_dt} if scaling in ("selective", "conventional") else {}),
+        **({"added_mass_cap": 0.01 * scene.solve.added_mass_limit * float(corner_mass.sum())}
+           if scaling == "conventional" else {}),
+        **({"sms_tolerance": scene.solve.sms_tolerance, "sms_max_iterations": scene.solve.sms_max_iterations}
+           if scaling == "selective" else {}))
     if scene.solve.rotary_inertia == "physical" and not scene.solve.physical_rotary_inertia:
         notes.append(f"{scene.source.name}: [solve].rotary_inertia = \"physical\" is for dynamic solves: a static "
                      "solve keeps the scaled rotary inertia (its masses are fictitious; with the physical one the "

@@ -173,7 +173,8 @@ def thickness_warnings(scene, model) -> list[str]:
 def unused_key_warnings(scene) -> list[str]:
     """Keys that the scene sets but its kind of run does not read: [method] transfer keys in
     fem mode (not the grid's size and box, which a scene switched to fem by --set keeps),
-    [output].times after a dynamic run's end_time."""
+    [output].times after a dynamic run's end_time; and mass_scaling = "selective", whose
+    meaning changed (issue 29: the old one is "conventional")."""
     lines = []
     method = scene.method
     if method.kind == "fem":
@@ -183,6 +184,10 @@ def unused_key_warnings(scene) -> list[str]:
                 continue
             lines.append(f"{scene.source.name}: [method].{key}: not used with kind = \"fem\" (no grid: it is "
                          "for kind = \"mpm\")")
+    if scene.solve.kind == "dynamic" and scene.solve.mass_scaling == "selective":
+        lines.append(f"{scene.source.name}: [solve].mass_scaling = \"selective\" is selective mass scaling since "
+                     "issue 29 (added mass on the deformation modes only); the per-element density scaling it "
+                     "meant before is \"conventional\"")
     if scene.solve.kind == "dynamic":
         late = [t for t in scene.output.times if t > scene.solve.end_time]
         if late:

@@ -41,7 +41,8 @@ class Features:
     contact: bool               # penalty self-contact (stages/contact.py)
     friction: bool              # contact friction
     erosion: bool = False       # some material's elements fail (issue 18; stages/masses.py)
-    mass_scaling: bool = False  # selective mass scaling to [solve].target_dt (stages/masses.py)
+    mass_scaling: bool = False  # mass scaling to [solve].target_dt, either kind: the density factors (stages/masses.py)
+    selective_mass: bool = False  # ... selective: the added mass matrix and its solve (stages/selective_mass.py)
     multi_field: bool = False   # a velocity field per shell layer at each grid node (stages/grid.py)
     grid_contact: bool = False  # the fields interact by the grid contact condition (stages/grid.py)
     launch: str = "batched"     # "batched" | "threads" | "gpu" (solvers/stepper.py)
@@ -139,7 +140,8 @@ class Features:
             friction=scene.contact is not None and scene.contact.friction > 0.0,
             tool_kinds=tuple(k for k in TOOL_KINDS if model.tools is not None and k in model.tools.kinds),
             erosion=model.materials.erosion,
-            mass_scaling=scene.solve.kind == "dynamic" and scene.solve.mass_scaling == "selective",
+            mass_scaling=scene.solve.kind == "dynamic" and scene.solve.mass_scaling in ("selective", "conventional"),
+            selective_mass=scene.solve.kind == "dynamic" and scene.solve.mass_scaling == "selective",
             multi_field=model.grid is not None and scene.method.fields == "multi",
             grid_contact=(model.grid is not None and scene.method.fields == "multi"
                           and scene.method.field_contact == "grid"),

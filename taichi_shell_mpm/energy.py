@@ -215,13 +215,14 @@ def node_masses(state, model) -> tuple[np.ndarray, np.ndarray]:
 
 def kinetic_energy(state, model) -> float:
     """KE = 1/2 sum m |v~|^2 + 1/2 sum J |omega|^2 over the nodes that are not rigid-body
-    slaves, + 1/2 M_tot V^2 of each rigid body (its slaves and added mass move with V)."""
+    slaves, + 1/2 M_tot V^2 of each rigid body (its slaves and added mass move with V), + the
+    kinetic energy of selective mass scaling's added mass (:func:`added_kinetic`)."""
     m, inertia = node_masses(state, model)
     free = model.node_body < 0 if model.node_body is not None else np.ones(len(m), bool)
     v = state.read(state.nodes.grid_velocity, state.n_nodes)[free]
     w = state.read(state.nodes.omega, state.n_nodes)[free]
     return float(0.5 * np.sum(m[free] * np.sum(v * v, axis=1)) + 0.5 * np.sum(inertia[free] * np.sum(w * w, axis=1))
-                 + bodies_kinetic_energy(state, model))
+                 + bodies_kinetic_energy(state, model) + added_kinetic(state, model).sum())
 
 
 def eroded_elements(state) -> np.ndarray:
@@ -297,7 +298,8 @@ def part_energies(state, model) -> np.ndarray:
     row is that of its mass and rotary inertia at its free nodes. With erosion and mass scaling, as :func:`totals`: the element columns of
     the live elements, the eroded and mass-scaling energy of each element to its part, and a
     node's mass shares of the live elements times their density factors (a slave node's
-    mass is the body's and does not change)."""
+    mass is the body's and does not change); under selective scaling the lumped shares are
+    physical and each element's part also has its added mass's kinetic energy."""
     element = state.read(state.elements.energy, state.n_elements)
     gone = eroded_elements(state)
     moved = mass_energies(state)
@@ -323,12 +325,16 @@ def part_energies(state, model) -> np.ndarray:
         w[slave] = spin[body]
     v2, w2 = np.sum(v ** 2, axis=1), np.sum(w ** 2, axis=1)
     corners = np.where(model.elements >= 0, model.elements, 0)
-    share = np.ones(model.corner_mass.shape)
+    share = inertia_share = np.ones(model.corner_mass.shape)
     if state.features.mass_update:            # slaves: the shares of the assembly
         live = mass_factors(state, model) * ~gone
-        share = np.where(model.node_body[corners] >= 0, model.mass_factor[:, None], live[:, None])
-    corner_kinetic = 0.5 * (model.corner_mass * share * v2[corners] + model.corner_inertia * share * w2[corners])
-    out[:n_parts, 0] = np.bincount(part, weights=corner_kinetic.sum(axis=1), minlength=n_parts)
+        slave = model.node_body[corners] >= 0
+        share = inertia_share = np.where(slave, model.mass_factor[:, None], live[:, None])
+        if state.features.selective_mass:     # the lumped masses and inertias stay physical
+            share = inertia_share = np.where(slave, 1.0, (~gone)[:, None].astype(float))
+    corner_kinetic = 0.5 * (model.corner_mass * share * v2[corners] + model.corner_inertia * inertia_share * w2[corners])
+    out[:n_parts, 0] = np.bincount(part, weights=corner_kinetic.sum(axis=1) + added_kinetic(state, model),
+                                   minlength=n_parts)
     node_body = model.node_body if model.node_body is not None else np.full(len(v2), -1)
     for k, p in enumerate(model.point_masses):
         free = p.nodes[node_body[p.nodes] < 0]
@@ -347,15 +353,50 @@ def part_energies(state, model) -> np.ndarray:
 
 
 def mass_factors(state, model) -> np.ndarray:
-    """(m,) the elements' density factors f_e of selective mass scaling now (1 without)."""
+    """(m,) the elements' factors f_e of mass scaling now (1 without; stages/masses.py)."""
     if not state.features.mass_scaling:
         return model.mass_factor
     return state.read(state.elements.mass_factor, state.n_elements)
 
 
-def added_mass(state, model) -> np.ndarray:
-    """(m,) the mass selective mass scaling has added to each element, (f_e - 1) m_e."""
+def deformation_mass(state, model) -> np.ndarray:
+    """(m,) (f_e - 1) m_e: the mass conventional scaling has added to each element, or the
+    mass selective scaling gives its deformation modes beyond the lumped one (beta_e m_e)."""
     return (mass_factors(state, model) - 1.0) * model.corner_mass.sum(axis=1)
+
+
+def added_mass(state, model) -> np.ndarray:
+    """(m,) the mass mass scaling has added to each element: (f_e - 1) m_e under conventional
+    scaling, none under selective scaling (its added mass matrix is zero on translations)."""
+    if state.features.selective_mass:
+        return np.zeros(state.n_elements)
+    return deformation_mass(state, model)
+
+
+def added_kinetic(state, model) -> np.ndarray:
+    """(m,) the kinetic energy of each element's added mass under selective scaling
+    (stages/selective_mass.py; zeros without): beta_e / 2 (sum_a m_a |d_a|^2 +
+    sum_a m_a rho_e^2 |P_e (omega_a - Omega_e)|^2) with the geometry the step kept."""
+    if not state.features.selective_mass:
+        return np.zeros(state.n_elements)
+    m_e = state.n_elements
+    beta = (mass_factors(state, model) - 1.0) * ~eroded_elements(state)
+    arm = state.read(state.elements.sms_arm, m_e)
+    inverse_inertia = state.read(state.elements.sms_inverse_inertia, m_e)
+    normal = state.read(state.elements.sms_normal, m_e)
+    radius_sq = state.read(state.elements.sms_radius_sq, m_e)
+    valid = model.elements >= 0
+    m = model.corner_mass * valid
+    corners = np.where(valid, model.elements, 0)
+    v = state.read(state.nodes.grid_velocity, state.n_nodes)[corners]
+    w = state.read(state.nodes.omega, state.n_nodes)[corners]
+    mean = np.einsum("ea,eak->ek", m, v) / m.sum(axis=1)[:, None]
+    spin = np.einsum("ekl,el->ek", inverse_inertia, np.einsum("ea,eak->ek", m, np.cross(arm, v)))
+    d = v - mean[:, None] - np.cross(spin[:, None], arm)
+    rel = w - spin[:, None]
+    rel -= np.einsum("eak,ek->ea", rel, normal)[..., None] * normal[:, None]
+    unit = 0.5 * np.einsum("ea,ea->e", m, np.sum(d ** 2, axis=2) + radius_sq[:, None] * np.sum(rel ** 2, axis=2))
+    return np.where(beta > 0.0, beta * unit, 0.0)
 
 
 def absorbed(e: dict) -> float:

@@ -176,8 +176,14 @@ def summary_rows(summary: dict) -> list[tuple[str, str]]:
         rows.append(("eroded elements", f"{summary['erosion']['eroded_elements']}"))
     if "mass_scaling" in summary:
         ms = summary["mass_scaling"]
-        rows.append(("added mass", f"{_num(ms['added_mass'])} ({ms['added_mass_percent']:.3g} % of the shell, "
-                                   f"{ms['scaled_elements']} elements)"))
+        if "solve" in ms:
+            rows.append(("selective mass scaling", f"{ms['scaled_elements']} elements, deformation modes +"
+                                                   f"{ms['deformation_mass_percent']:.3g} % of the shell's mass, "
+                                                   f"{ms['solve']['iterations_mean']:.3g} iterations per step "
+                                                   f"(max {ms['solve']['iterations_max']})"))
+        else:
+            rows.append(("added mass", f"{_num(ms['added_mass'])} ({ms['added_mass_percent']:.3g} % of the shell, "
+                                       f"{ms['scaled_elements']} elements)"))
     parts = [p for p in summary.get("parts", []) if "material" in p]
     if len(parts) > 1:
         for p in parts:

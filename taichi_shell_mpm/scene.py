@@ -582,17 +582,23 @@ class Solve:
     relaxation: Literal["fire", "kinetic"] = "fire"
     """Static solves: dynamic relaxation by FIRE (velocity mixing towards the force) or plain
     kinetic damping (method.md 6.2)."""
-    mass_scaling: Literal["auto", "uniform_dt", "selective", "none"] = "auto"
+    mass_scaling: Literal["auto", "uniform_dt", "selective", "conventional", "none"] = "auto"
     """Static solves: fictitious densities that give every element the same stable step
     (``uniform_dt``, the default of ``auto`` in statics); ``none`` (and ``auto`` in dynamics)
     keeps the physical masses.  The equilibrium does not depend on the masses.  Dynamic
-    solves: ``selective`` adds mass to the elements whose stable step is below target_dt
-    (LS-DYNA DT2MS < 0; stages/timestep.py)."""
+    solves: ``selective`` adds to each element whose stable step is below target_dt a mass
+    matrix that is zero on rigid translations (Olovsson et al. 2005; fem mode;
+    stages/selective_mass.py); ``conventional`` raises those elements' densities
+    (LS-DYNA DT2MS < 0; what ``selective`` meant before issue 29)."""
     target_dt: float = 0.0
-    """selective mass scaling: the step every element is given at least (after dt_safety)."""
+    """mass scaling: the step every element is given at least (after dt_safety)."""
     added_mass_limit: float = 5.0
-    """selective mass scaling: the run stops once the added mass exceeds this percentage of
-    the shell's physical mass (0: no limit)."""
+    """conventional mass scaling: the run stops once the added mass exceeds this percentage
+    of the shell's physical mass (0: no limit)."""
+    sms_tolerance: float = 1e-5
+    """selective mass scaling: the solve's relative residual (preconditioned norm) that ends it."""
+    sms_max_iterations: int = 200
+    """selective mass scaling: conjugate-gradient iterations of one step before the run stops."""
     progress_every: float = 2.0
     """Seconds of wall time between progress lines."""
     solver: Literal["relaxation", "newton"] = "relaxation"
@@ -1166,8 +1172,9 @@ _SOLVE = {"kind": _choice("static", "dynamic"), "load_steps": _int(1),
           "end_time": _non_negative, "dt_safety": _fraction,
           "dt_rule": _choice("both", "shell"), "rotary_inertia": _choice("scaled", "physical"),
           "relaxation": _choice("fire", "kinetic"),
-          "mass_scaling": _choice("auto", "uniform_dt", "selective", "none"), "target_dt": _positive,
-          "added_mass_limit": _non_negative,
+          "mass_scaling": _choice("auto", "uniform_dt", "selective", "conventional", "none"),
+          "target_dt": _positive, "added_mass_limit": _non_negative,
+          "sms_tolerance": _number(0, 0.1, lo_open=True), "sms_max_iterations": _int(1),
           "progress_every": _non_negative, "solver": _choice("relaxation", "newton"),
           "control": _choice("load", "displacement", "arc_length"), "control_dof": _choice(*DOFS),
           "control_displacement": _number(), "arc_length": _non_negative, "max_load_factor": _positive,
@@ -2145,19 +2152,24 @@ class _SceneParser:
                 self.error("[solve].end_time", "expected a number > 0 for a dynamic solve, got 0")
             else:
                 self.error("[solve].end_time", "missing required key (a dynamic solve needs end_time > 0)")
-        if v.get("kind") == "dynamic" and v.get("mass_scaling") == "uniform_dt":
-            self.error("[solve].mass_scaling", 'expected "auto", "selective" or "none" for a dynamic solve, got '
-                       '"uniform_dt" (fictitious masses change the dynamics; they are for static solves)')
-        if v.get("kind") == "static" and v.get("mass_scaling") == "selective":
-            self.error("[solve].mass_scaling", 'expected "auto", "uniform_dt" or "none" for a static solve, got '
-                       '"selective" (selective mass scaling is for dynamic solves)')
-        selective = data.get("mass_scaling") == "selective" if isinstance(data, dict) else False
-        if selective and "target_dt" not in data:
-            self.error("[solve].target_dt", 'missing required key for mass_scaling = "selective"')
-        if isinstance(data, dict) and not selective:
-            for key in ("target_dt", "added_mass_limit"):
-                if key in data:
-                    self.error(f"[solve].{key}", 'only with mass_scaling = "selective"')
+        scaling = data.get("mass_scaling") if isinstance(data, dict) else None
+        if v.get("kind") == "dynamic" and scaling == "uniform_dt":
+            self.error("[solve].mass_scaling", 'expected "auto", "selective", "conventional" or "none" for a dynamic '
+                       'solve, got "uniform_dt" (fictitious masses change the dynamics; they are for static solves)')
+        if v.get("kind") == "static" and scaling in ("selective", "conventional"):
+            self.error("[solve].mass_scaling", f'expected "auto", "uniform_dt" or "none" for a static solve, got '
+                       f'"{scaling}" (mass scaling to a target step is for dynamic solves)')
+        method = self.raw.get("method", {})
+        if scaling == "selective" and isinstance(method, dict) and method.get("kind", "mpm") == "mpm":
+            self.error("[solve].mass_scaling", '"selective" needs [method].kind = "fem" (in mpm the grid solves '
+                       'with lumped masses: use "conventional"; docs/mass_scaling.md)')
+        if scaling in ("selective", "conventional") and "target_dt" not in data:
+            self.error("[solve].target_dt", f'missing required key for mass_scaling = "{scaling}"')
+        if isinstance(data, dict):
+            for key, kinds in (("target_dt", ("selective", "conventional")), ("added_mass_limit", ("conventional",)),
+                               ("sms_tolerance", ("selective",)), ("sms_max_iterations", ("selective",))):
+                if key in data and scaling not in kinds:
+                    self.error(f"[solve].{key}", "only with mass_scaling = " + " or ".join(f'"{k}"' for k in kinds))
         if v.get("kind") == "static" and not any(self.raw.get(k) for k in ("load", "motion", "pressure", "gravity")):
             self.error("[[load]]", "a static solve needs at least one [[load]], [[motion]], [[pressure]] or [gravity]")
         return self.build(mark, Solve, v)

@@ -28,9 +28,11 @@ from .solvers.stepper import Stepper
 from .stages.timestep import DT_UNSET, initial_dt
 from .state import (CANDIDATES_PER_NODE, MAX_FIELDS, STATUS_CONTACT_FULL, STATUS_DT_COLLAPSE, STATUS_ENERGY,
                     STATUS_BODY_ROTATION, STATUS_INVERTED, STATUS_LEFT_GRID, STATUS_MASS_ADDED, STATUS_NONFINITE, STATUS_RETURN_FAILED,
+                    STATUS_SMS_SOLVE,
                     State)
 from . import energy, frontend
-from .energy import ENERGY_COLUMNS, PART_COLUMNS, added_mass, eroded_elements, part_energies, part_names
+from .energy import (ENERGY_COLUMNS, PART_COLUMNS, added_kinetic, added_mass, deformation_mass, eroded_elements,
+                     part_energies, part_names)
 
 ARCHS = {"cpu": "cpu", "cuda": "cuda", "vulkan": "vulkan"}
 
@@ -68,9 +70,12 @@ FAILURES = {
                            "stages/bodies.py)",
                            "a body whose inertia is far from isotropic turning fast: give its physical inertia "
                            "([[rigid_body]].inertia) or lower [solve].dt_safety"),
-    STATUS_MASS_ADDED: ("selective mass scaling added {added} of the shell's mass, above [solve].added_mass_limit",
+    STATUS_MASS_ADDED: ("conventional mass scaling added {added} of the shell's mass, above [solve].added_mass_limit",
                         "the elements are distorted far below [solve].target_dt: lower target_dt, raise "
                         "added_mass_limit, or refine the mesh where they collapse"),
+    STATUS_SMS_SOLVE: ("the selective-mass-scaling solve did not converge in {index} conjugate-gradient iterations",
+                       "a target_dt far above the elements' own steps (the solve's iterations grow with "
+                       "target/dt_e): lower [solve].target_dt, or raise sms_max_iterations or sms_tolerance"),
     STATUS_ENERGY: ("the energy balance error reached {ratio} of the energy absorbed (energy was created)",
                     "an instability that creates energy (time step too large: [solve].dt_safety; contact "
                     "too stiff: [contact].stiffness) or a constraint that works on the shell; --energy-limit "
@@ -319,7 +324,9 @@ class Simulation:
             out["plastic_strain_mean"] = np.sum(ep * w, axis=1) / w.sum(axis=1)
         if self.cfg.erosion:
             out["eroded"] = eroded_elements(self.state).astype(np.int32)
-        if self.cfg.mass_scaling:
+        if self.cfg.selective_mass:
+            out["deformation_mass"] = deformation_mass(self.state, self.model)
+        elif self.cfg.mass_scaling:
             out["added_mass"] = added_mass(self.state, self.model)
         return out
 
@@ -676,6 +683,26 @@ class Simulation:
         """The added mass of selective mass scaling over the shell's physical mass."""
         return float(added_mass(self.state, self.model).sum() / self.model.corner_mass.sum())
 
+    def mass_scaling_summary(self) -> dict:
+        """summary.json's mass_scaling block: the kind, target step, elements scaled and mass
+        added (none under selective scaling, which reports the mass its deformation modes got,
+        the added mass's kinetic energy now and its solve's iterations)."""
+        scaled = deformation_mass(self.state, self.model)
+        out = {"kind": self.scene.solve.mass_scaling, "target_dt": self.model.parameters.target_dt,
+               "added_mass": float(added_mass(self.state, self.model).sum()),
+               "added_mass_percent": 100.0 * self.added_mass_fraction(), "scaled_elements": int((scaled > 0.0).sum())}
+        if not self.cfg.selective_mass:
+            return {**out, "added_mass_limit_percent": self.scene.solve.added_mass_limit}
+        st = self.state.step
+        solves = int(st.sms_solves[None])
+        return {**out, "deformation_mass_percent": 100.0 * float(scaled.sum() / self.model.corner_mass.sum()),
+                "added_kinetic_energy": float(added_kinetic(self.state, self.model).sum()),
+                "solve": {"solves": solves,
+                          "iterations_mean": float(st.sms_iterations[None]) / solves if solves else 0.0,
+                          "iterations_max": int(st.sms_iterations_max[None]),
+                          "tolerance": self.scene.solve.sms_tolerance,
+                          "max_iterations": self.scene.solve.sms_max_iterations}}
+
     def part_table(self) -> list[list]:
         """parts.csv rows (long format: one row per part and output point), from the history."""
         names = part_names(self.model)
@@ -773,11 +800,7 @@ class Simulation:
         if self.cfg.erosion:
             summary["erosion"] = {"eroded_elements": int(eroded_elements(self.state).sum())}
         if self.cfg.mass_scaling:
-            summary["mass_scaling"] = {
-                "target_dt": self.model.parameters.target_dt, "added_mass": float(added_mass(self.state, self.model).sum()),
-                "added_mass_percent": 100.0 * self.added_mass_fraction(),
-                "scaled_elements": int((added_mass(self.state, self.model) > 0.0).sum()),
-                "added_mass_limit_percent": self.scene.solve.added_mass_limit}
+            summary["mass_scaling"] = self.mass_scaling_summary()
         if self.state.contact is not None:
             summary["contact"] = {"max_penetration_over_thickness": float(self.state.contact.max_penetration[None]),
                                   "pairs_last_step": int(self.state.contact.pairs[None])}

@@ -56,14 +56,15 @@ from types import SimpleNamespace
 import numpy as np
 import taichi as ti
 
-from .assembly import node_point_masses
+from .assembly import added_mass_geometry, node_point_masses
 from .curves import COLUMNS as CURVE_COLUMNS
 from .materials import MATERIAL_PARAMETERS
 from .scene import MAX_BODIES, MAX_CURVES, MAX_MOTIONS
 from .tools import MAX_TOOLS
 
 (STATUS_OK, STATUS_CONVERGED, STATUS_INVERTED, STATUS_LEFT_GRID, STATUS_NONFINITE, STATUS_DT_COLLAPSE,
- STATUS_CONTACT_FULL, STATUS_ENERGY, STATUS_RETURN_FAILED, STATUS_MASS_ADDED, STATUS_BODY_ROTATION) = range(11)
+ STATUS_CONTACT_FULL, STATUS_ENERGY, STATUS_RETURN_FAILED, STATUS_MASS_ADDED, STATUS_BODY_ROTATION,
+ STATUS_SMS_SOLVE) = range(12)
 ROTATION_HELD, ROTATION_CONSTRAINED, ROTATION_FREE = range(3)    # bodies.rotation_mode (stages/bodies.py)
 CANDIDATES_PER_NODE = 64     # capacity of the contact candidate lists, on average per node
 
@@ -226,6 +227,19 @@ class State:
         g.entity("point_mass", ti.field(f64), n, used=fx.mass_update)
         g.entity("point_inertia", ti.field(f64), n, used=fx.mass_update)
         g.entity("pressure_force", ti.Vector.field(3, f64), n, persistent=False, used=fx.loads, host=False)
+        # selective mass scaling (stages/selective_mass.py): the solved accelerations (the next
+        # step's first guess, so checkpointed), and the solve's scratch: the free translations
+        # (1/0 per axis) and rotations, the drilling normal the rotations are kept normal to,
+        # the right-hand side (force, torque), residual, preconditioned residual, search
+        # direction and M times it (translation, rotation), and the node's shares of its live
+        # elements' masses and rotary inertias
+        g.entity("acceleration", ti.Vector.field(3, f64), n, used=fx.selective_mass)
+        g.entity("angular_acceleration", ti.Vector.field(3, f64), n, used=fx.selective_mass)
+        for name in ("free_dofs", "free_rotations", "sms_drill_normal", "sms_force", "sms_torque", "sms_residual",
+                     "sms_residual_moment", "sms_step", "sms_step_moment", "sms_search", "sms_search_moment",
+                     "sms_product", "sms_moment"):
+            g.entity(name, ti.Vector.field(3, f64), n, persistent=False, used=fx.selective_mass, host=False)
+        g.entity("sms_share", ti.Vector.field(2, f64), n, persistent=False, used=fx.selective_mass, host=False)
         g.entity("load_start", ti.field(i32), n + 1, used=fx.loads)
 
         # --- elements (= material points): topology and element-level state
@@ -254,6 +268,16 @@ class State:
         g.entity("corner_mass", ti.Vector.field(4, f64), m, used=fx.mass_update)
         g.entity("corner_inertia", ti.Vector.field(4, f64), m, used=fx.mass_update)
         g.entity("mass_energy", ti.Vector.field(2, f64), m, used=fx.mass_update)
+        # selective mass scaling (stages/selective_mass.py): the geometry of the step's added
+        # mass (corner arms about the mass centre, inverse inertia J^-1, unit normal, rho^2),
+        # kept from the start of the step; and the solve's scratch: each element's rigid fit
+        # (mean, spin, J^-1 g) of the vector in hand
+        g.entity("sms_arm", ti.Vector.field(3, f64), m, (4,), used=fx.selective_mass)
+        g.entity("sms_inverse_inertia", ti.Matrix.field(3, 3, f64), m, used=fx.selective_mass)
+        g.entity("sms_normal", ti.Vector.field(3, f64), m, used=fx.selective_mass)
+        g.entity("sms_radius_sq", ti.field(f64), m, used=fx.selective_mass)
+        for name in ("sms_mean", "sms_spin", "sms_coupling"):
+            g.entity(name, ti.Vector.field(3, f64), m, persistent=False, used=fx.selective_mass, host=False)
 
         # --- section and material data of each element, and the tables they index
         g = self.sections = Group("sections")
@@ -300,7 +324,9 @@ class State:
                             ("flip_blend", f64), ("dilatational_speed", f64), ("curve_argument", f64),
                             ("motion_work", f64), ("constraint_sq", f64), ("tolerance_sq", f64),
                             ("motion_ramp", f64), ("eroded_kinetic", f64), ("mass_scaling_energy", f64),
-                            ("added_mass", f64), ("added_mass_cap", f64), ("target_dt", f64)):
+                            ("added_mass", f64), ("added_mass_cap", f64), ("target_dt", f64),
+                            ("sms_tolerance", f64), ("sms_max_iterations", i32), ("sms_iterations", ti.i64),
+                            ("sms_iterations_max", i32), ("sms_solves", ti.i64)):
             g.table(name, ti.field(dtype), ())
         # restart_factor: 0.5 on a central-difference restart from rest, else 1; velocity_keep:
         # 0 right after a kinetic-damping reset, else 1; fire_*: FIRE state and scratch
@@ -313,7 +339,9 @@ class State:
         # forces (their norm^2) and tolerance^2, the residual's scale under displacement control;
         # eroded_kinetic, mass_scaling_energy: running totals (energy.py); added_mass: by selective
         # mass scaling since the start, added_mass_cap: its limit (0: none), target_dt: its step
-        # (stages/masses.py)
+        # (stages/masses.py); sms_*: selective mass scaling's solve: its tolerance and
+        # iteration limit, the iterations and solves since the start, the most in one solve
+        # (stages/selective_mass.py)
         g.table("reaction", ti.Vector.field(3, f64), ())           # force the supports exert on the shell
         g.table("reaction_impulse", ti.Vector.field(3, f64), ())   # its time integral since the start
 
@@ -638,7 +666,17 @@ class State:
             p = model.parameters
             st.target_dt[None] = p.target_dt
             st.added_mass_cap[None] = p.added_mass_cap
-            st.added_mass[None] = float(np.dot(model.mass_factor - 1.0, model.corner_mass.sum(axis=1)))
+            if self.features.selective_mass:        # adds no mass (stages/selective_mass.py)
+                st.sms_tolerance[None] = p.sms_tolerance
+                st.sms_max_iterations[None] = p.sms_max_iterations
+                arm, inverse_inertia, normal, radius_sq = added_mass_geometry(model.points, model.elements,
+                                                                              model.corner_mass)
+                w(el.sms_arm, arm)
+                w(el.sms_inverse_inertia, inverse_inertia)
+                w(el.sms_normal, normal)
+                w(el.sms_radius_sq, radius_sq)
+            else:
+                st.added_mass[None] = float(np.dot(model.mass_factor - 1.0, model.corner_mass.sum(axis=1)))
         if self.features.launch != "batched" or self.features.mass_update:
             flat = model.elements.ravel()
             slots = np.argsort(np.where(flat >= 0, flat, n), kind="stable")[:int((flat >= 0).sum())]

@@ -352,7 +352,7 @@ def test_tip_point_mass_sets_the_cantilever_frequency(tmp_path):
 
 
 def test_tip_point_mass_stays_with_erosion_and_mass_scaling(tmp_path):
-    """The tip-mass cantilever with erosion and selective mass scaling compiled in (issue 28
+    """The tip-mass cantilever with erosion and conventional mass scaling compiled in (issue 28
     item 1: the per-step mass rebuild took the elements' shares only, so the point mass was
     gone after step 1, and the period 6.5 x shorter): J2 with a failure strain it never reaches
     and a target step below every element's (nothing added).  Its period, the point mass's
@@ -360,7 +360,7 @@ def test_tip_point_mass_stays_with_erosion_and_mass_scaling(tmp_path):
     plain, _, base = run_tip_mass(tmp_path, "plain")
     both, crossings, summary = run_tip_mass(
         tmp_path, "eroding", material='model = "j2"\nyield_stress = 1e9\nfailure_strain = 1.0\n',
-        solve='mass_scaling = "selective"\ntarget_dt = 1e-9\n')
+        solve='mass_scaling = "conventional"\ntarget_dt = 1e-9\n')
     parts = {p["name"]: p for p in summary["parts"]}
     point, kinetic = parts["point_mass:weight"], summary["energies"]["kinetic"]
     print(f"\nperiod {both:.6f} against the plain run's {plain:.6f}: {both / plain - 1.0:+.1e} "

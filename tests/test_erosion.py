@@ -1,10 +1,10 @@
-"""Element erosion and selective mass scaling (issue 18, items 3 and 7; stages/masses.py).
+"""Element erosion and conventional mass scaling (issue 18, items 3 and 7; stages/masses.py).
 
 One scene, a steel strip 100 x 10 x 1 mm clamped at x = 0 and pulled (or pushed) at
 x = 100 by a 10 kg grip (a rigid body), with a weaker one-element "notch" column at
-45-50 mm, serves every test here (one compile: erosion, selective mass scaling, contact,
+45-50 mm, serves every test here (one compile: erosion, conventional mass scaling, contact,
 a rigid body, mpm): the notch fails and erodes (the reaction falls to zero, the balance
-closes, the frames carry the `eroded` flag), a stiffer notch takes mass from selective
+closes, the frames carry the `eroded` flag), a stiffer notch takes mass from conventional
 mass scaling at t = 0 (closed form), a compressed notch takes it as it shortens, and the
 guard on the added mass stops a run.  Two in-process tests check what the element pass
 does with an eroded element at the grid (its mass shares leave the nodes, a node of eroded
@@ -105,7 +105,7 @@ velocity = [{speed}, 0.0, 0.0]
 kind = "dynamic"
 end_time = {end_time}
 dt_rule = "shell"
-mass_scaling = "selective"
+mass_scaling = "conventional"
 target_dt = {target_dt}
 added_mass_limit = {limit}
 [output]
@@ -215,7 +215,7 @@ def test_strip_pulled_until_it_erodes(tmp_path):
     np.testing.assert_array_equal(flags[-1], expected)
 
 
-def test_selective_mass_scaling_closed_form_and_step(tmp_path):
+def test_conventional_mass_scaling_closed_form_and_step(tmp_path):
     """A notch of E = 800 has half the steel's stable step; with the target between the two,
     only the notch takes mass, f = (target / dt_e)^2, and the step is the target: the run
     takes ceil(T / target) steps (against ceil(T / dt_e) without)."""

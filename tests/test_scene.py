@@ -422,8 +422,8 @@ def test_cross_checks(scene_dir):
         "(n_around x n_meridian), got 3,000,000,000", base=HEMISPHERE_SCENE)
     one({"mesh.n_length": 10**6}, "[mesh].n_length: expected at most 10,000,000 elements "
         "(4 (n_flat + n_corner) x n_length), got 12,000,000", base=TUBE_SCENE)
-    one({"solve.mass_scaling": "uniform_dt"}, '[solve].mass_scaling: expected "auto", "selective" or "none" for a '
-        'dynamic solve, got "uniform_dt" (fictitious masses change the dynamics; they are for static solves)',
+    one({"solve.mass_scaling": "uniform_dt"}, '[solve].mass_scaling: expected "auto", "selective", "conventional" or '
+        '"none" for a dynamic solve, got "uniform_dt" (fictitious masses change the dynamics; they are for static solves)',
         base=TUBE_SCENE)
     one({"mesh.path": "meshes/none.vtk"}, "[mesh].path: file not found: "
         f"{str(scene_dir / 'meshes/none.vtk')!r}", base=FILE_MESH)
@@ -1019,38 +1019,68 @@ def test_every_scene_key_is_documented(scene_dir, monkeypatch):
     ({"failure_strain": 0.0}, {}, ["[material].failure_strain: expected a number > 0, got 0.0"]),
     ({"failure_strain": 0.3, "failure_points": 11}, {},
      ["[material].failure_points: expected an integer in [1, 10], got 11"]),
-    ({}, {"mass_scaling": "selective"}, ['[solve].target_dt: missing required key for mass_scaling = "selective"']),
+    ({}, {"mass_scaling": "conventional"},
+     ['[solve].target_dt: missing required key for mass_scaling = "conventional"']),
     ({}, {"target_dt": 1e-4, "added_mass_limit": 2.0},
-     ['[solve].target_dt: only with mass_scaling = "selective"',
-      '[solve].added_mass_limit: only with mass_scaling = "selective"']),
-    ({}, {"mass_scaling": "selective", "target_dt": -1.0}, ["[solve].target_dt: expected a number > 0, got -1.0"]),
-    ({}, {"mass_scaling": "selective", "target_dt": 1e-4, "added_mass_limit": -5.0},
+     ['[solve].target_dt: only with mass_scaling = "selective" or "conventional"',
+      '[solve].added_mass_limit: only with mass_scaling = "conventional"']),
+    ({}, {"mass_scaling": "conventional", "target_dt": -1.0}, ["[solve].target_dt: expected a number > 0, got -1.0"]),
+    ({}, {"mass_scaling": "conventional", "target_dt": 1e-4, "added_mass_limit": -5.0},
      ["[solve].added_mass_limit: expected a number >= 0, got -5.0"]),
+    ({}, {"mass_scaling": "selective", "target_dt": 1e-4},
+     ['[solve].mass_scaling: "selective" needs [method].kind = "fem" (in mpm the grid solves with lumped masses: '
+      'use "conventional"; docs/mass_scaling.md)']),
 ])
 def test_erosion_and_mass_scaling_key_errors(scene_dir, material, solve, expected):
-    """[material] failure keys and [solve] selective mass scaling keys: one line per mistake."""
+    """[material] failure keys and [solve] mass scaling keys: one line per mistake."""
     raw = raw_of(TUBE_SCENE)
     raw["material"] = {k: v for k, v in {**J2, **material}.items() if v is not None}
     raw["solve"].update(solve)
     assert errors(raw, scene_dir) == [f"case.toml: {line}" for line in expected]
 
 
-def test_erosion_and_selective_mass_scaling_parse(scene_dir):
+def test_erosion_and_mass_scaling_parse(scene_dir):
     raw = raw_of(TUBE_SCENE)
     raw["material"] = {**J2, "failure_strain": 0.3, "failure_points": 2, "failure_min_dt": 1e-6}
-    raw["solve"].update(mass_scaling="selective", target_dt=2e-4, added_mass_limit=3.0)
+    raw["solve"].update(mass_scaling="conventional", target_dt=2e-4, added_mass_limit=3.0)
     scene = parse_scene(raw, scene_dir / "case.toml")
     m, s = scene.material, scene.solve
     assert (m.failure_strain, m.failure_points, m.failure_min_dt) == (0.3, 2, 1e-6)
-    assert (s.mass_scaling, s.target_dt, s.added_mass_limit) == ("selective", 2e-4, 3.0)
+    assert (s.mass_scaling, s.target_dt, s.added_mass_limit) == ("conventional", 2e-4, 3.0)
+    raw["method"] = {**raw.get("method", {}), "kind": "fem"}
+    raw["solve"] = {**raw["solve"], "mass_scaling": "selective", "sms_tolerance": 1e-4, "sms_max_iterations": 50}
+    del raw["solve"]["added_mass_limit"]
+    s = parse_scene(raw, scene_dir / "case.toml").solve
+    assert (s.mass_scaling, s.target_dt, s.sms_tolerance, s.sms_max_iterations) == ("selective", 2e-4, 1e-4, 50)
 
 
-def test_erosion_and_selective_mass_scaling_need_a_dynamic_solve(scene_dir):
+@pytest.mark.parametrize("solve, expected", [
+    ({"mass_scaling": "selective"}, ['[solve].target_dt: missing required key for mass_scaling = "selective"']),
+    ({"mass_scaling": "selective", "target_dt": 0.0}, ["[solve].target_dt: expected a number > 0, got 0.0"]),
+    ({"mass_scaling": "selective", "target_dt": "auto"}, ["[solve].target_dt: expected a number > 0, got 'auto'"]),
+    ({"mass_scaling": "selective", "target_dt": 1e-4, "added_mass_limit": 5.0},
+     ['[solve].added_mass_limit: only with mass_scaling = "conventional"']),
+    ({"mass_scaling": "selective", "target_dt": 1e-4, "sms_tolerance": 0.5},
+     ["[solve].sms_tolerance: expected a number in (0, 0.1], got 0.5"]),
+    ({"mass_scaling": "selective", "target_dt": 1e-4, "sms_max_iterations": 0},
+     ["[solve].sms_max_iterations: expected an integer >= 1, got 0"]),
+    ({"mass_scaling": "conventional", "target_dt": 1e-4, "sms_tolerance": 1e-3},
+     ['[solve].sms_tolerance: only with mass_scaling = "selective"']),
+])
+def test_selective_mass_scaling_key_errors(scene_dir, solve, expected):
+    """[solve] selective mass scaling keys (fem): one line per mistake, naming the key."""
+    raw = raw_of(TUBE_SCENE)
+    raw["method"] = {**raw.get("method", {}), "kind": "fem"}
+    raw["solve"].update(solve)
+    assert errors(raw, scene_dir) == [f"case.toml: {line}" for line in expected]
+
+
+def test_erosion_and_mass_scaling_need_a_dynamic_solve(scene_dir):
     raw = raw_of(HEMISPHERE_SCENE)
-    raw["solve"].update(mass_scaling="selective", target_dt=1e-3)
+    raw["solve"].update(mass_scaling="conventional", target_dt=1e-3)
     assert errors(raw, scene_dir) == [
-        'case.toml: [solve].mass_scaling: expected "auto", "uniform_dt" or "none" for a static solve, got "selective" '
-        '(selective mass scaling is for dynamic solves)']
+        'case.toml: [solve].mass_scaling: expected "auto", "uniform_dt" or "none" for a static solve, got '
+        '"conventional" (mass scaling to a target step is for dynamic solves)']
     raw = raw_of(HEMISPHERE_SCENE)           # (a [solve] with an error is not checked against the materials)
     raw["material"].update(model="j2", yield_stress=1e5, failure_strain=0.3)
     assert errors(raw, scene_dir) == ['case.toml: [material].failure_strain: erosion needs [solve].kind = "dynamic"']

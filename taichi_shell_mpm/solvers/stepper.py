@@ -35,6 +35,7 @@ from ..stages.grid import GridUpdate
 from ..stages.loads import ExternalLoads
 from ..stages.mapping import Mapping
 from ..stages.motion import PrescribedMotion
+from ..stages.selective_mass import SelectiveMass
 from ..stages.shell import ShellElement
 from ..stages.timestep import TimeStep
 from ..stages.tools import RigidTools
@@ -63,6 +64,7 @@ class Stepper:
         self.contact = SelfContact(state, cfg, model) if cfg.contact else None
         self.shell = ShellElement(state, cfg, self.energy)
         self.timestep = TimeStep(state, cfg)
+        self.selective = SelectiveMass(state, cfg, self.shell.masses, self.nodes) if cfg.selective_mass else None
         self.acc = Accumulator(cfg.serial)
         self.mpm = cfg.method == "mpm"
         if self.mpm:
@@ -100,7 +102,10 @@ class Stepper:
             self.mapping.grid_to_particles()
             self.mapping.clear_grid()
         else:
-            self.nodes.explicit_fe()
+            if ti.static(self.cfg.selective_mass):
+                self.selective.explicit_fe()
+            else:
+                self.nodes.explicit_fe()
 
     @ti.func
     def end(self):

@@ -145,6 +145,8 @@ class NodeUpdate:
             reaction = self.s.nodes.force_int[c] - force_ext
             if ti.static(self.cfg.contact or self.cfg.tools):
                 reaction -= self.contact_force(c)
+            if ti.static(self.cfg.selective_mass):     # the added mass's inertial force (stages/selective_mass.py)
+                reaction += self.s.nodes.sms_product[c]
             self.acc.total(self.s.step.reaction, reaction)
         elif ti.static(self.cfg.walls):
             if not rigid and (moved & FIXED_TRANSLATION) == 0:      # walls leave prescribed nodes alone
@@ -165,6 +167,8 @@ class NodeUpdate:
         normal, project = self.drill_normal(c)
         torque = moment_ext - self.s.nodes.moment_int[c]
         w = w_start + self.velocity_gain(self.s.nodes.inertia[c]) * torque
+        if ti.static(self.cfg.selective_mass):     # solved with the added mass (stages/selective_mass.py)
+            w = w_start + impulse_time(self.s.step) * self.s.nodes.angular_acceleration[c]
         if project:
             w -= w.dot(normal) * normal
         w = drop_fixed(w, mask, 3)

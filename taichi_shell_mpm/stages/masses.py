@@ -1,4 +1,4 @@
-"""Element erosion and selective mass scaling: the nodal masses that change during a run
+"""Element erosion and mass scaling: the nodal masses that change during a run
 (issue 18, items 3 and 7), compiled only for scenes with either (Features.mass_update).
 
 Erosion [choice, as LS-DYNA's FAIL / NUMFIP / TDEL].  An element fails in the step in
@@ -14,12 +14,16 @@ skipped by P2G, G2P, the contact and the walls.  The energy the element had abso
 eroded energy (energy.py), so the balance closes.  Rigid-body slave nodes keep their mass
 (it is the body's, state.bodies.total_mass).
 
-Selective mass scaling [choice, as LS-DYNA's DT2MS < 0].  An element whose stable step
+Mass scaling [choice; conventional as LS-DYNA's DT2MS < 0].  An element whose stable step
 alpha L_e / c_e falls below the target step ``[solve].target_dt`` gets the density factor
 f_e = (target / dt_e)^2 (its step goes as sqrt(f_e)), so that its step is the target; the
 factor only grows.  The added mass (f_e - 1) m_e goes to the element's corners in its CPDI2
 shares, at the node's current velocity: the kinetic energy that gives the added mass is
-booked (energy.py: mass_scaling, an energy put in, like external work).  The run stops
+booked (energy.py: mass_scaling, an energy put in, like external work).  With
+``mass_scaling = "selective"`` f_e - 1 is instead the factor beta_e of the element's added
+mass matrix, which adds no mass (stages/selective_mass.py): the lumped masses and rotary
+inertias stay physical, and the kinetic energy given to the added mass as beta_e grows is
+booked alike.  Conventional scaling: the run stops
 once the total added mass exceeds ``[solve].added_mass_limit`` percent of the shell's
 physical mass (STATUS_MASS_ADDED).  The grid rule of ``dt_rule = "both"`` and the contact
 limit are not changed: mass scaling acts on the element rule only.
@@ -67,6 +71,40 @@ class MassUpdate:
         return out
 
     @ti.func
+    def plane(self, e, vec):
+        """vec without its component along element e's normal (P_e vec; stages/selective_mass.py)."""
+        n = self.s.elements.sms_normal[e]
+        return vec - vec.dot(n) * n
+
+    @ti.func
+    def unit_kinetic(self, e, v, w, corners: ti.template()):
+        """Selective mass scaling: T_add^e / beta_e, the kinetic energy of element e's added
+        mass per unit beta_e, with the corner velocities v and angular velocities w (corners x 3)
+        and the element's geometry kept at the start of the step (stages/selective_mass.py)."""
+        c = self.s.elements.corners[e]
+        m = self.s.elements.corner_mass[e]
+        mass = 0.0
+        mean = ti.Vector([0.0, 0.0, 0.0])
+        h = ti.Vector([0.0, 0.0, 0.0])
+        for a in ti.static(range(corners)):
+            if c[a] >= 0:
+                va = ti.Vector([v[a, 0], v[a, 1], v[a, 2]])
+                mass += m[a]
+                mean += m[a] * va
+                h += m[a] * self.s.elements.sms_arm[e, a].cross(va)
+        mean /= mass
+        spin = self.s.elements.sms_inverse_inertia[e] @ h
+        rho2 = self.s.elements.sms_radius_sq[e]
+        out = 0.0
+        for a in ti.static(range(corners)):
+            if c[a] >= 0:
+                va = ti.Vector([v[a, 0], v[a, 1], v[a, 2]])
+                wa = ti.Vector([w[a, 0], w[a, 1], w[a, 2]])
+                d = va - mean - spin.cross(self.s.elements.sms_arm[e, a])
+                out += m[a] * (d.norm_sqr() + rho2 * self.plane(e, wa - spin).norm_sqr())
+        return 0.5 * out
+
+    @ti.func
     def corner_kinetic(self, e, c, v, w, scale, corners: ti.template()):
         """scale x the kinetic energy of element e's mass shares at its corners c (velocities v,
         angular velocities w as corners x 3), rigid-body slaves left out (they keep their mass)."""
@@ -82,9 +120,16 @@ class MassUpdate:
     @ti.func
     def erode(self, e, c, v, w, corners: ti.template()):
         """Element e fails now: flag it and book the kinetic energy of its mass shares, which
-        leave its nodes at the end of the step (node_masses)."""
+        leave its nodes at the end of the step (node_masses), and of its added mass under
+        selective scaling (stages/selective_mass.py; it leaves the step's kinetic energy here)."""
+        kinetic = 0.0
+        if ti.static(self.cfg.selective_mass):
+            added = (self.factor(e) - 1.0) * self.unit_kinetic(e, v, w, corners)
+            self.acc.total(self.s.step.kinetic, -added)
+            kinetic = self.corner_kinetic(e, c, v, w, 1.0, corners) + added
+        else:
+            kinetic = self.corner_kinetic(e, c, v, w, self.factor(e), corners)
         self.s.elements.eroded[e] = 1
-        kinetic = self.corner_kinetic(e, c, v, w, self.factor(e), corners)
         self.s.elements.mass_energy[e][0] += kinetic
         self.acc.total(self.s.step.eroded_kinetic, kinetic)
 
@@ -98,8 +143,14 @@ class MassUpdate:
         if step < target:
             f_new = (target / limit) ** 2
             self.s.elements.mass_factor[e] = f_new
-            self.acc.total(self.s.step.added_mass, (f_new - f_old) * self.s.elements.corner_mass[e].sum())
-            gain = self.corner_kinetic(e, c, v, w, f_new - f_old, corners)
+            gain = 0.0
+            if ti.static(self.cfg.selective_mass):      # no mass added: beta grows (stages/selective_mass.py)
+                added = (f_new - f_old) * self.unit_kinetic(e, v, w, corners)
+                self.acc.total(self.s.step.kinetic, added)
+                gain = added
+            else:
+                self.acc.total(self.s.step.added_mass, (f_new - f_old) * self.s.elements.corner_mass[e].sum())
+                gain = self.corner_kinetic(e, c, v, w, f_new - f_old, corners)
             self.s.elements.mass_energy[e][1] += gain
             self.acc.total(self.s.step.mass_scaling_energy, gain)
             step = target
@@ -119,6 +170,8 @@ class MassUpdate:
                     slot = self.s.elements.node_slots[i]
                     e, a = slot // 4, slot % 4
                     share = self.factor(e) * self.alive(e)
+                    if ti.static(self.cfg.selective_mass):      # the lumped masses stay physical
+                        share = self.alive(e)
                     mass += self.s.elements.corner_mass[e][a] * share
                     inertia += self.s.elements.corner_inertia[e][a] * share
                     if ti.static(self.cfg.erosion and self.cfg.loads):

@@ -1,0 +1,431 @@
+"""Selective mass scaling (issue 29; docs/mass_scaling.md): an added mass matrix on the
+deformation modes of each element below the target step, and the solve
+(M + M_add) [a, alpha] = [f, mu] of the step's node update (``fem`` mode), compiled only for
+scenes with ``[solve].mass_scaling = "selective"`` (Features.selective_mass).
+
+Added mass [choice, measured in docs/mass_scaling.md].  Element e, whose factor
+f_e = (target / dt_e)^2 >= 1 is kept by stages/masses.py (it only grows), adds the kinetic
+energy
+
+    T_add^e = beta_e / 2 (sum_a m_a |d_a|^2 + sum_a j_a |P_e (omega_a - Omega_e)|^2),  beta_e = f_e - 1,
+
+m_a the element's CPDI2 shares of its mass (assembly.py), j_a = m_a rho_e^2 with
+rho_e^2 = sum_a m_a |r_a|^2 / (2 m_e) (its mean moment of inertia per unit mass about an
+axis in its plane), r_a = x_a - xbar_e the corners about their mass centre at the start of
+the step.  The element's rigid motion is fitted to its corners' velocities v_a in the mass
+metric: vbar_e their mean, Omega_e = J_e^-1 sum_a m_a r_a x v_a (J_e = sum_a m_a (|r_a|^2 I -
+r_a r_a^T)); d_a = v_a - vbar_e - Omega_e x r_a is what is left (the membrane and warping
+modes), and P_e (omega_a - Omega_e), P_e = I - n_e n_e^T the projection on the element's
+plane, is how far a node's rotation departs from the element's rigid rotation (the
+transverse-shear modes; the drilling rotation is not a DOF here).  T_add is zero on every
+rigid motion of the element (translation and rotation), and on a smooth bending mode, whose
+corners move as the element turns with its nodes: so total mass, linear and angular momentum
+are those of the lumped masses M (its translational rows and its moments sum to zero), and
+the low modes keep their physical inertia, while each mode that deforms one element sees
+(1 + beta_e) its mass and its frequency, and so the step, goes by sqrt(f_e).  The lumped
+masses and rotary inertias stay physical: a rotary inertia scaled by f_e (as conventional
+scaling does) put the 8-element strip's lowest bending period 39 % above the unscaled one
+at 10x the step (its rotary inertia, m A / 8 by default, is a visible share of the bending
+mode's inertia), and the nodal rotation modes are scaled by the j_a term.  A translation-only matrix,
+beta (m_e/n)(I - 1 1^T/n) (Olovsson, Simonsson & Unosson, IJNME 63, 2005), was measured
+first: it loads the rotation of each element about its own centre with beta_e times its
+inertia, and a cantilever strip of 8 elements bent at 1.94 times its unscaled period at 10x
+the step (docs/mass_scaling.md); on a coarse shell mesh the low bending modes are element
+rotations.  M_add = d^2 T_add / dv^2 is applied matrix-free (:meth:`SelectiveMass.product`):
+per element vbar, Omega and J^-1 g, g = sum_a j_a P (omega_a - Omega); then at each corner
+beta m_a (d_a + r_a x J^-1 g) on the translations and beta j_a P (omega_a - Omega) on the
+rotations, gathered per node through the node -> element slots.
+
+Geometry.  r_a, J_e^-1, n_e and rho_e^2 are those of the start of the step (positions x^n),
+kept per element (and checkpointed), so the step's matrix is one matrix.  When the next step
+moves them, T_add at the same velocities changes: that change is booked as mass-scaling
+energy (energy put in, like the kinetic energy given to beta_e as it grows), so the balance
+closes (:meth:`SelectiveMass.geometry`).
+
+Constraints.  The solve runs over the free DOFs: a DOF held by a [[boundary]] or a
+[[motion]], a rigid body's slave node and a node without mass are left out, and a node's
+rotation is kept normal to its drilling normal where the drilling projection applies
+(P M P, P the orthogonal projection on the free DOFs).  A held node's support reaction takes
+the added mass's inertial force too (state.nodes.sms_product), so reactions use the scaled
+mass matrix.  A rigid body is not given the added mass's force at its slaves (the body moves
+before the nodes); what that coupling does shows in the balance.
+
+Solve [choice, measured in docs/mass_scaling.md].  Conjugate gradients preconditioned with
+the element blocks' exact inverses (additive, element by element): each live element takes
+its shares of the residual (m_a / m_c of a node's force, J_a / J_c of its moment, J_a its
+share of the rotary inertia), inverts its own block of M + M_add on them in closed form
+(:meth:`SelectiveMass.element_block_inverse`: rigid translation, a 3 x 3 solve for its spin,
+the deformation over (1 + beta_e), the rotations), and returns the result in the same
+shares; a node's point masses add res / m_c in their share.  Symmetric, positive definite and
+exact for beta = 0.  A smooth field, which the added mass does not see, passes as it is, where
+a diagonal (Jacobi) divides it by ~(1 + beta) [measured on the 16 x 2 strip at 10x the step,
+tolerance 1e-5: Jacobi ~120 iterations per step, the block inverses 23].  The solve starts
+from the last step's accelerations (or from zero where that is worse) and stops once
+|res|_P^-1 <= sms_tolerance |rhs|_P^-1 (1e-5 by default: at 1e-3 the strip's balance grew to
+5 % of the absorbed energy and the guard stopped it); not converged in sms_max_iterations:
+STATUS_SMS_SOLVE.  The iterations run in one serial block of the step's kernel (a
+``for _ in range(1)``: Taichi runs the loops nested in it on one thread) [choice]: the
+iteration count is a run-time decision, a kernel cannot launch parallel loops from inside a
+loop, and a launch per iteration from Python costs ~100 us against a few us of work.  After
+the solve the translational accelerations get the uniform correction sum(res) / sum(m) per
+axis over the free DOFs, which makes sum m_c a_c = sum f_c (the linear momentum) exact
+whatever the tolerance, since M_add's translational rows sum to zero.
+"""
+import taichi as ti
+
+from ..state import STATUS_OK, STATUS_SMS_SOLVE
+from .accumulate import Accumulator
+from .timestep import impulse_time
+
+
+
+@ti.func
+def zero3():
+    return ti.Vector([0.0, 0.0, 0.0])
+
+
+@ti.data_oriented
+class SelectiveMass:
+    def __init__(self, state, cfg, masses, nodes):
+        self.s = state
+        self.cfg = cfg
+        self.masses = masses            # stages/masses.MassUpdate: f_e and alive_e
+        self.nodes = nodes              # stages/constraints.NodeUpdate: held DOFs, forces
+        self.acc = Accumulator(cfg.serial)
+
+    # ------------------------------------------------------------------ one element
+    @ti.func
+    def beta(self, e):
+        """beta_e = f_e - 1 of a live element (0 for an eroded one)."""
+        return (self.s.elements.mass_factor[e] - 1.0) * self.masses.alive(e)
+
+    @ti.func
+    def node_kinetic(self, e):
+        """T_add^e / beta_e at the nodes' velocities now (a quad's or a triangle's corners)."""
+        c = self.s.elements.corners[e]
+        v = ti.Matrix.zero(ti.f64, 4, 3)
+        w = ti.Matrix.zero(ti.f64, 4, 3)
+        for a in ti.static(range(4)):
+            if c[a] >= 0:
+                for d in ti.static(range(3)):
+                    v[a, d] = self.s.nodes.grid_velocity[c[a]][d]
+                    w[a, d] = self.s.nodes.omega[c[a]][d]
+        return self.masses.unit_kinetic(e, v, w, 4)
+
+    @ti.func
+    def geometry(self):
+        """At the start of the step: each live element's r_a, J_e^-1, n_e and rho_e^2 at x^n,
+        and the change of T_add this brings at the present velocities, booked as
+        mass-scaling energy (module docstring)."""
+        for e in range(self.s.elements.count[None]):
+            if self.masses.alive(e) > 0.0:
+                b = self.beta(e)
+                before = b * self.node_kinetic(e)
+                c = self.s.elements.corners[e]
+                m = self.s.elements.corner_mass[e]
+                mass = 0.0
+                centre = zero3()
+                for a in ti.static(range(4)):
+                    if c[a] >= 0:
+                        mass += m[a]
+                        centre += m[a] * self.s.nodes.position[c[a]]
+                centre /= mass
+                inertia = ti.Matrix.zero(ti.f64, 3, 3)
+                spread = 0.0
+                for a in ti.static(range(4)):
+                    r = zero3()
+                    if c[a] >= 0:
+                        r = self.s.nodes.position[c[a]] - centre
+                        inertia += m[a] * (r.norm_sqr() * ti.Matrix.identity(ti.f64, 3) - r.outer_product(r))
+                        spread += m[a] * r.norm_sqr()
+                    self.s.elements.sms_arm[e, a] = r
+                x0, x1, x2 = self.s.nodes.position[c[0]], self.s.nodes.position[c[1]], self.s.nodes.position[c[2]]
+                normal = (x1 - x0).cross(x2 - x0)
+                if c[3] >= 0:
+                    normal = (x2 - x0).cross(self.s.nodes.position[c[3]] - x1)
+                self.s.elements.sms_normal[e] = normal.normalized()
+                self.s.elements.sms_inverse_inertia[e] = inertia.inverse()
+                self.s.elements.sms_radius_sq[e] = spread / (2.0 * mass)
+                if b > 0.0:
+                    change = b * self.node_kinetic(e) - before
+                    self.s.elements.mass_energy[e][1] += change
+                    self.acc.total(self.s.step.mass_scaling_energy, change)
+
+    # ------------------------------------------------------------------ the product M p
+    @ti.func
+    def rigid_fit(self, p: ti.template(), q: ti.template()):
+        """Per element with added mass: vbar, Omega and J^-1 g of the node fields (p, q)."""
+        for e in range(self.s.elements.count[None]):
+            mean, spin, coupling = zero3(), zero3(), zero3()
+            if self.beta(e) > 0.0:
+                c = self.s.elements.corners[e]
+                m = self.s.elements.corner_mass[e]
+                mass = 0.0
+                h = zero3()
+                for a in ti.static(range(4)):
+                    if c[a] >= 0:
+                        mass += m[a]
+                        mean += m[a] * p[c[a]]
+                        h += m[a] * self.s.elements.sms_arm[e, a].cross(p[c[a]])
+                mean /= mass
+                spin = self.s.elements.sms_inverse_inertia[e] @ h
+                g = zero3()
+                for a in ti.static(range(4)):
+                    if c[a] >= 0:
+                        g += m[a] * self.masses.plane(e, q[c[a]] - spin)
+                coupling = self.s.elements.sms_inverse_inertia[e] @ (self.s.elements.sms_radius_sq[e] * g)
+            self.s.elements.sms_mean[e] = mean
+            self.s.elements.sms_spin[e] = spin
+            self.s.elements.sms_coupling[e] = coupling
+
+    @ti.func
+    def added_at(self, c, p: ti.template(), q: ti.template()):
+        """(M_add [p, q]) at node c, translation and rotation (rigid_fit holds the elements'
+        fits of p, q)."""
+        force, moment = zero3(), zero3()
+        for i in range(self.s.elements.node_slot_start[c], self.s.elements.node_slot_start[c + 1]):
+            slot = self.s.elements.node_slots[i]
+            e, a = slot // 4, slot % 4
+            b = self.beta(e)
+            if b > 0.0:
+                share = b * self.s.elements.corner_mass[e][a]
+                r = self.s.elements.sms_arm[e, a]
+                spin = self.s.elements.sms_spin[e]
+                force += share * (p[c] - self.s.elements.sms_mean[e] - spin.cross(r)
+                                  + r.cross(self.s.elements.sms_coupling[e]))
+                moment += share * self.s.elements.sms_radius_sq[e] * self.masses.plane(e, q[c] - spin)
+        return force, moment
+
+    @ti.func
+    def free_translation(self, c, vec):
+        return self.s.nodes.free_dofs[c] * vec
+
+    @ti.func
+    def free_rotation(self, c, vec):
+        """The orthogonal projection of vec on node c's free rotations: its held axes dropped,
+        and its component along the drilling normal (masked as well) where that applies."""
+        out = self.s.nodes.free_rotations[c] * vec
+        n = self.s.nodes.sms_drill_normal[c]
+        return out - out.dot(n) * n
+
+    @ti.func
+    def product(self, p: ti.template(), q: ti.template()):
+        """sms_product, sms_moment = P (M + M_add) P [p, q] (p, q already free)."""
+        self.rigid_fit(p, q)
+        for c in range(self.s.nodes.count[None]):
+            force, moment = self.added_at(c, p, q)
+            self.s.nodes.sms_product[c] = self.free_translation(c, self.s.nodes.mass[c] * p[c] + force)
+            self.s.nodes.sms_moment[c] = self.free_rotation(c, self.s.nodes.inertia[c] * q[c] + moment)
+
+    # ------------------------------------------------------------------ the solve
+    @ti.func
+    def forces(self):
+        """The right-hand side: each node's free DOFs, its out-of-balance force and moment on
+        them, and its live elements' shares of its mass and rotary inertia; the first guess
+        is the last step's accelerations on the free DOFs."""
+        for c in range(self.s.nodes.count[None]):
+            self.s.nodes.free_dofs[c] = zero3()
+            self.s.nodes.free_rotations[c] = zero3()
+            self.s.nodes.sms_drill_normal[c] = zero3()
+            self.s.nodes.sms_force[c] = zero3()
+            self.s.nodes.sms_torque[c] = zero3()
+            self.s.nodes.sms_share[c] = ti.Vector([0.0, 0.0])
+            if not self.nodes.is_idle(c):
+                held = self.nodes.held(c)
+                self.s.nodes.free_dofs[c] = ti.Vector([1.0 - (held & 1), 1.0 - ((held >> 1) & 1),
+                                                       1.0 - ((held >> 2) & 1)], ti.f64)
+                free = ti.Vector([1.0 - ((held >> 3) & 1), 1.0 - ((held >> 4) & 1), 1.0 - ((held >> 5) & 1)], ti.f64)
+                self.s.nodes.free_rotations[c] = free
+                normal, project = self.nodes.drill_normal(c)
+                if project:
+                    n = free * normal
+                    if n.norm() > 1e-12:
+                        self.s.nodes.sms_drill_normal[c] = n.normalized()
+                r = self.nodes.residual_force(c)
+                self.acc.total(self.s.step.residual_sq, r.norm_sqr())
+                self.s.nodes.sms_force[c] = r
+                self.s.nodes.sms_torque[c] = self.free_rotation(c, self.nodes.residual_torque(c))
+                share = ti.Vector([0.0, 0.0])
+                for i in range(self.s.elements.node_slot_start[c], self.s.elements.node_slot_start[c + 1]):
+                    slot = self.s.elements.node_slots[i]
+                    e, a = slot // 4, slot % 4
+                    share += self.masses.alive(e) * ti.Vector([self.s.elements.corner_mass[e][a],
+                                                                self.s.elements.corner_inertia[e][a]])
+                self.s.nodes.sms_share[c] = share
+            self.s.nodes.acceleration[c] = self.free_translation(c, self.s.nodes.acceleration[c])
+            self.s.nodes.angular_acceleration[c] = self.free_rotation(c, self.s.nodes.angular_acceleration[c])
+
+    @ti.func
+    def element_block_inverse(self, e):
+        """Scatter this element's block inverse of its shares of the residual into sms_step
+        (module docstring, Solve; serial).  With the shares f_a = (m_a / m_c) res_c and
+        t_a = (J_a / J_c) res_moment_c: the rigid translation sum f / m_e; the spin Omega from
+        (J_e + gamma P) Omega = tau + sum_a beta j_a P t_a / (J_a + beta j_a), tau = sum r_a x f_a,
+        gamma = sum_a beta j_a J_a / (J_a + beta j_a); the deformation (f_a - m_a (fbar + J^-1 tau x r_a))
+        / ((1 + beta) m_a); each rotation (P t_a + beta j_a P Omega) / (J_a + beta j_a) in the
+        plane, t_a / J_a along the normal.  The results go back in the same shares."""
+        c = self.s.elements.corners[e]
+        m = self.s.elements.corner_mass[e]
+        inertia = self.s.elements.corner_inertia[e]
+        b = self.beta(e)
+        n = self.s.elements.sms_normal[e]
+        rho2 = self.s.elements.sms_radius_sq[e]
+        f = ti.Matrix.zero(ti.f64, 4, 3)
+        t = ti.Matrix.zero(ti.f64, 4, 3)
+        mass = 0.0
+        total = zero3()
+        tau = zero3()
+        for a in ti.static(range(4)):
+            if c[a] >= 0:
+                fa = m[a] / self.s.nodes.mass[c[a]] * self.s.nodes.sms_residual[c[a]]
+                ta = inertia[a] / self.s.nodes.inertia[c[a]] * self.s.nodes.sms_residual_moment[c[a]]
+                for d in ti.static(range(3)):
+                    f[a, d] = fa[d]
+                    t[a, d] = ta[d]
+                mass += m[a]
+                total += fa
+                tau += self.s.elements.sms_arm[e, a].cross(fa)
+        gamma = 0.0
+        spin_rhs = tau
+        for a in ti.static(range(4)):
+            if c[a] >= 0:
+                ja = b * m[a] * rho2
+                ta = ti.Vector([t[a, 0], t[a, 1], t[a, 2]])
+                gamma += ja * inertia[a] / (inertia[a] + ja)
+                spin_rhs += ja * self.masses.plane(e, ta) / (inertia[a] + ja)
+        inverse_inertia = self.s.elements.sms_inverse_inertia[e]
+        block = inverse_inertia.inverse() + gamma * (ti.Matrix.identity(ti.f64, 3) - n.outer_product(n))
+        spin = block.inverse() @ spin_rhs
+        mean = total / mass
+        rigid_spin = inverse_inertia @ tau
+        for a in ti.static(range(4)):
+            if c[a] >= 0:
+                r = self.s.elements.sms_arm[e, a]
+                fa = ti.Vector([f[a, 0], f[a, 1], f[a, 2]])
+                ta = ti.Vector([t[a, 0], t[a, 1], t[a, 2]])
+                z = mean + spin.cross(r)
+                if m[a] > 0.0:
+                    z += (fa - m[a] * (mean + rigid_spin.cross(r))) / ((1.0 + b) * m[a])
+                ja = b * m[a] * rho2
+                normal_part = ta.dot(n) * n
+                w = (ta - normal_part + ja * self.masses.plane(e, spin)) / (inertia[a] + ja) + normal_part / inertia[a]
+                self.s.nodes.sms_step[c[a]] += m[a] / self.s.nodes.mass[c[a]] * z
+                self.s.nodes.sms_step_moment[c[a]] += inertia[a] / self.s.nodes.inertia[c[a]] * w
+
+    @ti.func
+    def precondition(self):
+        """sms_step = P^-1 residual; returns residual . P^-1 residual (serial; module
+        docstring, Solve): the element blocks' inverses of their shares of the residual,
+        summed in the same shares, plus the nodes' point masses' part."""
+        n = self.s.nodes.count[None]
+        for c in range(n):
+            self.s.nodes.sms_step[c] = zero3()
+            self.s.nodes.sms_step_moment[c] = zero3()
+        for e in range(self.s.elements.count[None]):
+            if self.masses.alive(e) > 0.0:
+                self.element_block_inverse(e)
+        out = 0.0
+        for c in range(n):
+            z, zr = zero3(), zero3()
+            if self.s.nodes.mass[c] > 0.0:          # (a node without mass has no free DOF)
+                share = self.s.nodes.sms_share[c]
+                mass, inertia = self.s.nodes.mass[c], self.s.nodes.inertia[c]
+                z = self.free_translation(c, self.s.nodes.sms_step[c]
+                                          + (mass - share[0]) / mass ** 2 * self.s.nodes.sms_residual[c])
+                zr = self.free_rotation(c, self.s.nodes.sms_step_moment[c]
+                                        + (inertia - share[1]) / inertia ** 2 * self.s.nodes.sms_residual_moment[c])
+            self.s.nodes.sms_step[c] = z
+            self.s.nodes.sms_step_moment[c] = zr
+            out += z.dot(self.s.nodes.sms_residual[c]) + zr.dot(self.s.nodes.sms_residual_moment[c])
+        return out
+
+    @ti.func
+    def solve(self):
+        """The preconditioned conjugate gradients of the module docstring, in one serial block;
+        then the momentum correction.  Books the iteration counts."""
+        for _ in range(1):          # one thread: the loops below are serial
+            n = self.s.nodes.count[None]
+            for c in range(n):
+                self.s.nodes.sms_residual[c] = self.s.nodes.sms_force[c]
+                self.s.nodes.sms_residual_moment[c] = self.s.nodes.sms_torque[c]
+            bz = self.precondition()
+            self.product(self.s.nodes.acceleration, self.s.nodes.angular_acceleration)
+            for c in range(n):
+                self.s.nodes.sms_residual[c] = self.s.nodes.sms_force[c] - self.s.nodes.sms_product[c]
+                self.s.nodes.sms_residual_moment[c] = self.s.nodes.sms_torque[c] - self.s.nodes.sms_moment[c]
+            rz = self.precondition()
+            if rz > bz:             # the last accelerations are a worse guess than zero: start from 0
+                for c in range(n):
+                    self.s.nodes.acceleration[c] = zero3()
+                    self.s.nodes.angular_acceleration[c] = zero3()
+                    self.s.nodes.sms_residual[c] = self.s.nodes.sms_force[c]
+                    self.s.nodes.sms_residual_moment[c] = self.s.nodes.sms_torque[c]
+                rz = self.precondition()
+            for c in range(n):
+                self.s.nodes.sms_search[c] = self.s.nodes.sms_step[c]
+                self.s.nodes.sms_search_moment[c] = self.s.nodes.sms_step_moment[c]
+            goal = self.s.step.sms_tolerance[None] ** 2 * bz
+            iterations = 0
+            limit = self.s.step.sms_max_iterations[None]
+            while rz > goal and iterations < limit:
+                self.product(self.s.nodes.sms_search, self.s.nodes.sms_search_moment)
+                curvature = 0.0
+                for c in range(n):
+                    curvature += (self.s.nodes.sms_search[c].dot(self.s.nodes.sms_product[c])
+                                  + self.s.nodes.sms_search_moment[c].dot(self.s.nodes.sms_moment[c]))
+                alpha = rz / curvature
+                for c in range(n):
+                    self.s.nodes.acceleration[c] += alpha * self.s.nodes.sms_search[c]
+                    self.s.nodes.angular_acceleration[c] += alpha * self.s.nodes.sms_search_moment[c]
+                    self.s.nodes.sms_residual[c] -= alpha * self.s.nodes.sms_product[c]
+                    self.s.nodes.sms_residual_moment[c] -= alpha * self.s.nodes.sms_moment[c]
+                rz_new = self.precondition()
+                for c in range(n):
+                    self.s.nodes.sms_search[c] = self.s.nodes.sms_step[c] + (rz_new / rz) * self.s.nodes.sms_search[c]
+                    self.s.nodes.sms_search_moment[c] = (self.s.nodes.sms_step_moment[c]
+                                                         + (rz_new / rz) * self.s.nodes.sms_search_moment[c])
+                rz = rz_new
+                iterations += 1
+            if rz > goal and self.s.step.status[None] == STATUS_OK:
+                self.s.step.status[None] = STATUS_SMS_SOLVE
+                self.s.step.status_index[None] = iterations
+            # sum m a = sum f over the free translations (M_add's translational rows sum to zero)
+            residual_sum = zero3()
+            mass_sum = zero3()
+            for c in range(n):
+                residual_sum += self.s.nodes.sms_residual[c]
+                mass_sum += self.s.nodes.mass[c] * self.s.nodes.free_dofs[c]
+            shift = residual_sum / ti.max(mass_sum, 1e-300)
+            for c in range(n):
+                self.s.nodes.acceleration[c] += self.s.nodes.free_dofs[c] * shift
+            self.s.step.sms_iterations[None] += iterations
+            self.s.step.sms_solves[None] += 1
+            self.s.step.sms_iterations_max[None] = ti.max(self.s.step.sms_iterations_max[None], iterations)
+
+    @ti.func
+    def inertial_forces(self):
+        """sms_product = the translational part of M_add [a, alpha] at every node (held ones
+        included, for their reactions): parallel loops after the solve."""
+        self.rigid_fit(self.s.nodes.acceleration, self.s.nodes.angular_acceleration)
+        for c in range(self.s.nodes.count[None]):
+            force, _ = self.added_at(c, self.s.nodes.acceleration, self.s.nodes.angular_acceleration)
+            self.s.nodes.sms_product[c] = force
+
+    @ti.func
+    def explicit_fe(self):
+        """``fem`` mode with selective mass scaling: v^(n+1/2) = v^(n-1/2) + dt a (dt/2 from
+        rest) with (M + M_add) [a, alpha] = [f, mu] on the free DOFs; then each node as
+        NodeUpdate.explicit_fe (its rotation from alpha, NodeUpdate.finish; a held node's
+        reaction adds M_add a), and the added mass's kinetic energy."""
+        self.geometry()
+        self.forces()
+        self.solve()
+        self.inertial_forces()
+        for c in range(self.s.nodes.count[None]):
+            v = zero3()
+            if not self.nodes.is_idle(c):
+                v = (self.s.step.velocity_keep[None] * self.s.nodes.grid_velocity[c]
+                     + impulse_time(self.s.step) * self.s.nodes.acceleration[c])
+            self.nodes.finish(c, v)
+        for e in range(self.s.elements.count[None]):
+            self.acc.total(self.s.step.kinetic, self.beta(e) * self.node_kinetic(e))

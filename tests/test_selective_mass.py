@@ -1,0 +1,212 @@
+"""Selective mass scaling (issue 29; stages/selective_mass.py, docs/mass_scaling.md).
+
+A steel plate 1 x 1 x 0.01 m in 8 x 8 elements (N, m, kg, s), fem.  Its elements' stable step
+is dt_e = 0.9 L_e / c, L_e = h / sqrt(2) (area over the longest diagonal of a square of side
+h = 0.125), c = sqrt(E / (rho (1 - nu^2))): 1.50e-5 s.  target_dt = 1.5e-4 s, ten times it,
+gives every element beta = (target / dt_e)^2 - 1 = 98.6: its deformation modes are 99.6 times
+heavier, its rigid motion not at all.
+
+* free flight: a uniform velocity and a spin about the normal see no added mass (its kinetic
+  energy is zero to round-off; the kinetic energy and momentum are the physical ones), and
+  the balance closes;
+* a cantilever strip's lowest bending frequency (FFT-free: the mean period between upward
+  zero crossings of the tip's probe) moves by less than 1 % from the unscaled run's at ten
+  times the step (16 x 2 elements; 8 x 1: +1.2 %, docs/mass_scaling.md);
+* the solve's guard, a restart bit for bit, and the scene's checks.
+"""
+from __future__ import annotations
+
+import csv
+import json
+import math
+
+import numpy as np
+import pytest
+
+from taichi_shell_mpm.energy import added_kinetic, node_masses
+from taichi_shell_mpm.scene import load_scene
+from taichi_shell_mpm.solvers.dynamic import run_dynamic
+
+from .conftest import simulation, write_scene
+from .test_reliability import assert_clean_output, cli_run
+from .test_restart import restart_roundtrip
+
+E, NU, RHO, T = 2.0e11, 0.3, 7850.0, 0.01
+H = 0.125
+DT_E = 0.9 * (H / math.sqrt(2.0)) / math.sqrt(E / (RHO * (1.0 - NU ** 2)))
+TARGET = 1.5e-4
+
+PLATE = """
+[scene]
+name = "sms_plate"
+units = "N, m, kg, s"
+[mesh]
+kind = "plate"
+lx = {lx}
+ly = {ly}
+nx = {nx}
+ny = {ny}
+[material]
+E = {E}
+nu = {nu}
+density = {rho}
+[section]
+thickness = {t}
+[method]
+kind = "fem"
+[nodesets.root]
+plane = {{ point = [0.0, 0.0, 0.0], normal = [1.0, 0.0, 0.0] }}
+[nodesets.tip]
+plane = {{ point = [{lx}, 0.0, 0.0], normal = [1.0, 0.0, 0.0] }}
+{extra}
+[[probe]]
+name = "tip"
+nodes = "tip"
+components = ["uz"]
+[solve]
+kind = "dynamic"
+end_time = {end_time}
+{scaling}
+[output]
+times = []
+history_interval = {history}
+"""
+SELECTIVE = f'mass_scaling = "selective"\ntarget_dt = {TARGET}'
+
+
+def plate_text(*, lx=1.0, ly=1.0, nx=8, ny=8, nu=NU, end_time=3e-3, history=1e-4, extra="", scaling=SELECTIVE):
+    return PLATE.format(lx=lx, ly=ly, nx=nx, ny=ny, E=E, nu=nu, rho=RHO, t=T, end_time=end_time, history=history,
+                        extra=extra, scaling=scaling)
+
+
+FLIGHT = """
+[[initial]]
+velocity = [1.0, 0.5, 2.0]
+angular_velocity = [0.0, 0.0, {spin}]
+center = [0.5, 0.5, 0.0]
+"""
+
+
+def flight(tmp_path, spin: float):
+    """The free plate thrown with a spin about its normal through its centre, run in-process:
+    energies, linear momentum and angular momentum about the mass centre (the lumped masses')
+    at the start and the end, the summary's mass_scaling block, the added mass's kinetic
+    energy at the start and the end."""
+    tmp_path.mkdir()
+    sim = simulation(load_scene(write_scene(tmp_path, plate_text(extra=FLIGHT.format(spin=spin)))), tmp_path)
+    state, model = sim.state, sim.model
+
+    def momenta():
+        m, _ = node_masses(state, model)
+        x = state.read(state.nodes.position, state.n_nodes)
+        v = state.read(state.nodes.grid_velocity, state.n_nodes)
+        centre = (m[:, None] * x).sum(axis=0) / m.sum()
+        return (m[:, None] * v).sum(axis=0), (m[:, None] * np.cross(x - centre, v)).sum(axis=0)
+
+    (p0, l0), e0, added0 = momenta(), sim.energies(), float(added_kinetic(state, model).sum())
+    run_dynamic(sim)
+    p1, l1 = momenta()
+    return (e0, sim.energies(), (p0, p1), (l0, l1), sim.mass_scaling_summary(), added0,
+            float(added_kinetic(state, model).sum()))
+
+
+def test_rigid_flight_and_spin_see_no_added_mass(tmp_path):
+    """Translation and rotation: the added mass's kinetic energy is zero to round-off, the
+    kinetic energy is the physical one, linear momentum is kept to round-off and angular
+    momentum to the solve's tolerance."""
+    mass = RHO * T * 1.0
+    beta = (TARGET / DT_E) ** 2 - 1.0
+    kinetic = 0.5 * mass * (1.0 + 0.25 + 4.0)
+    for spin in (0.0, 3.0):
+        e0, e1, (p0, p1), (l0, l1), summary, added0, added1 = flight(tmp_path / f"spin{spin:g}", spin)
+        drift = np.linalg.norm(p1 - p0) / np.linalg.norm(p0)
+        turn = np.linalg.norm(l1 - l0) / max(np.linalg.norm(l0), 1.0)
+        print(f"\nspin {spin}: beta {beta:.2f} (summary: deformation mass {summary['deformation_mass_percent']:.1f} % "
+              f"of the shell); KE {e0['kinetic']:.12g} -> {e1['kinetic']:.12g}; added KE {added0:.3g} -> "
+              f"{added1:.3g}; momentum drift {drift:.2e}, angular momentum drift {turn:.2e}; balance error "
+              f"{e1['balance_error']:.3g} (internal energy {e1['internal']:.3g}); solve {summary['solve']}")
+        assert summary["scaled_elements"] == 64 and summary["added_mass"] == 0.0
+        assert summary["deformation_mass_percent"] == pytest.approx(100.0 * beta, rel=1e-3)
+        # (the spin stretches the plate: its elastic breathing is a deformation mode: measured
+        # 3.5e-8 of the kinetic energy at the end; balance 6.1e-8; angular momentum 1.7e-8)
+        assert added0 <= 1e-13 * e0["kinetic"] and added1 <= 5e-8 * e1["kinetic"]
+        assert drift <= 1e-14
+        assert turn <= 3e-8
+        assert abs(e1["balance_error"]) <= 1e-7 * e1["kinetic"]
+        if spin == 0.0:
+            assert e0["kinetic"] == pytest.approx(kinetic, rel=1e-14)
+            assert e1["kinetic"] == pytest.approx(kinetic, rel=1e-12)
+
+
+STRIP = """
+[[boundary]]
+nodes = "root"
+fix = "all"
+[[initial]]
+velocity = [0.0, 0.0, 0.05]
+"""
+
+
+STRIP_H = H / 2          # the strip's elements: 16 x 2 of 0.0625 x 0.0625
+STRIP_TARGET = TARGET / 2     # ten times their step
+
+
+def strip_run(tmp_path, name: str, scaling: str, end_time: float = 0.51, *sets: str):
+    """The strip L = 1, b = 0.125 (16 x 2 elements) clamped at x = 0, thrown up at 0.05 m/s:
+    the CLI run's exit, stderr, summary and the tip's uz history (every 10 target steps: the
+    steps land on the history's times, so the interval must be a multiple of the target)."""
+    scene = write_scene(tmp_path, plate_text(ly=2 * STRIP_H, nx=16, ny=2, extra=STRIP, end_time=end_time,
+                                             history=10 * STRIP_TARGET, scaling=scaling), f"{name}.toml")
+    out = tmp_path / name
+    r = cli_run("run", str(scene), "--out", str(out), "--quiet", *sets)
+    if r.code != 0:
+        return r, None, None
+    with open(out / "probes.csv") as f:
+        rows = [row for row in csv.DictReader(f)]
+    history = np.array([[float(row["time"]), float(row["tip.uz"])] for row in rows])
+    return r, json.loads((out / "summary.json").read_text()), history
+
+
+def mean_period(history: np.ndarray) -> float:
+    """The mean period between the first and the last upward zero crossing of the mean-free
+    signal (times interpolated linearly)."""
+    t, u = history[:, 0], history[:, 1] - history[:, 1].mean()
+    up = np.nonzero((u[:-1] < 0.0) & (u[1:] >= 0.0))[0]
+    times = t[up] - u[up] * (t[up + 1] - t[up]) / (u[up + 1] - u[up])
+    return float((times[-1] - times[0]) / (len(times) - 1))
+
+
+def test_strip_lowest_bending_frequency_within_one_percent_at_ten_times_the_step(tmp_path):
+    r0, plain, h0 = strip_run(tmp_path, "plain", "")
+    r1, scaled, h1 = strip_run(tmp_path, "selective", f'mass_scaling = "selective"\ntarget_dt = {STRIP_TARGET}')
+    assert r0.code == 0 and r1.code == 0, r0.err + r1.err
+    period0, period1 = mean_period(h0), mean_period(h1)
+    beam = 2.0 * math.pi / 1.875 ** 2 * math.sqrt(12.0 * RHO / (E * T ** 2))     # Euler-Bernoulli, L = 1
+    solve = scaled["mass_scaling"]["solve"]
+    print(f"\nlowest bending period: unscaled {period0:.6f} s in {plain['steps']} steps, selective at 10x "
+          f"{period1:.6f} s in {scaled['steps']} steps ({period1 / period0 - 1.0:+.3%}); Euler-Bernoulli beam "
+          f"{beam:.6f} s; solve: {solve['iterations_mean']:.2f} iterations per step, max {solve['iterations_max']}; "
+          f"balance error {scaled['energies']['balance_error']:.3g} of kinetic {scaled['energies']['kinetic']:.3g}")
+    assert plain["steps"] >= 9 * scaled["steps"]
+    assert abs(period1 / period0 - 1.0) < 0.0085     # measured +0.566 % (the issue's target: 1 %)
+
+
+def test_solve_not_converged_stops_the_run_naming_the_step(tmp_path):
+    r, _, _ = strip_run(tmp_path, "guard", f'mass_scaling = "selective"\ntarget_dt = {STRIP_TARGET}', 0.0075, "--set", "solve.sms_max_iterations=1",
+                        "--set", "solve.sms_tolerance=1e-9")
+    print(f"\n{r.err.strip()}")
+    assert r.code == 3, r.err
+    assert_clean_output(r)
+    assert r.err.startswith("error: the selective-mass-scaling solve did not converge in 1 conjugate-gradient "
+                            "iterations at t="), r.err
+    assert "step " in r.err and "sms_max_iterations" in r.err
+
+
+def test_restart_through_selective_mass_scaling_is_bit_for_bit(tmp_path, monkeypatch):
+    """The solve starts from the last step's acceleration (checkpointed): stopped at step 150
+    and restarted, the tables are byte-identical."""
+    scene = write_scene(tmp_path, plate_text(ly=2 * STRIP_H, nx=16, ny=2, extra=STRIP, end_time=0.03,
+                                             history=10 * STRIP_TARGET,
+                                             scaling=f'mass_scaling = "selective"\ntarget_dt = {STRIP_TARGET}'),
+                        "strip.toml")
+    restart_roundtrip(tmp_path, monkeypatch, [str(scene)], stop_step=150, every=100, batch_element_steps=400)
