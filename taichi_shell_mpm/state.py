@@ -276,6 +276,8 @@ class State:
         g.entity("sms_inverse_inertia", ti.Matrix.field(3, 3, f64), m, used=fx.selective_mass)
         g.entity("sms_normal", ti.Vector.field(3, f64), m, used=fx.selective_mass)
         g.entity("sms_radius_sq", ti.field(f64), m, used=fx.selective_mass)
+        g.entity("sms_spin_block", ti.Matrix.field(3, 3, f64), m, persistent=False, used=fx.selective_mass,
+                 host=False)      # (J_e + gamma P)^-1 of the preconditioner, with this step's beta
         for name in ("sms_mean", "sms_spin", "sms_coupling"):
             g.entity(name, ti.Vector.field(3, f64), m, persistent=False, used=fx.selective_mass, host=False)
 

@@ -128,10 +128,11 @@ def test_rigid_flight_and_spin_see_no_added_mass(tmp_path):
         assert summary["scaled_elements"] == 64 and summary["added_mass"] == 0.0
         assert summary["deformation_mass_percent"] == pytest.approx(100.0 * beta, rel=1e-3)
         # (the spin stretches the plate: its elastic breathing is a deformation mode: measured
-        # 3.5e-8 of the kinetic energy at the end; balance 6.1e-8; angular momentum 1.7e-8)
+        # 3.5e-8 of the kinetic energy at the end; balance 6.1e-8; angular momentum 4.2e-8 at the
+        # default sms_tolerance 1e-5)
         assert added0 <= 1e-13 * e0["kinetic"] and added1 <= 5e-8 * e1["kinetic"]
         assert drift <= 1e-14
-        assert turn <= 3e-8
+        assert turn <= 6e-8
         assert abs(e1["balance_error"]) <= 1e-7 * e1["kinetic"]
         if spin == 0.0:
             assert e0["kinetic"] == pytest.approx(kinetic, rel=1e-14)

@@ -143,9 +143,18 @@ class SelectiveMass:
                 normal = (x1 - x0).cross(x2 - x0)
                 if c[3] >= 0:
                     normal = (x2 - x0).cross(self.s.nodes.position[c[3]] - x1)
-                self.s.elements.sms_normal[e] = normal.normalized()
+                unit = normal.normalized()
+                self.s.elements.sms_normal[e] = unit
                 self.s.elements.sms_inverse_inertia[e] = inertia.inverse()
-                self.s.elements.sms_radius_sq[e] = spread / (2.0 * mass)
+                rho2 = spread / (2.0 * mass)
+                self.s.elements.sms_radius_sq[e] = rho2
+                gamma = 0.0         # the spin's block in the preconditioner (element_block_inverse)
+                for a in ti.static(range(4)):
+                    if c[a] >= 0:
+                        ja = b * m[a] * rho2
+                        gamma += ja * self.s.elements.corner_inertia[e][a] / (self.s.elements.corner_inertia[e][a] + ja)
+                self.s.elements.sms_spin_block[e] = (inertia + gamma * (ti.Matrix.identity(ti.f64, 3)
+                                                                        - unit.outer_product(unit))).inverse()
                 if b > 0.0:
                     change = b * self.node_kinetic(e) - before
                     self.s.elements.mass_energy[e][1] += change
@@ -261,7 +270,7 @@ class SelectiveMass:
         (module docstring, Solve; serial).  With the shares f_a = (m_a / m_c) res_c and
         t_a = (J_a / J_c) res_moment_c: the rigid translation sum f / m_e; the spin Omega from
         (J_e + gamma P) Omega = tau + sum_a beta j_a P t_a / (J_a + beta j_a), tau = sum r_a x f_a,
-        gamma = sum_a beta j_a J_a / (J_a + beta j_a); the deformation (f_a - m_a (fbar + J^-1 tau x r_a))
+        gamma = sum_a beta j_a J_a / (J_a + beta j_a) (the inverse kept by geometry); the deformation (f_a - m_a (fbar + J^-1 tau x r_a))
         / ((1 + beta) m_a); each rotation (P t_a + beta j_a P Omega) / (J_a + beta j_a) in the
         plane, t_a / J_a along the normal.  The results go back in the same shares."""
         c = self.s.elements.corners[e]
@@ -285,19 +294,15 @@ class SelectiveMass:
                 mass += m[a]
                 total += fa
                 tau += self.s.elements.sms_arm[e, a].cross(fa)
-        gamma = 0.0
         spin_rhs = tau
         for a in ti.static(range(4)):
             if c[a] >= 0:
                 ja = b * m[a] * rho2
                 ta = ti.Vector([t[a, 0], t[a, 1], t[a, 2]])
-                gamma += ja * inertia[a] / (inertia[a] + ja)
                 spin_rhs += ja * self.masses.plane(e, ta) / (inertia[a] + ja)
-        inverse_inertia = self.s.elements.sms_inverse_inertia[e]
-        block = inverse_inertia.inverse() + gamma * (ti.Matrix.identity(ti.f64, 3) - n.outer_product(n))
-        spin = block.inverse() @ spin_rhs
+        spin = self.s.elements.sms_spin_block[e] @ spin_rhs
         mean = total / mass
-        rigid_spin = inverse_inertia @ tau
+        rigid_spin = self.s.elements.sms_inverse_inertia[e] @ tau
         for a in ti.static(range(4)):
             if c[a] >= 0:
                 r = self.s.elements.sms_arm[e, a]
@@ -404,12 +409,40 @@ class SelectiveMass:
 
     @ti.func
     def inertial_forces(self):
-        """sms_product = the translational part of M_add [a, alpha] at every node (held ones
-        included, for their reactions): parallel loops after the solve."""
+        """sms_product, sms_moment = M_add [a, alpha] at every node (held ones included, for
+        their reactions and constraint_work): parallel loops after the solve."""
         self.rigid_fit(self.s.nodes.acceleration, self.s.nodes.angular_acceleration)
         for c in range(self.s.nodes.count[None]):
-            force, _ = self.added_at(c, self.s.nodes.acceleration, self.s.nodes.angular_acceleration)
+            force, moment = self.added_at(c, self.s.nodes.acceleration, self.s.nodes.angular_acceleration)
             self.s.nodes.sms_product[c] = force
+            self.s.nodes.sms_moment[c] = moment
+
+    @ti.func
+    def constraint_work(self):
+        """What the added mass does where a constraint sets the velocity (a wall, a boundary or
+        prescribed motion, a rigid body's slave), which no work term books.  With v_s, v_f the
+        velocities before and after the step, v_mid their mean, Delta = v_f - (v_s + dt a) the
+        constraints' change after the solve and P the free DOFs, the step changes 1/2 v M v by
+        (v_f - v_s) . M v_mid = dt (P f) . v_mid + m Delta . v_mid
+        + Delta . M_add v_mid + dt ((I - P) v_mid) . M_add a:
+        the work terms book the first, NodeUpdate.finish the second (wall column); the last two
+        go to the node's wall column here (parallel loops)."""
+        for c in range(self.s.nodes.count[None]):
+            self.s.nodes.sms_residual[c] = 0.5 * (self.s.nodes.sms_search[c] + self.s.nodes.grid_velocity[c])
+            self.s.nodes.sms_residual_moment[c] = 0.5 * (self.s.nodes.sms_search_moment[c] + self.s.nodes.omega[c])
+        self.rigid_fit(self.s.nodes.sms_residual, self.s.nodes.sms_residual_moment)
+        for c in range(self.s.nodes.count[None]):
+            mid, mid_turn = self.s.nodes.sms_residual[c], self.s.nodes.sms_residual_moment[c]
+            jump = self.s.nodes.grid_velocity[c] - self.s.nodes.sms_step[c]
+            turn = self.s.nodes.omega[c] - self.s.nodes.sms_step_moment[c]
+            held, held_turn = mid - self.free_translation(c, mid), mid_turn - self.free_rotation(c, mid_turn)
+            if jump.norm_sqr() + turn.norm_sqr() + held.norm_sqr() + held_turn.norm_sqr() > 0.0:
+                force, moment = self.added_at(c, self.s.nodes.sms_residual, self.s.nodes.sms_residual_moment)
+                work = -(jump.dot(force) + turn.dot(moment)
+                         + impulse_time(self.s.step) * (held.dot(self.s.nodes.sms_product[c])
+                                                        + held_turn.dot(self.s.nodes.sms_moment[c])))
+                self.s.nodes.energy[c][2] += work
+                self.acc.total(self.s.step.wall_energy, work)
 
     @ti.func
     def explicit_fe(self):
@@ -422,10 +455,17 @@ class SelectiveMass:
         self.solve()
         self.inertial_forces()
         for c in range(self.s.nodes.count[None]):
+            keep = self.s.step.velocity_keep[None]
+            start, start_turn = keep * self.s.nodes.grid_velocity[c], keep * self.s.nodes.omega[c]
+            kick = impulse_time(self.s.step)
+            self.s.nodes.sms_search[c] = start                  # v_s = v^(n-1/2)
+            self.s.nodes.sms_search_moment[c] = start_turn
+            self.s.nodes.sms_step[c] = start + kick * self.s.nodes.acceleration[c]        # v_s + dt a (a = 0
+            self.s.nodes.sms_step_moment[c] = start_turn + kick * self.s.nodes.angular_acceleration[c]   # if held)
             v = zero3()
             if not self.nodes.is_idle(c):
-                v = (self.s.step.velocity_keep[None] * self.s.nodes.grid_velocity[c]
-                     + impulse_time(self.s.step) * self.s.nodes.acceleration[c])
+                v = self.s.nodes.sms_step[c]
             self.nodes.finish(c, v)
+        self.constraint_work()
         for e in range(self.s.elements.count[None]):
             self.acc.total(self.s.step.kinetic, self.beta(e) * self.node_kinetic(e))
