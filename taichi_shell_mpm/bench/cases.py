@@ -105,6 +105,12 @@ def tube_cases(end_time: float | None = None) -> list[Case]:
     tag = "" if end_time is None else f"_t{end_time:g}"
     return [Case(f"tube_5mm_mpm{tag}", "tube", "10/2/60", "mpm", 0.5, 5.0, ("method.kind=mpm",) + end),
             Case(f"tube_5mm_fem{tag}", "tube", "10/2/60", "fem", None, 5.0, ("method.kind=fem",) + end),
+            # selective mass scaling (issue 29, docs/mass_scaling.md) at 10x and 20x the tube's
+            # step (2.47e-4 ms): the speed-against-error trade beside the unscaled fem row
+            Case(f"tube_5mm_fem_sms10{tag}", "tube", "10/2/60", "fem", None, 5.0,
+                 ("method.kind=fem", "solve.mass_scaling=selective", "solve.target_dt=2.5e-3") + end),
+            Case(f"tube_5mm_fem_sms20{tag}", "tube", "10/2/60", "fem", None, 5.0,
+                 ("method.kind=fem", "solve.mass_scaling=selective", "solve.target_dt=5e-3") + end),
             Case(f"tube_2.5mm_mpm{tag}", "tube", "20/4/120", "mpm", 0.5, 2.5,
                  ("method.kind=mpm", "mesh.n_flat=20", "mesh.n_corner=4", "mesh.n_length=120",
                   "method.cell_size=1.25") + end),
