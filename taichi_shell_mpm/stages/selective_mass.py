@@ -78,9 +78,9 @@ from .accumulate import Accumulator
 from .timestep import impulse_time
 
 
-
 @ti.func
 def zero3():
+    """A zero 3-vector (a local that loops may add to)."""
     return ti.Vector([0.0, 0.0, 0.0])
 
 
@@ -207,6 +207,7 @@ class SelectiveMass:
 
     @ti.func
     def free_translation(self, c, vec):
+        """vec with node c's held translations dropped."""
         return self.s.nodes.free_dofs[c] * vec
 
     @ti.func
