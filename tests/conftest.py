@@ -45,7 +45,7 @@ ny = {ny}
 [material]
 E = {E}
 nu = {nu}
-density = 1.0
+density = {density}
 [section]
 thickness = {t}
 [method]
@@ -54,7 +54,7 @@ transfer = "{transfer}"
 {method_extra}
 [solve]
 kind = "{solve}"
-end_time = 1.0
+end_time = {end_time}
 dt_rule = "shell"
 {extra}
 """
@@ -142,8 +142,8 @@ def write_scene(tmp_path: Path, text: str, name: str = "scene.toml") -> Path:
 
 def plate_scene(tmp_path: Path, *, lx=1.0, ly=1.0, nx=4, ny=4, E=1e4, nu=0.3, t=0.01, method="mpm",
                 transfer="apic", method_extra="", solve="dynamic", extra="", overrides=()):
-    text = PLATE.format(lx=lx, ly=ly, nx=nx, ny=ny, E=E, nu=nu, t=t, method=method, transfer=transfer,
-                        method_extra=method_extra, solve=solve, extra=extra)
+    text = PLATE.format(lx=lx, ly=ly, nx=nx, ny=ny, E=E, nu=nu, density=1.0, t=t, method=method, transfer=transfer,
+                        method_extra=method_extra, solve=solve, end_time=1.0, extra=extra)
     return load_scene(write_scene(tmp_path, text), overrides)
 
 

@@ -27,7 +27,7 @@ from taichi_shell_mpm.energy import added_kinetic, node_masses
 from taichi_shell_mpm.scene import load_scene
 from taichi_shell_mpm.solvers.dynamic import run_dynamic
 
-from .conftest import simulation, write_scene
+from .conftest import PLATE, simulation, write_scene
 from .test_reliability import assert_clean_output, cli_run
 from .test_restart import restart_roundtrip
 
@@ -36,24 +36,8 @@ H = 0.125
 DT_E = 0.9 * (H / math.sqrt(2.0)) / math.sqrt(E / (RHO * (1.0 - NU ** 2)))
 TARGET = 1.5e-4
 
-PLATE = """
-[scene]
-name = "sms_plate"
-units = "N, m, kg, s"
-[mesh]
-kind = "plate"
-lx = {lx}
-ly = {ly}
-nx = {nx}
-ny = {ny}
-[material]
-E = {E}
-nu = {nu}
-density = {rho}
-[section]
-thickness = {t}
-[method]
-kind = "fem"
+SELECTIVE = f'mass_scaling = "selective"\ntarget_dt = {TARGET}'
+TABLES = """
 [nodesets.root]
 plane = {{ point = [0.0, 0.0, 0.0], normal = [1.0, 0.0, 0.0] }}
 [nodesets.tip]
@@ -63,20 +47,18 @@ plane = {{ point = [{lx}, 0.0, 0.0], normal = [1.0, 0.0, 0.0] }}
 name = "tip"
 nodes = "tip"
 components = ["uz"]
-[solve]
-kind = "dynamic"
-end_time = {end_time}
-{scaling}
 [output]
 times = []
 history_interval = {history}
 """
-SELECTIVE = f'mass_scaling = "selective"\ntarget_dt = {TARGET}'
 
 
-def plate_text(*, lx=1.0, ly=1.0, nx=8, ny=8, nu=NU, end_time=3e-3, history=1e-4, extra="", scaling=SELECTIVE):
-    return PLATE.format(lx=lx, ly=ly, nx=nx, ny=ny, E=E, nu=nu, rho=RHO, t=T, end_time=end_time, history=history,
-                        extra=extra, scaling=scaling)
+def plate_text(*, lx=1.0, ly=1.0, nx=8, ny=8, end_time=3e-3, history=1e-4, extra="", scaling=SELECTIVE):
+    """conftest's plate (fem, N, m, kg, s) with the mass scaling keys, the root and tip sets,
+    `extra` tables, a probe of the tip's uz and the history interval."""
+    return PLATE.format(lx=lx, ly=ly, nx=nx, ny=ny, E=E, nu=NU, density=RHO, t=T, method="fem", transfer="apic",
+                        method_extra="", solve="dynamic", end_time=end_time,
+                        extra=scaling + TABLES.format(lx=lx, extra=extra, history=history))
 
 
 FLIGHT = """
