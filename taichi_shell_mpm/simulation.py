@@ -118,18 +118,30 @@ def init_taichi(arch: str = "cpu", quiet: bool = False, threads: int | None = No
     """Start Taichi on `arch`; returns the arch it actually runs on ("cpu" when Taichi fell
     back from an unavailable GPU backend).  `quiet`: without its "[Taichi] Starting on"
     line.  `threads`: the CPU threads (default :func:`cpu_threads`).  Taichi's own probing
-    warnings for a missing GPU are held back (the caller reports the fallback)."""
+    warnings for a missing GPU are held back (the caller reports the fallback).
+    On the CPU Taichi's own IR optimizations are off unless :func:`ir_optimization`."""
     import contextlib
     import io
     frontend.speed_up()
     level = ti.WARN if arch == "cpu" else ti.ERROR
     with contextlib.redirect_stdout(io.StringIO()) if quiet else contextlib.nullcontext():
         ti.init(arch=getattr(ti, ARCHS[arch]), default_fp=ti.f64, default_ip=ti.i32, offline_cache=True,
-                offline_cache_file_path=kernel_cache_dir(), log_level=level, cpu_max_num_threads=threads or cpu_threads())
+                offline_cache_file_path=kernel_cache_dir(), log_level=level, cpu_max_num_threads=threads or cpu_threads(),
+                advanced_optimization=arch != "cpu" or ir_optimization())
     if level != ti.WARN:
         ti.set_logging_level(ti.WARN)
     used = ti.lang.impl.current_cfg().arch
     return next((name for name, a in ARCHS.items() if getattr(ti, a) == used), "cpu")
+
+
+def ir_optimization() -> bool:
+    """Whether Taichi's own IR optimizations (``advanced_optimization``) run on the CPU:
+    only with $TAICHI_SHELL_MPM_IR_OPTIMIZATION=1 [choice, issue 29 session 3; measured in
+    docs/performance.md "Cold compile"].  They took two thirds of a cold compile (the tube
+    87 s -> 29 s, the cantilever 61 s -> 17 s) and LLVM's -O3, which runs either way, makes
+    the step as fast without them on the tube (B/A 1.02 plain, 0.98 with selective mass
+    scaling; within noise).  GPU backends always run them (not measured there)."""
+    return os.environ.get("TAICHI_SHELL_MPM_IR_OPTIMIZATION", "") == "1"
 
 
 def kernel_cache_base() -> Path:
@@ -145,12 +157,13 @@ def kernel_cache_dir() -> str:
     structure and id but not by their place in the tree; a kernel cached by another build
     whose tree puts another field at that SNode id would be loaded and address the wrong
     memory (seen: a segmentation fault).  Within one build every run builds the same tree
-    (state.py), so the folder is shared by all runs of the build."""
+    (state.py), so the folder is shared by all runs of the build; runs with Taichi's IR
+    optimizations (:func:`ir_optimization`) have a folder of their own ("-ir")."""
     import hashlib
     digest = hashlib.sha256()
     for path in sorted(Path(__file__).parent.rglob("*.py")):
         digest.update(path.read_bytes())
-    return str(kernel_cache_base() / digest.hexdigest()[:16])
+    return str(kernel_cache_base() / (digest.hexdigest()[:16] + ("-ir" if ir_optimization() else "")))
 
 
 def prepare(scene: Scene, model: Model, launch: str) -> tuple[Features, State, Stepper]:
