@@ -176,6 +176,7 @@ def summary_rows(summary: dict) -> list[tuple[str, str]]:
         rows.append(("eroded elements", f"{summary['erosion']['eroded_elements']}"))
     if "mass_scaling" in summary:
         ms = summary["mass_scaling"]
+        rows.append(("target step", f"{_num(ms['target_dt'])}" + (' ("auto")' if ms.get("target_dt_auto") else "")))
         if "solve" in ms:
             rows.append(("selective mass scaling", f"{ms['scaled_elements']} elements, deformation modes +"
                                                    f"{ms['deformation_mass_percent']:.3g} % of the shell's mass, "

@@ -590,8 +590,10 @@ class Solve:
     matrix that is zero on rigid translations (Olovsson et al. 2005; fem mode;
     stages/selective_mass.py); ``conventional`` raises those elements' densities
     (LS-DYNA DT2MS < 0; what ``selective`` meant before issue 29)."""
-    target_dt: float = 0.0
-    """mass scaling: the step every element is given at least (after dt_safety)."""
+    target_dt: float | Literal["auto"] = 0.0
+    """mass scaling: the step every element is given at least (after dt_safety); ``"auto"``:
+    AUTO_TARGET_FACTOR (10) times the smallest element's own stable step at the start (the
+    peers' usual ratio; docs/mass_scaling.md)."""
     added_mass_limit: float = 5.0
     """conventional mass scaling: the run stops once the added mass exceeds this percentage
     of the shell's physical mass (0: no limit)."""
@@ -885,6 +887,13 @@ _fraction = _number(0, 1, lo_open=True)        # (0, 1]
 _unit_interval = _number(0, 1)                  # [0, 1]
 
 
+def _target_dt(value: Any) -> float | str:
+    """A step > 0, or "auto" (mass scaling's target step)."""
+    if value == "auto" or (_is_number(value) and value > 0):
+        return value if isinstance(value, str) else float(value)
+    raise _Invalid(f'expected a number > 0 or "auto", got {_show(value)}')
+
+
 def _nonzero(value: Any) -> float:
     if _is_number(value) and value != 0:
         return float(value)
@@ -1173,7 +1182,7 @@ _SOLVE = {"kind": _choice("static", "dynamic"), "load_steps": _int(1),
           "dt_rule": _choice("both", "shell"), "rotary_inertia": _choice("scaled", "physical"),
           "relaxation": _choice("fire", "kinetic"),
           "mass_scaling": _choice("auto", "uniform_dt", "selective", "conventional", "none"),
-          "target_dt": _positive, "added_mass_limit": _non_negative,
+          "target_dt": _target_dt, "added_mass_limit": _non_negative,
           "sms_tolerance": _number(0, 0.1, lo_open=True), "sms_max_iterations": _int(1),
           "progress_every": _non_negative, "solver": _choice("relaxation", "newton"),
           "control": _choice("load", "displacement", "arc_length"), "control_dof": _choice(*DOFS),

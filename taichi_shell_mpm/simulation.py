@@ -702,6 +702,7 @@ class Simulation:
         the added mass's kinetic energy now and its solve's iterations)."""
         scaled = deformation_mass(self.state, self.model)
         out = {"kind": self.scene.solve.mass_scaling, "target_dt": self.model.parameters.target_dt,
+               "target_dt_auto": self.scene.solve.target_dt == "auto",
                "added_mass": float(added_mass(self.state, self.model).sum()),
                "added_mass_percent": 100.0 * self.added_mass_fraction(), "scaled_elements": int((scaled > 0.0).sum())}
         if not self.cfg.selective_mass:

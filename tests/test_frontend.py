@@ -104,3 +104,14 @@ def test_offline_cache_key_is_the_same_with_and_without_the_patch(tmp_path):
     assert f"patched {tuple(ti.__version__) == frontend.TESTED_WITH}" in with_patch and "patched False" in without
     assert len(keys) == 1 and keys == keys_without
     assert keys_changed and keys_changed != keys
+
+
+def test_ir_optimization_runs_have_a_kernel_cache_of_their_own(monkeypatch):
+    """$TAICHI_SHELL_MPM_IR_OPTIMIZATION=1 turns Taichi's IR optimizations back on for the CPU
+    (docs/performance.md "Cold compile"); their kernels are cached beside, not over, the others."""
+    from taichi_shell_mpm.simulation import ir_optimization, kernel_cache_dir
+    monkeypatch.delenv("TAICHI_SHELL_MPM_IR_OPTIMIZATION", raising=False)
+    plain = kernel_cache_dir()
+    assert not ir_optimization() and not plain.endswith("-ir")
+    monkeypatch.setenv("TAICHI_SHELL_MPM_IR_OPTIMIZATION", "1")
+    assert ir_optimization() and kernel_cache_dir() == plain + "-ir"

@@ -1024,7 +1024,8 @@ def test_every_scene_key_is_documented(scene_dir, monkeypatch):
     ({}, {"target_dt": 1e-4, "added_mass_limit": 2.0},
      ['[solve].target_dt: only with mass_scaling = "selective" or "conventional"',
       '[solve].added_mass_limit: only with mass_scaling = "conventional"']),
-    ({}, {"mass_scaling": "conventional", "target_dt": -1.0}, ["[solve].target_dt: expected a number > 0, got -1.0"]),
+    ({}, {"mass_scaling": "conventional", "target_dt": -1.0},
+     ['[solve].target_dt: expected a number > 0 or "auto", got -1.0']),
     ({}, {"mass_scaling": "conventional", "target_dt": 1e-4, "added_mass_limit": -5.0},
      ["[solve].added_mass_limit: expected a number >= 0, got -5.0"]),
     ({}, {"mass_scaling": "selective", "target_dt": 1e-4},
@@ -1052,12 +1053,15 @@ def test_erosion_and_mass_scaling_parse(scene_dir):
     del raw["solve"]["added_mass_limit"]
     s = parse_scene(raw, scene_dir / "case.toml").solve
     assert (s.mass_scaling, s.target_dt, s.sms_tolerance, s.sms_max_iterations) == ("selective", 2e-4, 1e-4, 50)
+    raw["solve"]["target_dt"] = "auto"
+    assert parse_scene(raw, scene_dir / "case.toml").solve.target_dt == "auto"
 
 
 @pytest.mark.parametrize("solve, expected", [
     ({"mass_scaling": "selective"}, ['[solve].target_dt: missing required key for mass_scaling = "selective"']),
-    ({"mass_scaling": "selective", "target_dt": 0.0}, ["[solve].target_dt: expected a number > 0, got 0.0"]),
-    ({"mass_scaling": "selective", "target_dt": "auto"}, ["[solve].target_dt: expected a number > 0, got 'auto'"]),
+    ({"mass_scaling": "selective", "target_dt": 0.0}, ['[solve].target_dt: expected a number > 0 or "auto", got 0.0']),
+    ({"mass_scaling": "selective", "target_dt": "automatic"},
+     ['[solve].target_dt: expected a number > 0 or "auto", got \'automatic\'']),
     ({"mass_scaling": "selective", "target_dt": 1e-4, "added_mass_limit": 5.0},
      ['[solve].added_mass_limit: only with mass_scaling = "conventional"']),
     ({"mass_scaling": "selective", "target_dt": 1e-4, "sms_tolerance": 0.5},

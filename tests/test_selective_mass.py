@@ -174,6 +174,20 @@ def test_strip_lowest_bending_frequency_within_one_percent_at_ten_times_the_step
     assert abs(period1 / period0 - 1.0) < 0.0085     # measured +0.566 % (the issue's target: 1 %)
 
 
+def test_auto_target_step_is_ten_times_the_smallest_element_step(tmp_path):
+    """target_dt = "auto": 10 x the strip's element step 0.9 (h / sqrt 2) / c (closed form),
+    reported in summary.json and the run's summary; the run takes that step (plus the steps
+    shortened to land on the history's 10 times)."""
+    end, auto = 0.0075, 10.0 * DT_E / 2.0
+    r, summary, _ = strip_run(tmp_path, "auto", 'mass_scaling = "selective"\ntarget_dt = "auto"', end)
+    assert r.code == 0, r.err
+    ms = summary["mass_scaling"]
+    print(f"\nauto target step {ms['target_dt']:.9g} s (closed form {auto:.9g} s), {summary['steps']} steps")
+    assert ms["target_dt_auto"] is True
+    assert ms["target_dt"] == pytest.approx(auto, rel=1e-12)
+    assert math.ceil(end / auto) <= summary["steps"] <= math.ceil(end / auto) + 10
+
+
 def test_solve_not_converged_stops_the_run_naming_the_step(tmp_path):
     r, _, _ = strip_run(tmp_path, "guard", f'mass_scaling = "selective"\ntarget_dt = {STRIP_TARGET}', 0.0075, "--set", "solve.sms_max_iterations=1",
                         "--set", "solve.sms_tolerance=1e-9")
