@@ -248,7 +248,7 @@ class Simulation:
         self.state.put("nodes.omega", w)
         dt = initial_dt(self.model, self.model.velocity0, self.cfg)
         st = self.state.step
-        for f in (st.dt, st.dt_stable, st.dt_first):
+        for f in (st.dt, st.dt_stable, st.dt_first, st.dt_last):
             f[None] = dt
         st.dt_next[None] = DT_UNSET
 
