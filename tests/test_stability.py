@@ -73,8 +73,6 @@ def land_on_output_times(sim, steps: int, every: float) -> None:
         if s.step.dt[None] <= 0.0 or s.step.time_limit[None] - s.step.time[None] > 1.5 * every * s.step.dt_stable[None]:
             s.step.time_limit[None] = s.step.time[None] + every * s.step.dt_stable[None]
             s.step.dt[None] = landing_step(s.step.time_limit[None] - s.step.time[None], s.step.dt_stable[None])
-            if not sim.cfg.selective_mass:      # the kick is dt itself (stages/timestep.impulse_time)
-                s.step.dt_last[None] = s.step.dt[None]
         done += sim.stepper.advance(steps - done)
         sim.check_status()
 

@@ -42,8 +42,6 @@ def run_dynamic(sim: Simulation, control: RunControl | None = None) -> dict:
             if not started:
                 s.time_limit[None] = target
                 s.dt[None] = landing_step(target - s.time[None], s.dt_stable[None])
-                if not sim.cfg.selective_mass:      # the kick is dt itself (stages/timestep.impulse_time)
-                    s.dt_last[None] = s.dt[None]
                 started = True
             while s.dt[None] > 0.0:
                 sim.total_steps += stepper.advance(chunk)

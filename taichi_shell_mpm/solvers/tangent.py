@@ -115,7 +115,6 @@ class IncrementalForces:
         self.v = State(vmodel, self.cfg)
         self.v.load(vmodel)
         self.v.step.dt[None] = 1.0                  # v = du, omega = dtheta: one update of dt = 1
-        self.v.step.dt_last[None] = 1.0
         self.shell = ShellElement(self.v, self.cfg, EnergyLedger(self.v, self.cfg, self.cfg.plastic))
         self.plastic = self.cfg.plastic
         self.drilling = self.cfg.drilling_spring

@@ -114,9 +114,11 @@ def approach_step(stiffness):
 
 @ti.func
 def impulse_time(step: ti.template()):
-    """dt of the velocity kick v^(n+1/2) = v^(n-1/2) + dt a^n: (dt^(n-1/2) + dt^(n+1/2)) / 2
-    (step.dt_last, step.dt), halved on a restart from rest.  dt_last is dt itself except
-    under selective mass scaling (TimeStep.next_step), so elsewhere the kick is dt^(n+1/2):
+    """dt of the velocity kick v^(n+1/2) = v^(n-1/2) + dt a^n, halved on a restart from rest:
+    dt^(n+1/2) (step.dt), or under selective mass scaling (step.kick_average = 1, set by
+    Simulation) (dt^(n-1/2) + dt^(n+1/2)) / 2 with step.dt_last; with kick_average = 0 the
+    kick is dt exactly whatever dt_last holds (so a host that sets dt alone changes nothing).
+    Elsewhere the kick is dt^(n+1/2):
     the equal landing steps (next_step) keep dt constant between outputs, so the two agree
     wherever outputs are dense, and the average was tried (issue 4) and dropped: where dt
     shrinks fast (an element collapsing) its longer kick let a node run away before the
@@ -126,7 +128,7 @@ def impulse_time(step: ti.template()):
     one-sided kick lost it: the matrix's sheet with self-contact at 10x its step, balance
     -0.128 J of 0.90 J (51 steps); with the average -0.0083 J (0.0087 J without contact
     at its constant step)."""
-    return step.restart_factor[None] * 0.5 * (step.dt_last[None] + step.dt[None])
+    return step.restart_factor[None] * (step.dt[None] + step.kick_average[None] * 0.5 * (step.dt_last[None] - step.dt[None]))
 
 
 @ti.data_oriented
@@ -165,7 +167,7 @@ class TimeStep:
         remaining = self.s.step.time_limit[None] - self.s.step.time[None]
         if remaining < LANDING_STEPS * dt:   # equal steps that land on the output time
             dt = remaining / ti.ceil(remaining / dt - 1e-9) if remaining > 1e-9 * dt else 0.0
-        self.s.step.dt_last[None] = self.s.step.dt[None] if ti.static(self.cfg.selective_mass) else dt
+        self.s.step.dt_last[None] = self.s.step.dt[None]
         self.s.step.dt[None] = dt
         self.s.step.dt_next[None] = DT_UNSET
 
