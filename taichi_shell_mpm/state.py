@@ -312,7 +312,8 @@ class State:
 
         # --- the scalars of the step and its run-time parameters
         g = self.step = Group("step")
-        for name, dtype in (("dt", f64), ("dt_next", f64), ("dt_first", f64), ("dt_last", f64), ("kick_average", f64), ("dt_stable", f64), ("time", f64),
+        for name, dtype in (("dt", f64), ("dt_next", f64), ("dt_first", f64), ("dt_last", f64),
+                            ("kick_average", f64), ("dt_stable", f64), ("time", f64),
                             ("step", ti.i64), ("load_factor", f64), ("restart_factor", f64),
                             ("velocity_keep", f64), ("fire_mix", f64), ("fire_alpha", f64), ("fire_uphill", i32),
                             ("fire_power", f64), ("fire_speed_sq", f64), ("fire_force_sq", f64),

@@ -118,9 +118,9 @@ def impulse_time(step: ti.template()):
     dt^(n+1/2) (step.dt), or under selective mass scaling (step.kick_average = 1, set by
     Simulation) (dt^(n-1/2) + dt^(n+1/2)) / 2 with step.dt_last; with kick_average = 0 the
     kick is dt exactly whatever dt_last holds (so a host that sets dt alone changes nothing).
-    Elsewhere the kick is dt^(n+1/2):
-    the equal landing steps (next_step) keep dt constant between outputs, so the two agree
-    wherever outputs are dense, and the average was tried (issue 4) and dropped: where dt
+    Outside selective scaling the kick stays dt^(n+1/2): the equal landing steps (next_step)
+    keep dt constant between outputs, so the two agree wherever outputs are dense, and the
+    average was tried (issue 4) and dropped: where dt
     shrinks fast (an element collapsing) its longer kick let a node run away before the
     time-step guard fired (tests/test_reliability.py, dt_collapse).  Under selective mass
     scaling [choice, issue 29, docs/mass_scaling.md] the deformation modes carry most of the
