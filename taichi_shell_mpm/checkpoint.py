@@ -177,6 +177,7 @@ def save_checkpoint(sim, position: dict, path: Path | None = None) -> Path:
     arrays["history.energy"] = _rows(h.energy_rows, len(h.energy_rows[0]) if h.energy_rows else 0)
     arrays["history.force"] = _rows(h.force_rows, len(h.force_rows[0]) if h.force_rows else 0)
     arrays["history.parts"] = _rows(h.part_rows, len(h.part_rows[0]) if h.part_rows else 0)
+    arrays.update({f"driver.{name}": a for name, a in sim.driver_arrays.items()})
     meta = {
         "version": FORMAT_VERSION,
         "scene_hash": scene_hash(sim.scene, sim.model.points, sim.model.elements),
@@ -305,6 +306,7 @@ def restore_checkpoint(sim, ckpt: Checkpoint) -> list[str]:
     sim.overflow_warned = bool(m["overflow_warned"])
     sim.balance_warned = bool(m["balance_warned"])     # warned once per run, not per session
     sim.driver_data = m["driver"]
+    sim.driver_arrays = {k[len("driver."):]: a for k, a in ckpt.arrays.items() if k.startswith("driver.")}
     entries = [(float(k), str(f)) for k, f in m["frames"]]
     source = ckpt.path.parent
     if entries and source.resolve() != sim.out_dir.resolve():      # continuing into another directory

@@ -199,6 +199,7 @@ class Simulation:
         launch = choose_launch(arch, len(self.model.elements), scene.solve.kind == "static")
         self.cfg, self.state, self.stepper = prepare(scene, self.model, launch)
         self.driver_data: dict = {}          # driver counters (and the last rotations read) kept in checkpoints
+        self.driver_arrays: dict[str, np.ndarray] = {}   # the driver's arrays kept in checkpoints
         self._initial_geometry()
         t0, cpu0 = time.perf_counter(), time.process_time()
         self._compile()

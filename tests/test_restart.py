@@ -135,6 +135,12 @@ def test_static_restart_is_bit_for_bit(tmp_path, monkeypatch):
     stopped, periodic = restart_roundtrip(tmp_path, monkeypatch, CANTILEVER, stop_step=7000, every=5000,
                                           batch_element_steps=8000)
     assert stopped["started"] and 0 < stopped["steps"]
+    # a level resumed half done measures its increment from the last converged level, not from
+    # where it stopped: no false "jumped to a remote branch" warning (issue 28 item 12)
+    warnings = {d: json.loads((tmp_path / d / "summary.json").read_text())["warnings"] for d in "acd"}
+    print(warnings)
+    assert warnings["c"] == warnings["a"] == warnings["d"]
+    assert not any("jumped" in w for w in warnings["c"])
 
 
 def test_dynamic_restart_is_bit_for_bit(tmp_path, monkeypatch):

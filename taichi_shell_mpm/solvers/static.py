@@ -99,7 +99,12 @@ def run_static(sim: Simulation, control: RunControl | None = None) -> dict:
     control.start(sim)
     jumps = JumpMonitor(sim.warn)            # a jump to a remote branch between two levels (issue 19)
     jumps.replay(sim.driver_data.get("level_increments", []))
-    previous = sim.state.fetch("nodes.position")
+    # the positions of the last converged level: a restart in the middle of a level measures
+    # that level's increment from them, not from where it stopped (a false jump otherwise)
+    previous = sim.driver_arrays.get("level_start")
+    if previous is None or not started:
+        previous = sim.state.fetch("nodes.position")
+    sim.driver_arrays["level_start"] = previous
     reporter = sim.reporter
     reporter.start(int(s.step[None]), (j - 1) / n_levels)
     try:
@@ -142,7 +147,7 @@ def run_static(sim: Simulation, control: RunControl | None = None) -> dict:
             sim.record(lam, frame=scene.output.load_steps)
             position = sim.state.fetch("nodes.position")
             size = float(np.linalg.norm(position - previous))
-            previous = position
+            previous = sim.driver_arrays["level_start"] = position
             jumps.add(lam, size)
             sim.driver_data.setdefault("level_increments", []).append((lam, size))
             e = sim.energies()
