@@ -153,8 +153,8 @@ class Group(SimpleNamespace):
 
     def table(self, name: str, field, shape: tuple, size: int | None = None, persistent: bool = True,
               used: bool = True):
-        """(``used`` False: not read, written or checkpointed by the host.)"""
-        """Place a small dense table of fixed `shape` (0-d when shape is ())."""
+        """Place a small dense table of fixed `shape` (0-d when shape is ()); ``used`` False:
+        not read, written or checkpointed by the host."""
         if shape:
             self._builder.dense(ti.i if len(shape) == 1 else ti.ij, shape).place(field)
         else:

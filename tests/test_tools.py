@@ -606,6 +606,46 @@ def test_mesh_punch_faster_than_its_reach_per_step_does_not_pass_through(tmp_pat
     assert under.sum() >= 9 and depth < 0.7 * T
 
 
+def icosahedron_surface(folder: Path, radius: float = 0.06, name: str = "ico.obj") -> Path:
+    """A regular icosahedron (20 triangles, normals outward) of circumradius `radius`."""
+    p = (1.0 + 5.0 ** 0.5) / 2.0
+    v = np.array([[-1, p, 0], [1, p, 0], [-1, -p, 0], [1, -p, 0], [0, -1, p], [0, 1, p], [0, -1, -p], [0, 1, -p],
+                  [p, 0, -1], [p, 0, 1], [-p, 0, -1], [-p, 0, 1]], float)
+    v *= radius / np.linalg.norm(v[0])
+    tris = np.array([[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4],
+                     [11, 10, 2], [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8], [3, 8, 9],
+                     [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1]])
+    path = folder / name
+    meshio.write(path, meshio.Mesh(v, [("triangle", tris)]))
+    return path
+
+
+def test_a_new_tool_mesh_compiles_nothing_new(tmp_path):
+    """Tool geometry is run-time data (issue 28 item 13; shared/design/compile_once.md): a
+    scene whose mesh tool reads another surface (the cube's 12 triangles, then an
+    icosahedron's 20, other buckets, another size) runs on the kernels the first one cached --
+    no file is added to the offline kernel cache.  The triangle and bucket fields are sized in
+    power-of-4 classes (state.capacity, at least 16 384 entries), so this holds for any surface
+    up to 16 384 triangles; a larger one compiles once per class."""
+    from taichi_shell_mpm.simulation import kernel_cache_dir
+
+    def run(surface: str, name: str) -> set[str]:
+        tools = {"punch": f'kind = "mesh"\nfile = "{surface}"\ncenter = [0, 0, 0.06]\nvelocity = [0, 0, -1]'}
+        text = scene_text(tools, end_time=2e-5).replace(f'[[tool]]\nname = "far_mesh"\n{DUMMIES["mesh"]}\n', "")
+        text = text.replace('[[tool]]\nname = "punch"', '[[tool]]\nname = "punch"\ncurve = "ramp"')
+        run_cli(tmp_path / name, text, name)
+        init_taichi("cpu", quiet=True)            # Taichi writes the offline cache when it is reset
+        return {f.name for f in Path(kernel_cache_dir()).glob("*.tic")}
+
+    for name in ("cube", "ico"):
+        (tmp_path / name).mkdir(parents=True)
+    icosahedron_surface(tmp_path / "ico")
+    before = run("cube.obj", "cube")
+    after = run("ico.obj", "ico")
+    print(f"\n{len(before)} cached kernels after the cube's run; {len(after - before)} added by the icosahedron's")
+    assert before and after == before
+
+
 # ------------------------------------------------------------------ input errors
 @pytest.mark.parametrize("body, message", [
     ('kind = "torus"', "kind: expected one of"),
