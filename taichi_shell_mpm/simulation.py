@@ -251,7 +251,6 @@ class Simulation:
         st = self.state.step
         for f in (st.dt, st.dt_stable, st.dt_first, st.dt_last):
             f[None] = dt
-        st.kick_average[None] = 1.0 if self.cfg.selective_mass else 0.0     # stages/timestep.impulse_time
         st.dt_next[None] = DT_UNSET
 
     # ------------------------------------------------------------------ measurements

@@ -313,7 +313,7 @@ class State:
         # --- the scalars of the step and its run-time parameters
         g = self.step = Group("step")
         for name, dtype in (("dt", f64), ("dt_next", f64), ("dt_first", f64), ("dt_last", f64),
-                            ("kick_average", f64), ("dt_stable", f64), ("time", f64),
+                            ("dt_stable", f64), ("time", f64),
                             ("step", ti.i64), ("load_factor", f64), ("restart_factor", f64),
                             ("velocity_keep", f64), ("fire_mix", f64), ("fire_alpha", f64), ("fire_uphill", i32),
                             ("fire_power", f64), ("fire_speed_sq", f64), ("fire_force_sq", f64),
@@ -331,8 +331,10 @@ class State:
                             ("sms_tolerance", f64), ("sms_max_iterations", i32), ("sms_iterations", ti.i64),
                             ("sms_iterations_max", i32), ("sms_solves", ti.i64)):
             g.table(name, ti.field(dtype), ())
-        # dt_last: the last step's dt; kick_average: 1 under selective mass scaling (the kick
-        # is then the average of dt_last and dt, stages/timestep.impulse_time), else 0;
+        # compiled in, not a field: the kick is the average of dt_last and dt under selective
+        # mass scaling (stages/timestep.impulse_time)
+        g.averaged_kick = fx.selective_mass
+        # dt_last: the last step's dt;
         # restart_factor: 0.5 on a central-difference restart from rest, else 1; velocity_keep:
         # 0 right after a kinetic-damping reset, else 1; fire_*: FIRE state and scratch
         # (solvers/stepper.py); time_limit: advance() stops there exactly; kinetic...:

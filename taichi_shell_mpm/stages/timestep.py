@@ -115,20 +115,21 @@ def approach_step(stiffness):
 @ti.func
 def impulse_time(step: ti.template()):
     """dt of the velocity kick v^(n+1/2) = v^(n-1/2) + dt a^n, halved on a restart from rest:
-    dt^(n+1/2) (step.dt), or under selective mass scaling (step.kick_average = 1, set by
-    Simulation) (dt^(n-1/2) + dt^(n+1/2)) / 2 with step.dt_last; with kick_average = 0 the
-    kick is dt exactly whatever dt_last holds (so a host that sets dt alone changes nothing).
+    dt^(n+1/2) (step.dt), or under selective mass scaling (step.averaged_kick, compiled in from
+    the features by state.py) (dt^(n-1/2) + dt^(n+1/2)) / 2 with step.dt_last.
     Outside selective scaling the kick stays dt^(n+1/2): the equal landing steps (next_step)
     keep dt constant between outputs, so the two agree wherever outputs are dense, and the
-    average was tried (issue 4) and dropped: where dt
-    shrinks fast (an element collapsing) its longer kick let a node run away before the
-    time-step guard fired (tests/test_reliability.py, dt_collapse).  Under selective mass
-    scaling [choice, issue 29, docs/mass_scaling.md] the deformation modes carry most of the
-    kinetic energy (T_add), and a step that varies (set by contact or a tool) with the
-    one-sided kick lost it: the matrix's sheet with self-contact at 10x its step, balance
-    -0.128 J of 0.90 J (51 steps); with the average -0.0083 J (0.0087 J without contact
-    at its constant step)."""
-    return step.restart_factor[None] * (step.dt[None] + step.kick_average[None] * 0.5 * (step.dt_last[None] - step.dt[None]))
+    average was tried (issue 4) and dropped: where dt shrinks fast (an element collapsing) its
+    longer kick let a node run away before the time-step guard fired
+    (tests/test_reliability.py, dt_collapse).  Under selective mass scaling [choice, issue 29,
+    docs/mass_scaling.md] the deformation modes carry most of the kinetic energy (T_add), and a
+    step that varies (set by contact or a tool) with the one-sided kick lost it: the matrix's
+    sheet with self-contact at 10x its step, balance -0.128 J of 0.90 J (51 steps); with the
+    average -0.0083 J (0.0087 J without contact at its constant step)."""
+    kick = step.dt[None]
+    if ti.static(step.averaged_kick):
+        kick += 0.5 * (step.dt_last[None] - step.dt[None])
+    return step.restart_factor[None] * kick
 
 
 @ti.data_oriented
