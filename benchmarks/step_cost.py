@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import statistics
 import subprocess
 import sys
@@ -36,8 +37,8 @@ CASES = {
 
 
 def run(tree: Path, scene: str, overrides: list[str], out: Path) -> dict:
-    cmd = [sys.executable, "-m", "taichi_shell_mpm", "run", str(tree / scene), "--out", str(out), "--quiet",
-           "--overwrite"]
+    shutil.rmtree(out, ignore_errors=True)      # (not --overwrite: older trees lack it)
+    cmd = [sys.executable, "-m", "taichi_shell_mpm", "run", str(tree / scene), "--out", str(out), "--quiet"]
     for item in overrides:
         cmd += ["--set", item]
     env = dict(os.environ, PYTHONPATH=str(tree))
