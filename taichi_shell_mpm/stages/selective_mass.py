@@ -113,6 +113,20 @@ class SelectiveMass:
         return self.masses.unit_kinetic(e, v, w, 4)
 
     @ti.func
+    def corner_mean(self, e, field: ti.template()):
+        """Element e's mass sum_a m_a and the mass-weighted mean of a node field over its
+        corners, sum_a m_a field_a / sum_a m_a (m_a its shares)."""
+        c = self.s.elements.corners[e]
+        m = self.s.elements.corner_mass[e]
+        mass = 0.0
+        total = zero3()
+        for a in ti.static(range(4)):
+            if c[a] >= 0:
+                mass += m[a]
+                total += m[a] * field[c[a]]
+        return mass, total / mass
+
+    @ti.func
     def geometry(self):
         """At the start of the step: each live element's r_a, J_e^-1, n_e and rho_e^2 at x^n,
         and the change of T_add this brings at the present velocities, booked as
@@ -123,13 +137,7 @@ class SelectiveMass:
                 before = b * self.node_kinetic(e)
                 c = self.s.elements.corners[e]
                 m = self.s.elements.corner_mass[e]
-                mass = 0.0
-                centre = zero3()
-                for a in ti.static(range(4)):
-                    if c[a] >= 0:
-                        mass += m[a]
-                        centre += m[a] * self.s.nodes.position[c[a]]
-                centre /= mass
+                mass, centre = self.corner_mean(e, self.s.nodes.position)
                 inertia = ti.Matrix.zero(ti.f64, 3, 3)
                 spread = 0.0
                 for a in ti.static(range(4)):
@@ -169,14 +177,11 @@ class SelectiveMass:
             if self.beta(e) > 0.0:
                 c = self.s.elements.corners[e]
                 m = self.s.elements.corner_mass[e]
-                mass = 0.0
+                _, mean = self.corner_mean(e, p)
                 h = zero3()
                 for a in ti.static(range(4)):
                     if c[a] >= 0:
-                        mass += m[a]
-                        mean += m[a] * p[c[a]]
                         h += m[a] * self.s.elements.sms_arm[e, a].cross(p[c[a]])
-                mean /= mass
                 spin = self.s.elements.sms_inverse_inertia[e] @ h
                 g = zero3()
                 for a in ti.static(range(4)):
