@@ -6,7 +6,8 @@
 
 Restores the checkpoint (the scene and --set items must be those of the run), times
 ``Stepper.advance`` over --steps steps, then each stage alone in a kernel of its own
-(element pass; P2G + G2P with the node update + grid clear; contact), in µs per
+(the quads' update alone; the element pass with the corner loads' gather; the velocity
+update: bodies, P2G + G2P + grid clear or the FE node update; contact), in µs per
 element-step on the launch the run would use.  The stage kernels keep stepping the
 restored state, so only their times mean anything.
 """
@@ -36,34 +37,37 @@ def main() -> int:
     sim = Simulation(scene, a.checkpoint, "cpu", quiet=True, mesh=mesh, model=model)
     restore_checkpoint(sim, load_checkpoint(a.checkpoint))
     s, st = sim.state, sim.stepper
-    s.time_limit[None] = 1e300
-    s.dt[None] = s.dt_stable[None]
+    step = s.step
+    step.time_limit[None] = 1e300
+    step.dt[None] = step.dt_stable[None]
     n = s.n_elements
 
     @ti.kernel
     def element():
-        for e in range(s.n_elements):
+        for e in range(s.elements.count[None]):
             st.shell.update(e)
 
     @ti.kernel
-    def mapping():
-        st.mapping.particles_to_grid()
-        st.mapping.grid_to_particles()
-        st.mapping.clear_grid()
+    def element_pass():
+        st.shell.element_pass()
+
+    @ti.kernel
+    def velocity_update():
+        st.velocity_update()
 
     @ti.kernel
     def contact():
         st.contact.forces()
 
-    print(f"t = {s.time[None]:.4g}, step {s.step[None]}, {n} elements, {sim.cfg.launch} launch")
+    pairs = (lambda: s.contact.pairs[None]) if st.contact is not None else (lambda: 0)
+    print(f"t = {step.time[None]:.4g}, step {step.step[None]}, {n} elements, {sim.cfg.launch} launch")
     t0 = time.perf_counter()
     done = st.advance(a.steps)
     ti.sync()
-    print(f"{'step (advance)':16s} {1e6 * (time.perf_counter() - t0) / (done * n):.3f} us/element-step "
-          f"({s.contact_pairs[None]} contact pairs)")
-    stages = [("element", element)]
-    if sim.cfg.method == "mpm":
-        stages.append(("mapping + node", mapping))
+    print(f"{'step (advance)':24s} {1e6 * (time.perf_counter() - t0) / (done * n):.3f} us/element-step "
+          f"({pairs()} contact pairs)")
+    stages = [("element (update only)", element), ("element pass (+ gather)", element_pass),
+              ("velocity update", velocity_update)]
     if st.contact is not None:
         stages.append(("contact", contact))
     for name, kernel in stages:
@@ -73,7 +77,7 @@ def main() -> int:
         for _ in range(a.steps):
             kernel()
         ti.sync()
-        print(f"{name:16s} {1e6 * (time.perf_counter() - t0) / (a.steps * n):.3f} us/element-step", flush=True)
+        print(f"{name:24s} {1e6 * (time.perf_counter() - t0) / (a.steps * n):.3f} us/element-step", flush=True)
     return 0
 
 
