@@ -42,6 +42,7 @@ import taichi as ti
 
 from ..energy import ELEMENT_PARTS, EnergyLedger
 from ..simulation import THREADS_MIN_ELEMENTS, cpu_threads
+from ..stages.rotation import quaternion_exp, quaternion_product
 from ..stages.shell import ShellElement
 from ..state import STATUS_OK, State
 
@@ -253,18 +254,8 @@ class IncrementalForces:
             self.main.nodes.grid_velocity[c] = ti.Vector([0.0, 0.0, 0.0])
             self.main.nodes.velocity[c] = ti.Vector([0.0, 0.0, 0.0])
             self.main.nodes.omega[c] = ti.Vector([0.0, 0.0, 0.0])
-            angle = theta.norm()
-            s = 0.5
-            if angle > 1e-12:
-                s = ti.sin(0.5 * angle) / angle
-            p = s * theta                       # q_inc = (cos(angle/2), sin(angle/2) theta/angle)
-            w = ti.cos(0.5 * angle)
-            q = self.main.nodes.rotation[c]
-            self.main.nodes.rotation[c] = ti.Vector([
-                w * q[0] - p[0] * q[1] - p[1] * q[2] - p[2] * q[3],
-                w * q[1] + p[0] * q[0] + p[1] * q[3] - p[2] * q[2],
-                w * q[2] - p[0] * q[3] + p[1] * q[0] + p[2] * q[1],
-                w * q[3] + p[0] * q[2] - p[1] * q[1] + p[2] * q[0]]).normalized()
+            self.main.nodes.rotation[c] = quaternion_product(quaternion_exp(theta),
+                                                             self.main.nodes.rotation[c]).normalized()
 
     @ti.func
     def _totals(self, internal: ti.template(), lam, iterations):

@@ -60,39 +60,11 @@ import taichi as ti
 from ..state import ROTATION_CONSTRAINED, ROTATION_FREE, ROTATION_HELD, STATUS_BODY_ROTATION, STATUS_OK
 from .accumulate import Accumulator
 from .motion import ACCELERATION, DISPLACEMENT
+from .rotation import quaternion_exp, quaternion_matrix, quaternion_product
 from .timestep import MAX_TURN, impulse_time
 
 SIMO_WONG_ITERATIONS = 50      # fixed-point iterations at most (a few at dt |omega| << 1)
 SIMO_WONG_TOLERANCE = 1e-15    # relative change of W that ends them
-
-
-@ti.func
-def quaternion_matrix(q):
-    """R of the unit quaternion q = (w, x, y, z)."""
-    w, x, y, z = q[0], q[1], q[2], q[3]
-    return ti.Matrix([[1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)],
-                      [2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)],
-                      [2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)]])
-
-
-@ti.func
-def quaternion_product(a, b):
-    return ti.Vector([a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
-                      a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
-                      a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
-                      a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0]])
-
-
-@ti.func
-def quaternion_exp(theta):
-    """The quaternion of the rotation vector theta: (cos(phi/2), sin(phi/2) theta / phi)."""
-    phi = theta.norm()
-    s = 0.5                                   # sin(phi/2) / phi -> 1/2
-    if phi > 1e-8:
-        s = ti.sin(0.5 * phi) / phi
-    else:
-        s = 0.5 - phi * phi / 48.0
-    return ti.Vector([ti.cos(0.5 * phi), s * theta[0], s * theta[1], s * theta[2]])
 
 
 @ti.func

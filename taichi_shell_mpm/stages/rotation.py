@@ -1,4 +1,6 @@
-"""Rotation helpers shared by the quad (:mod:`.shell`) and the triangle (:mod:`.triangle`)."""
+"""Rotation helpers: the elements' frames, shared by the quad (:mod:`.shell`) and the
+triangle (:mod:`.triangle`), and the unit quaternions of the nodes' and the rigid bodies'
+orientations (:mod:`.constraints`, :mod:`.bodies`, solvers/tangent.py)."""
 
 import taichi as ti
 
@@ -33,3 +35,33 @@ def mid_step(x, v, w, dt, large: ti.template(), geometry: ti.template(), increme
     else:
         rot_m, xm, ym, third = geometry(x - (0.5 * dt) * v)
         return rot_m, xm, ym, third, v @ rot_m.transpose(), w @ rot_m.transpose()
+
+
+@ti.func
+def quaternion_matrix(q):
+    """R of the unit quaternion q = (w, x, y, z)."""
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    return ti.Matrix([[1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)],
+                      [2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)],
+                      [2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)]])
+
+
+@ti.func
+def quaternion_product(a, b):
+    """The quaternion product a b (a rotation b, then a), q = (w, x, y, z)."""
+    return ti.Vector([a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
+                      a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
+                      a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
+                      a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0]])
+
+
+@ti.func
+def quaternion_exp(theta):
+    """The quaternion of the rotation vector theta: (cos(phi/2), sin(phi/2) theta / phi)."""
+    phi = theta.norm()
+    s = 0.5                                   # sin(phi/2) / phi -> 1/2
+    if phi > 1e-8:
+        s = ti.sin(0.5 * phi) / phi
+    else:
+        s = 0.5 - phi * phi / 48.0
+    return ti.Vector([ti.cos(0.5 * phi), s * theta[0], s * theta[1], s * theta[2]])
