@@ -16,38 +16,13 @@ looked up again (a collection).  The pool holds twice the most the stencils can 
 (8 per node), so collections are rare and memory stays constant however far the shell
 travels.
 
-Measured against the dense box it replaces (a flat array over the grid box, addressed by
-strides; benchmarks/step_cost.py, one sitting each, alternated pairs on a loaded 2-core
-machine): the tube's µs per element-step median B/A 1.039, min 0.995 (3 pairs); the
-hemisphere's median 0.810 (3 pairs).  The dense box was not kept: it was not faster.
-Results are bit-for-bit those of the box (the sums per grid node keep their order).
-
-Why not Taichi's sparse SNodes [measured, issue 20]: `python benchmarks/sparse_grid.py
---rounds 3` (and `--refine 2 --rounds 2`) runs one P2G / v = p/m / G2P / clear cycle over
-the tube's nodes moving as in a crush (the rear crossing a cell every 20 steps), the hash
-as here against Taichi's sparse MPM layout (pointer over 128^3-cell blocks -> pointer ->
-dense or bitmasked B^3 cells, deactivate_all() every step), each in its own process
-(ti.cpu, f64, P2G with atomic adds in both; loaded 2-core machine, one sitting each).  µs
-per node-step, minimum wall / median CPU, and the grid's bytes:
-
-    grid                          tube, 2 928 nodes        2x finer, 11 616 nodes
-    hash (no box)                 0.210 / 0.231   3.6 MB   0.179 / 0.228  14.5 MB
-    pointer->dense 8, scene box   0.331 / 0.357   3.1 MB   0.508 / 0.672   596 MB (see below)
-    pointer->dense 4, scene box   0.402 / 0.451   2.2 MB   0.309 / 0.360   7.8 MB
-    best SNodes, box 100x / axis  0.966 / 1.532   2.7 MB   1.485 / 1.747   7.8 MB
-
-(bitmasked leaves were slower than dense: 0.50-0.64 µs in the scene box).  The hash is
-1.6-1.7x faster than the best SNode layout in the scene's box and 4.6-8.3x faster in a box
-100x larger per axis, where every struct-for's list generation and deactivate_all() scan
-the top pointer array (the box's volume / 128^3 entries) each step: for SNodes empty
-space costs time.  Memory follows the shell's area in both, except that Taichi 1.7.4's
-allocator did not reuse deactivated 8^3 blocks in the scene box at 11 616 nodes (775
-live, 38 110 allocated after 300 steps, 742 MB peak RSS).  Compile (cold, these kernels
-alone): 0.6-0.9 s against 1.2-2.4 s.  And the tree's shape enters the offline cache key
-(Taichi hashes each SNode into a kernel's key; `sparse_grid.py --cache-probe`: a tree of 3
-top blocks 7.1 s cold, 1.3 s from the cache, one of 200 top blocks 4.8 s, cold again), so
-each scene's box would be a cold compile, while the hash's storage comes in power-of-4
-size classes and its box is run-time data.  docs/performance.md has the full table.
+Measured [docs/performance.md, "The grid: hashed, against Taichi's sparse SNodes"]: as
+fast as the dense box it replaced (tube B/A 1.04 median, bit-for-bit the same results),
+1.6-1.7x faster than the best sparse-SNode layout in the scene's box and 4.6-8.3x in a box
+100x larger (their list generation and deactivate_all() scan the top pointer array, so
+empty space costs time), and a sparse tree's shape enters the offline-cache key (a cold
+compile per scene box), while the hash's storage comes in power-of-4 size classes and its
+box is run-time data.
 
 Multi-field grid ([method].fields = "multi", Bardenhagen et al. 2001; Homel & Herbold
 2017): every grid node has MAX_FIELDS velocity fields, stored field-major (field f of slot
