@@ -60,22 +60,11 @@ import taichi as ti
 from ..state import ROTATION_CONSTRAINED, ROTATION_FREE, ROTATION_HELD, STATUS_BODY_ROTATION, STATUS_OK
 from .accumulate import Accumulator
 from .motion import ACCELERATION, DISPLACEMENT
-from .rotation import quaternion_exp, quaternion_matrix, quaternion_product
+from .rotation import cayley_velocity, quaternion_exp, quaternion_matrix, quaternion_product, rotate_vector
 from .timestep import MAX_TURN, impulse_time
 
 SIMO_WONG_ITERATIONS = 50      # fixed-point iterations at most (a few at dt |omega| << 1)
 SIMO_WONG_TOLERANCE = 1e-15    # relative change of W that ends them
-
-
-@ti.func
-def rotate(theta, v):
-    """exp(theta^) v (Rodrigues)."""
-    phi = theta.norm()
-    out = v
-    if phi > 0.0:
-        k = theta / phi
-        out = v * ti.cos(phi) + k.cross(v) * ti.sin(phi) + k * (k.dot(v) * (1.0 - ti.cos(phi)))
-    return out
 
 
 @ti.func
@@ -293,7 +282,7 @@ class RigidBodies:
             w = j_inv @ pi
             converged = False
             for _ in range(SIMO_WONG_ITERATIONS):
-                w_new = j_inv @ (0.5 * (pi + rotate(-dt * w, pi)))
+                w_new = j_inv @ (0.5 * (pi + rotate_vector(-dt * w, pi)))
                 change = (w_new - w).norm()
                 w = w_new
                 if change <= SIMO_WONG_TOLERANCE * w.norm():
@@ -332,11 +321,7 @@ class RigidBodies:
     def slave_omega(self, c):
         """Rigid slave c's nodal angular velocity over the step: the Cayley vector of the
         body's step rotation (module docstring)."""
-        w = self.s.bodies.omega[self.s.nodes.body[c]]
-        half = 0.5 * self.s.step.dt[None] * w.norm()
-        if half > 1e-8:
-            w *= ti.tan(half) / half
-        return w
+        return cayley_velocity(self.s.bodies.omega[self.s.nodes.body[c]], self.s.step.dt[None])
 
     @ti.func
     def walls(self, c, v):

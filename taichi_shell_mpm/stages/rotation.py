@@ -65,3 +65,26 @@ def quaternion_exp(theta):
     else:
         s = 0.5 - phi * phi / 48.0
     return ti.Vector([ti.cos(0.5 * phi), s * theta[0], s * theta[1], s * theta[2]])
+
+
+@ti.func
+def rotate_vector(theta, v):
+    """exp(theta^) v (Rodrigues)."""
+    phi = theta.norm()
+    out = v
+    if phi > 0.0:
+        k = theta / phi
+        out = v * ti.cos(phi) + k.cross(v) * ti.sin(phi) + k * (k.dot(v) * (1.0 - ti.cos(phi)))
+    return out
+
+
+@ti.func
+def cayley_velocity(w, dt):
+    """The Cayley vector of the step's rotation exp(dt w^) over dt: (2 / dt) tan(phi / 2) w / |w|,
+    phi = dt |w| (w itself as phi -> 0): the angular velocity whose Cayley (Crank-Nicolson)
+    update turns by exactly that rotation."""
+    out = w
+    half = 0.5 * dt * w.norm()
+    if half > 1e-8:
+        out = w * (ti.tan(half) / half)
+    return out
