@@ -21,21 +21,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from .preflight import assembly_problems, prepare  # noqa: F401  (moved to preflight.py, still importable from here)
+from .tables import positive_int
 
 if TYPE_CHECKING:
     import numpy as np
 
 EXIT_INTERNAL, EXIT_SCENE, EXIT_RUNTIME = 1, 2, 3      # interrupted: 128 + the signal (checkpoint.exit_code)
-
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {value}")
-    return value
 
 
 def _fraction(text: str) -> float:
@@ -81,7 +72,7 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                      help="override a scene key by its dotted path, e.g. method.kind=fem")
     run.add_argument("--quiet", action="store_true", help="print only warnings, errors and the final summary")
-    run.add_argument("--checkpoint-every", type=_positive_int, default=0, metavar="N",
+    run.add_argument("--checkpoint-every", type=positive_int, default=0, metavar="N",
                      help="write OUTDIR/checkpoint.npz at the first batch boundary after every N steps")
     run.add_argument("--restart", type=_directory, default=None, metavar="DIR",
                      help="continue the run whose checkpoint is DIR/checkpoint.npz (same scene and --set "

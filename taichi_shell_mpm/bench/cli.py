@@ -14,6 +14,7 @@ import time
 from pathlib import Path
 
 from ..checkpoint import exit_code, signal_name
+from ..tables import positive_int
 from ..executor import Executor, Task
 from .cases import peers_available, plan, select
 from .machine import machine_info, machine_tag
@@ -39,19 +40,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--list", action="store_true", help="list the planned cases and exit")
     p.add_argument("--report-only", action="store_true", help="regenerate report and plots from results.csv")
     p.add_argument("--arch", choices=["cpu", "cuda", "vulkan"], default="cpu")
-    p.add_argument("--workers", type=_positive_int, default=None, metavar="N",
+    p.add_argument("--workers", type=positive_int, default=None, metavar="N",
                    help="run N cases at a time on a local Dask cluster (default: one after the other in "
                         "this process; cases that share the cores time slower, and the report says so)")
-
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {value}")
-    return value
 
 
 def command_line(args: argparse.Namespace) -> str:

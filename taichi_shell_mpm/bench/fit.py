@@ -5,12 +5,12 @@ against log(element size) per scene, series and component (:func:`observed_order
 """
 from __future__ import annotations
 
-import csv
 from pathlib import Path
 
 import numpy as np
 
-from .results import atomic_write, cell, num
+from ..tables import write_table
+from .results import num
 
 ORDER_COLUMNS = ["scene", "series", "meshes", "comp1", "order1", "points1", "comp2", "order2", "points2"]
 
@@ -54,10 +54,4 @@ def group_key(row: dict) -> str:
 
 def write_orders(path: Path, orders: list[dict]) -> None:
     """orders.csv: one row per series of :func:`observed_orders`."""
-    def write(p: Path):
-        with open(p, "w", newline="") as fh:
-            w = csv.DictWriter(fh, fieldnames=ORDER_COLUMNS)
-            w.writeheader()
-            for o in orders:
-                w.writerow({k: cell(o[k]) for k in ORDER_COLUMNS})
-    atomic_write(path, write)
+    write_table(path, orders, ORDER_COLUMNS)

@@ -3,8 +3,9 @@ reading a number out of a row; the atomic writers the other files of the study u
 from __future__ import annotations
 
 import csv
-import math
 from pathlib import Path
+
+from ..tables import write_table
 
 COLUMNS = ["case", "scene", "mesh", "mode", "cell_ratio", "cell_size", "element_size", "elements",
            "steps", "wall_s", "compile_s", "run_s", "us_per_element_step", "peak_mem_MB",
@@ -39,28 +40,13 @@ def read_results(path: Path) -> list[dict]:
 
 
 def write_results(path: Path, rows: list[dict]) -> None:
-    def write(p: Path):
-        with open(p, "w", newline="") as fh:
-            w = csv.DictWriter(fh, fieldnames=COLUMNS, extrasaction="ignore")
-            w.writeheader()
-            for row in rows:
-                w.writerow({k: cell(row.get(k)) for k in COLUMNS})
-    atomic_write(path, write)
+    write_table(path, rows, COLUMNS)
 
 
 def replace_row(path: Path, row: dict) -> None:
     """Write `row` into results.csv in place of the earlier row of its case, if any (a re-run
     case replaces its row)."""
     write_results(path, [r for r in read_results(path) if r["case"] != row["case"]] + [row])
-
-
-def cell(v) -> str:
-    """A value as a CSV cell: 6 significant digits, empty for None and non-finite numbers."""
-    if v is None:
-        return ""
-    if isinstance(v, float):
-        return "" if not math.isfinite(v) else f"{v:.6g}"
-    return str(v)
 
 
 def num(row: dict, key: str) -> float:

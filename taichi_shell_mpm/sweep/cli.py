@@ -13,6 +13,7 @@ import time
 from pathlib import Path
 
 from ..checkpoint import exit_code, signal_name
+from ..tables import positive_int
 from ..executor import Executor, Task, address_problem
 from .cases import SweepError, plan, short_keys
 from .metrics import default_metrics, parse_metrics
@@ -21,16 +22,6 @@ from .results import case_row, fmt, metric_columns, read_study, retabulate, writ
 from .task import run_case
 
 EXIT_SCENE, EXIT_FAILED = 2, 3      # interrupted: 128 + the signal (checkpoint.exit_code)
-
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {value}")
-    return value
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -49,7 +40,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--metrics", action="append", default=[], metavar="PATH,...",
                    help="summary.json values to tabulate, e.g. crush.mean_crush_force,energies.internal "
                         "(* for every key; default: by the scene, docs/sweep.md)")
-    p.add_argument("--workers", type=_positive_int, default=None, metavar="N",
+    p.add_argument("--workers", type=positive_int, default=None, metavar="N",
                    help="worker processes of the local Dask cluster, one case at a time each "
                         "(default: one per core)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",

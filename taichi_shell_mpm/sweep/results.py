@@ -14,6 +14,7 @@ import math
 import os
 from pathlib import Path
 
+from ..tables import write_table
 from .cases import SweepError
 from .metrics import RUN_COLUMNS, extract
 
@@ -63,25 +64,8 @@ def metric_columns(rows: list[dict], keys: list[str]) -> list[str]:
     return [c for c in columns(rows, keys) if c not in fixed]
 
 
-def cell(v) -> str:
-    if v is None:
-        return ""
-    if isinstance(v, float):
-        return "" if not math.isfinite(v) else f"{v:.10g}"
-    return str(v)
-
-
 def write_csv(path: Path, rows: list[dict], keys: list[str]) -> None:
-    from ..output import atomic_write
-    cols = columns(rows, keys)
-
-    def write(p: Path):
-        with open(p, "w", newline="") as fh:
-            w = csv.DictWriter(fh, fieldnames=cols, extrasaction="ignore")
-            w.writeheader()
-            for row in rows:
-                w.writerow({k: cell(row.get(k)) for k in cols})
-    atomic_write(path, write)
+    write_table(path, rows, columns(rows, keys), digits=10)
 
 
 def read_study(path: Path, keys: list[str], cases) -> list[dict]:
