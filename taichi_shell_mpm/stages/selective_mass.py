@@ -23,15 +23,12 @@ corners move as the element turns with its nodes: so total mass, linear and angu
 are those of the lumped masses M (its translational rows and its moments sum to zero), and
 the low modes keep their physical inertia, while each mode that deforms one element sees
 (1 + beta_e) its mass and its frequency, and so the step, goes by sqrt(f_e).  The lumped
-masses and rotary inertias stay physical: a rotary inertia scaled by f_e (as conventional
-scaling does) put the 8-element strip's lowest bending period 39 % above the unscaled one
-at 10x the step (its rotary inertia, m A / 8 by default, is a visible share of the bending
-mode's inertia), and the nodal rotation modes are scaled by the j_a term.  A translation-only matrix,
-beta (m_e/n)(I - 1 1^T/n) (Olovsson, Simonsson & Unosson, IJNME 63, 2005), was measured
-first: it loads the rotation of each element about its own centre with beta_e times its
-inertia, and a cantilever strip of 8 elements bent at 1.94 times its unscaled period at 10x
-the step (docs/mass_scaling.md); on a coarse shell mesh the low bending modes are element
-rotations.  M_add = d^2 T_add / dv^2 is applied matrix-free (:meth:`SelectiveMass.product`):
+masses and rotary inertias stay physical (the nodal rotation modes are scaled by the j_a
+term): scaling the rotary inertia by f_e, or a translation-only matrix beta (m_e/n)(I -
+1 1^T/n) (Olovsson, Simonsson & Unosson, IJNME 63, 2005), which loads each element's
+rotation about its own centre, moved a coarse strip's lowest bending period by 39 % and
+94 % at 10x the step (docs/mass_scaling.md: on a coarse shell mesh the low bending modes
+are element rotations).  M_add = d^2 T_add / dv^2 is applied matrix-free (:meth:`SelectiveMass.product`):
 per element vbar, Omega and J^-1 g, g = sum_a j_a P (omega_a - Omega); then at each corner
 beta m_a (d_a + r_a x J^-1 g) on the translations and beta j_a P (omega_a - Omega) on the
 rotations, gathered per node through the node -> element slots.
