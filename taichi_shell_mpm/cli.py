@@ -8,7 +8,7 @@ written; the last good frame stays the last one, frames.pvd and the results so f
 written; for render: nothing could be drawn), 130 interrupted
 (Ctrl-C: the run stops at the next batch boundary, writes a checkpoint, the last frame and
 the results so far), 143 / 129 stopped by SIGTERM / SIGHUP (``timeout``, a batch
-scheduler's wall-time limit, a closed terminal: handled as a Ctrl-C; checkpoint.py).
+scheduler's wall-time limit, a closed terminal: handled as a Ctrl-C; run_control.py).
 """
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ from .tables import positive_int
 if TYPE_CHECKING:
     import numpy as np
 
-EXIT_INTERNAL, EXIT_SCENE, EXIT_RUNTIME = 1, 2, 3      # interrupted: 128 + the signal (checkpoint.exit_code)
+EXIT_INTERNAL, EXIT_SCENE, EXIT_RUNTIME = 1, 2, 3      # interrupted: 128 + the signal (run_control.exit_code)
 
 
 def _fraction(text: str) -> float:
@@ -346,7 +346,7 @@ def _finish(sim, message: str, interrupted: bool = False) -> str | None:
     only) the current state as the last frame.  After a failure the last frame written stays
     the last one: the failing state (runaway, inside out, not converged) is not a result.
     Returns a line saying what could not be written, or None."""
-    from .checkpoint import deferred_interrupt
+    from .run_control import deferred_interrupt
     if sim is None:
         return None
     try:
@@ -368,8 +368,9 @@ def _finish(sim, message: str, interrupted: bool = False) -> str | None:
 
 
 def _run(args) -> int:
-    from .checkpoint import (CheckpointError, RunControl, check_compatible, exit_code, finished_run,
-                             load_checkpoint, restore_checkpoint, signal_name, summary_is_final)
+    from .checkpoint import (CheckpointError, check_compatible, finished_run, load_checkpoint, restore_checkpoint,
+                             summary_is_final)
+    from .run_control import RunControl, exit_code, signal_name
     from .output import OutputError, clear_run_files
     from .progress import format_summary
     from .scene import SceneError
@@ -464,7 +465,7 @@ def _run(args) -> int:
             + " (disk full, read-only or no permission?); the results that could be written are there")
         more = _finish(sim, what)
         return _fail(EXIT_RUNTIME, [what] + ([more] if more and not isinstance(exc, OutputError) else []))
-    except KeyboardInterrupt as exc:      # Ctrl-C, SIGTERM, SIGHUP (checkpoint.Interrupted)
+    except KeyboardInterrupt as exc:      # Ctrl-C, SIGTERM, SIGHUP (run_control.Interrupted)
         more = _finish(sim, "interrupted", interrupted=True)
         code, by = exit_code(exc), signal_name(exc)
         if sim is None:
@@ -516,7 +517,7 @@ def _sweep(args) -> int:
 def main(argv=None) -> int:
     import numpy as np
 
-    from .checkpoint import exit_code, signal_name, stop_on_signals
+    from .run_control import exit_code, signal_name, stop_on_signals
     args = _parser().parse_args(argv)
     command = {"validate": _validate, "render": _render, "bench": _bench, "sweep": _sweep}.get(args.command, _run)
     try:

@@ -635,7 +635,7 @@ def test_restart_with_motion_and_loads_is_bit_for_bit(tmp_path, monkeypatch):
     """A dynamic run with an acceleration motion (its last mean velocity is state), a
     velocity-driven rotation, a follower load and gravity on curves, stopped and restarted
     (as tests/test_restart.py does): tables and final positions byte-identical."""
-    from taichi_shell_mpm import checkpoint
+    from taichi_shell_mpm import run_control
     from taichi_shell_mpm.solvers import static
 
     from .test_restart import assert_same_run, position_of
@@ -672,9 +672,9 @@ curve = "g"
     monkeypatch.setattr(static, "BATCH_ELEMENT_STEPS", 40)            # 4-step batches: 32 steps in all
     a, b, c = tmp_path / "a", tmp_path / "b", tmp_path / "c"
     assert cli_run("run", str(scene), "--out", str(a), "--quiet").code == 0
-    monkeypatch.setattr(checkpoint, "stop_hook", lambda sim: sim.state.step.step[None] >= 11)
+    monkeypatch.setattr(run_control, "stop_hook", lambda sim: sim.state.step.step[None] >= 11)
     r = cli_run("run", str(scene), "--out", str(b), "--quiet")
-    monkeypatch.setattr(checkpoint, "stop_hook", None)
+    monkeypatch.setattr(run_control, "stop_hook", None)
     assert r.code == 130, r.err
     r = cli_run("run", str(scene), "--restart", str(b), "--out", str(c), "--quiet")
     assert r.code == 0, r.err

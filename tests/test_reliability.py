@@ -23,7 +23,7 @@ import meshio
 import numpy as np
 import pytest
 
-from taichi_shell_mpm import checkpoint
+from taichi_shell_mpm import run_control
 from taichi_shell_mpm.cli import main
 from taichi_shell_mpm.progress import Progress, format_summary
 
@@ -210,7 +210,7 @@ def test_kernel_flags_the_guard_itself(tmp_path, guard, status):
 
     sim.check_status = record
     with pytest.raises(SimulationError) as caught:
-        run_dynamic(sim, checkpoint.RunControl(0))
+        run_dynamic(sim, run_control.RunControl(0))
     print(f"\n{guard}: kernel status/index/step {raw}; {caught.value}")
     assert raw and raw[0][0] == getattr(state_module, status)
     if guard == "inverted":
@@ -256,7 +256,7 @@ def test_ctrl_c_stops_cleanly(tmp_path, monkeypatch):
 
     from taichi_shell_mpm.solvers import static
     monkeypatch.setattr(static, "BATCH_ELEMENT_STEPS", 400)     # 100-step batches
-    monkeypatch.setattr(checkpoint, "stop_hook", press_ctrl_c)
+    monkeypatch.setattr(run_control, "stop_hook", press_ctrl_c)
     out = tmp_path / "out"
     # the 2x2 flap hourglasses (E_hg/E_int 20 % at t = 1.39 with the kirchhoff w-rate): not
     # what this test is about, so no hourglass stop

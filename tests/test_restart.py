@@ -25,7 +25,7 @@ from pathlib import Path
 import meshio
 import numpy as np
 
-from taichi_shell_mpm import checkpoint
+from taichi_shell_mpm import run_control
 from taichi_shell_mpm.solvers import static
 
 from .conftest import ROOT, write_scene
@@ -107,9 +107,9 @@ def restart_roundtrip(tmp_path, monkeypatch, scene_args, stop_step, every, batch
                 timeout=COMPILE_TIMEOUT)
     assert r.code == 0, r.err
     steps = json.loads((a / "summary.json").read_text())["steps"]
-    monkeypatch.setattr(checkpoint, "stop_hook", lambda sim: sim.state.step.step[None] >= stop_step)
+    monkeypatch.setattr(run_control, "stop_hook", lambda sim: sim.state.step.step[None] >= stop_step)
     r = cli_run("run", *scene_args, "--out", str(b), "--quiet", timeout=COMPILE_TIMEOUT)
-    monkeypatch.setattr(checkpoint, "stop_hook", None)
+    monkeypatch.setattr(run_control, "stop_hook", None)
     assert r.code == 130, r.err
     assert r.err.startswith("error: interrupted at") and "--restart" in r.err, r.err
     stopped = position_of(b)

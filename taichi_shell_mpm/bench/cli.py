@@ -13,7 +13,7 @@ import sys
 import time
 from pathlib import Path
 
-from ..checkpoint import exit_code, signal_name
+from ..run_control import exit_code, signal_name
 from ..tables import positive_int
 from ..executor import Executor, Task
 from .cases import peers_available, plan, select
@@ -131,7 +131,7 @@ def main(args: argparse.Namespace) -> int:
             if workers:
                 print(f"bench: {ex.describe()}", flush=True)
             ex.run([Task(c.name, run_case, (c, out.resolve(), args.arch, tag)) for c in todo], on_done)
-    except KeyboardInterrupt as exc:      # Ctrl-C, SIGTERM, SIGHUP (checkpoint.Interrupted)
+    except KeyboardInterrupt as exc:      # Ctrl-C, SIGTERM, SIGHUP (run_control.Interrupted)
         regenerate(out, report, planned, command, info, args.arch, peers, args.quick)
         print(f"\ninterrupted{signal_name(exc)}; continue with: {command} --resume", file=sys.stderr)
         return exit_code(exc)

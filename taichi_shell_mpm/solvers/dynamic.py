@@ -7,7 +7,8 @@ the next output/history event and whether its time limit is already set; batches
 fixed size, so a restarted run takes the same batches.
 """
 
-from ..checkpoint import RunControl, event_times
+from ..checkpoint import event_times
+from ..run_control import RunControl
 from ..energy import balance_ratio
 from ..simulation import Simulation
 from ..stages.timestep import landing_step

@@ -35,7 +35,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from ..checkpoint import RunControl
+from ..run_control import RunControl
 from ..nodesets import select_nodes
 from ..scene import DOFS
 from ..simulation import FAILURES, Simulation, SimulationError

@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..checkpoint import RunControl
+from ..run_control import RunControl
 from ..curves import evaluate
 from ..energy import balance_ratio
 from ..loading import reference_loads

@@ -12,7 +12,7 @@ import sys
 import time
 from pathlib import Path
 
-from ..checkpoint import exit_code, signal_name
+from ..run_control import exit_code, signal_name
 from ..tables import positive_int
 from ..executor import Executor, Task, address_problem
 from .cases import SweepError, plan, short_keys
@@ -21,7 +21,7 @@ from .plot import plot_all
 from .results import case_row, fmt, metric_columns, read_study, retabulate, write_csv, write_markdown
 from .task import run_case
 
-EXIT_SCENE, EXIT_FAILED = 2, 3      # interrupted: 128 + the signal (checkpoint.exit_code)
+EXIT_SCENE, EXIT_FAILED = 2, 3      # interrupted: 128 + the signal (run_control.exit_code)
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -186,7 +186,7 @@ def _execute(study: _Study, todo, metrics: list[str], args: argparse.Namespace, 
     except OSError as exc:          # no scheduler at --scheduler, a port or process that cannot be had
         return _fail(EXIT_SCENE, [f"{'--scheduler ' + args.scheduler if args.scheduler else 'local cluster'}: "
                                   f"cannot start ({type(exc).__name__}: {exc})"])
-    except KeyboardInterrupt as exc:      # Ctrl-C, SIGTERM, SIGHUP (checkpoint.Interrupted)
+    except KeyboardInterrupt as exc:      # Ctrl-C, SIGTERM, SIGHUP (run_control.Interrupted)
         return _fail(exit_code(exc), [f"interrupted{signal_name(exc)} while the cluster started; nothing run"])
     scene_file = str(args.scene.resolve())
     by_name = {c.name: c for c in todo}
