@@ -1,4 +1,6 @@
-"""The one owner of Taichi fields, grouped by role (as Genesis's MPM solver groups its state):
+"""The one owner of Taichi fields, grouped by role (as Genesis's MPM solver groups its state;
+the module is long, ~900 lines, because every field of every feature is declared here and
+nowhere else, [choice] of the project's layout: one place to read what the step holds):
 
 =============  ============================================================================
 ``nodes``      shell nodes (= particle-domain corners, method.md 1): kinematics, mass,
