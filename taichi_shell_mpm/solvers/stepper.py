@@ -38,7 +38,6 @@ from ..stages.motion import PrescribedMotion
 from ..stages.selective_mass import SelectiveMass
 from ..stages.shell import ShellElement
 from ..stages.timestep import TimeStep
-from ..stages.tools import RigidTools
 
 KINETIC_CONVERGED = 1e-8     # KE <= 1e-8 W_ext (method.md 6.4)
 # FIRE (Bitzek et al., PRL 97, 170201, 2006), their standard parameters; the time step is not
@@ -58,8 +57,7 @@ class Stepper:
         self.loads = ExternalLoads(state, cfg)
         self.motion = PrescribedMotion(state, cfg, self.loads, self.energy)
         self.bodies = RigidBodies(state, cfg, self.energy, self.loads)
-        self.tools = RigidTools(state, cfg, self.loads, self.bodies) if cfg.tools else None
-        self.bodies.tools = self.tools      # the tools moving with a body push it back (RigidBodies.update)
+        self.tools = self.bodies.tools      # the rigid tools: part of the rigid system (stages/bodies.py)
         self.nodes = NodeUpdate(state, cfg, self.bodies, self.energy, self.loads, self.motion, self.tools)
         self.contact = SelfContact(state, cfg, model) if cfg.contact else None
         self.shell = ShellElement(state, cfg, self.energy)

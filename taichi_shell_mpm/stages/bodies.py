@@ -62,6 +62,7 @@ from .accumulate import Accumulator
 from .motion import ACCELERATION, DISPLACEMENT
 from .rotation import cayley_velocity, quaternion_exp, quaternion_matrix, quaternion_product, rotate_vector
 from .timestep import MAX_TURN, impulse_time
+from .tools import RigidTools
 
 SIMO_WONG_ITERATIONS = 50      # fixed-point iterations at most (a few at dt |omega| << 1)
 SIMO_WONG_TOLERANCE = 1e-15    # relative change of W that ends them
@@ -84,9 +85,11 @@ class RigidBodies:
     def __init__(self, state, cfg, energy, loads):
         self.s = state
         self.cfg = cfg
-        self.tools = None               # stages/tools.RigidTools (set by the Stepper; None without tools)
         self.energy = energy            # energy.EnergyLedger
         self.loads = loads              # stages/loads.ExternalLoads
+        # the rigid tools (None without): built here, as part of the one rigid system, since
+        # those moving with a body take its pose and push it back (update)
+        self.tools = RigidTools(state, cfg, loads, self) if cfg.tools else None
         self.acc = Accumulator(cfg.serial)
         # threads launch: wall impulses summed in node order instead of by atomics (serial
         # and gpu launches add them directly)
