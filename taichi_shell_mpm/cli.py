@@ -370,9 +370,9 @@ def _finish(sim, message: str, interrupted: bool = False) -> str | None:
 def _run(args) -> int:
     from .checkpoint import (CheckpointError, check_compatible, finished_run, load_checkpoint, restore_checkpoint,
                              summary_is_final)
-    from .run_control import RunControl, exit_code, signal_name
     from .output import OutputError, clear_run_files
     from .progress import format_summary
+    from .run_control import RunControl, exit_code, signal_name
     from .scene import SceneError
     try:
         scene, mesh, model = prepare(args.scene, args.overrides)

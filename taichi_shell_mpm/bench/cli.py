@@ -13,9 +13,9 @@ import sys
 import time
 from pathlib import Path
 
+from ..executor import Executor, Task
 from ..run_control import exit_code, signal_name
 from ..tables import positive_int
-from ..executor import Executor, Task
 from .cases import peers_available, plan, select
 from .machine import machine_info, machine_tag
 from .report import error_pair, fmt, regenerate

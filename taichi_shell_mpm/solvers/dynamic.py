@@ -8,8 +8,8 @@ fixed size, so a restarted run takes the same batches.
 """
 
 from ..checkpoint import event_times
-from ..run_control import RunControl
 from ..energy import balance_ratio
+from ..run_control import RunControl
 from ..simulation import Simulation
 from ..stages.timestep import landing_step
 from .static import batch_size

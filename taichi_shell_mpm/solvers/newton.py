@@ -35,8 +35,8 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from ..run_control import RunControl
 from ..nodesets import select_nodes
+from ..run_control import RunControl
 from ..scene import DOFS
 from ..simulation import FAILURES, Simulation, SimulationError
 from .path import JumpMonitor, PathError, Plan, Settings, follow

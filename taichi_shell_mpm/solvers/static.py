@@ -35,10 +35,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..run_control import RunControl
 from ..curves import evaluate
 from ..energy import balance_ratio
 from ..loading import reference_loads
+from ..run_control import RunControl
 from ..simulation import Simulation, SimulationError
 from ..state import STATUS_CONVERGED, STATUS_OK
 from .path import JumpMonitor

@@ -12,9 +12,9 @@ import sys
 import time
 from pathlib import Path
 
+from ..executor import Executor, Task, address_problem
 from ..run_control import exit_code, signal_name
 from ..tables import positive_int
-from ..executor import Executor, Task, address_problem
 from .cases import SweepError, plan, short_keys
 from .metrics import default_metrics, parse_metrics
 from .plot import plot_all
