@@ -552,7 +552,7 @@ def _deck_specs(deck, source: str):
 
 
 def _deck_curve(curve, where: str, notes: list) -> tuple[tuple[float, float], ...]:
-    """A *MAT_024 stress-strain curve as a tabulated hardening curve (scene._curve_points):
+    """A *MAT_024 stress-strain curve as a tabulated hardening curve (scene.keys.curve_points):
     starting at plastic strain 0 (its first stress there if it starts later), points that do
     not advance in plastic strain dropped, a falling stress held at the highest before it
     (softening is not supported), each change in a note."""

@@ -87,6 +87,10 @@ def _parser() -> argparse.ArgumentParser:
                          epilog="Scene keys: docs/scenes.md.")
     val.add_argument("scene", type=Path, help=SCENE_HELP)
     val.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
+    sch = sub.add_parser("schema", help="print the JSON Schema of scene files (for TOML editors)",
+                         epilog="docs/scenes.md, \"Editor support\".")
+    sch.add_argument("--docs", type=Path, default=None, metavar="FILE",
+                     help="instead, regenerate the key tables of FILE (docs/scenes.md) from the declarations")
     ren = sub.add_parser("render", help="draw PNG pictures and plots of a run's output directory")
     ren.add_argument("outdir", type=_directory, help="output directory of a run (has frames.pvd)")
     ren.add_argument("--frames", default="all", metavar="all|last|none|T1,T2,...",
@@ -514,12 +518,29 @@ def _sweep(args) -> int:
     return sweep_main(args, run=main)      # each case calls main(["run", ...]) in its worker
 
 
+def _schema(args) -> int:
+    """`schema`: the scene files' JSON Schema on stdout, or --docs FILE: its key tables regenerated."""
+    import json
+
+    from .scene.schema import scene_schema, write_docs
+    if args.docs is None:
+        print(json.dumps(scene_schema(), indent=2, ensure_ascii=False))
+        return 0
+    try:
+        changed = write_docs(args.docs)
+    except OSError as exc:
+        return _fail(2, [f"{args.docs}: {exc.strerror}"])
+    print(f"{args.docs}: key tables {'regenerated' if changed else 'already up to date'}")
+    return 0
+
+
 def main(argv=None) -> int:
     import numpy as np
 
     from .run_control import exit_code, signal_name, stop_on_signals
     args = _parser().parse_args(argv)
-    command = {"validate": _validate, "render": _render, "bench": _bench, "sweep": _sweep}.get(args.command, _run)
+    command = {"validate": _validate, "render": _render, "bench": _bench, "sweep": _sweep,
+               "schema": _schema}.get(args.command, _run)
     try:
         # SIGTERM / SIGHUP stop like a Ctrl-C; a diverging run overflows: reported as a failure, not warnings
         with stop_on_signals(), np.errstate(all="ignore"):

@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-if TYPE_CHECKING:        # annotations only: scene.py imports this module to check reference tables
+if TYPE_CHECKING:        # annotations only: scene/reference.py imports this module to check reference tables
     from .scene import Reference
 
 MAX_CELL_PROBLEMS = 5

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import copy
+import json
 import math
 import re
 import tomllib
@@ -984,15 +985,15 @@ def test_a_rate_law_needs_a_dynamic_solve(scene_dir):
 def test_every_scene_key_is_documented(scene_dir, monkeypatch):
     """Every key the parser accepts in the scenes of this file, the bundled scenes and a parts
     scene appears as `key` in the docs/scenes.md section of its table."""
-    from taichi_shell_mpm import scene as scene_module
+    from taichi_shell_mpm.scene import reader as scene_module
     seen: dict[str, set[str]] = {}
-    read = scene_module._SceneParser.read
+    read = scene_module.Reader.read
 
     def recording(self, path, data, spec, cls=None, required=(), extra=()):
         seen.setdefault(path, set()).update(spec, extra)
         return read(self, path, data, spec, cls, required, extra)
 
-    monkeypatch.setattr(scene_module._SceneParser, "read", recording)
+    monkeypatch.setattr(scene_module.Reader, "read", recording)
     scenes = [(text, scene_dir / "case.toml")
               for text in (FULL, TUBE_SCENE, HEMISPHERE_SCENE, PARTS_SCENE, LAWS_SCENE, MOTION_SCENE, BODIES_SCENE)]
     scenes += [((ROOT / "scenes" / f"{n}.toml").read_text(), ROOT / "scenes" / f"{n}.toml")
@@ -1009,6 +1010,75 @@ def test_every_scene_key_is_documented(scene_dir, monkeypatch):
         missing += [f"{path}.{key}" for key in sorted(keys) if f"`{key}`" not in text]
     print(f"\n{len(seen)} tables, {sum(len(k) for k in seen.values())} keys checked")
     assert not missing, f"keys not documented in their docs/scenes.md section: {missing}"
+
+
+def test_docs_key_tables_are_generated_from_the_declarations():
+    """docs/scenes.md's key tables are the declarations' (scene/schema.py): the test fails when
+    one is edited by hand or a declaration changes without `python -m taichi_shell_mpm schema
+    --docs docs/scenes.md`; every declared table is in the docs once."""
+    from taichi_shell_mpm.scene.schema import DOC_TABLES, generated_docs, marked_tables
+    text = DOCS.read_text(encoding="utf-8")
+    assert sorted(marked_tables(text)) == sorted(DOC_TABLES)
+    stale = [a for a, b in zip(text.splitlines(), generated_docs(text).splitlines()) if a != b]
+    assert not stale, f"stale key tables in docs/scenes.md (regenerate them): {stale[:3]}"
+
+
+def _schema_validator():
+    import jsonschema
+
+    from taichi_shell_mpm.scene.schema import scene_schema
+    schema = scene_schema()
+    jsonschema.Draft7Validator.check_schema(schema)
+    return jsonschema.Draft7Validator(schema)
+
+
+def test_every_valid_scene_passes_the_json_schema(scene_dir):
+    """The JSON Schema (`python -m taichi_shell_mpm schema`) accepts every bundled scene and
+    every scene of this file that the parser accepts."""
+    validator = _schema_validator()
+    texts = {n: (ROOT / "scenes" / f"{n}.toml").read_text() for n in
+             ("cantilever", "hemisphere", "hinged_roof", "rollup", "slit_annular_plate", "square_tube",
+              "tube_rate_dependent")}
+    texts.update(FULL=FULL, TUBE=TUBE_SCENE, HEMISPHERE=HEMISPHERE_SCENE, PARTS=PARTS_SCENE, LAWS=LAWS_SCENE,
+                 MOTION=MOTION_SCENE, BODIES=BODIES_SCENE)
+    checked = 0
+    for name, text in texts.items():
+        raw = raw_of(text)
+        source = ROOT / "scenes" / f"{name}.toml" if name.islower() else scene_dir / "case.toml"
+        parse_scene(raw, source)            # the parser accepts it
+        problems = [f"{'.'.join(map(str, e.path))}: {e.message}" for e in validator.iter_errors(raw)]
+        assert not problems, (name, problems[:3])
+        checked += 1
+    print(f"\n{checked} scenes valid against the schema")
+
+
+@pytest.mark.parametrize("change, where", [
+    (lambda raw: raw["material"].update(nu_typo=0.3), "material"),
+    (lambda raw: raw["material"].update(nu=0.5), "material"),
+    (lambda raw: raw["solve"].pop("kind"), "solve"),
+    (lambda raw: raw["method"].update(kind="sph"), "method.kind"),
+    (lambda raw: raw["nodesets"]["clamp"].update(nearest="here"), "nodesets.clamp"),
+    (lambda raw: raw.update(gravityy={"acceleration": [0, 0, -9.81]}), ""),
+])
+def test_the_json_schema_refuses_what_the_parser_refuses(change, where):
+    """A typo, a value out of range, a missing required key, an unknown choice: the schema (what
+    an editor marks as the user types) refuses them, at the table the parser names."""
+    raw = raw_of((ROOT / "scenes" / "cantilever.toml").read_text())
+    change(raw)
+    errors = list(_schema_validator().iter_errors(raw))
+    assert errors and any(".".join(map(str, e.path)).startswith(where) for e in errors), \
+        [(list(e.path), e.message) for e in errors]
+
+
+def test_schema_command_prints_the_json_schema(capsys):
+    """`python -m taichi_shell_mpm schema` prints the schema: valid JSON, a valid draft 7 schema."""
+    import jsonschema
+
+    from taichi_shell_mpm.cli import main
+    assert main(["schema"]) == 0
+    schema = json.loads(capsys.readouterr().out)
+    jsonschema.Draft7Validator.check_schema(schema)
+    assert {"scene", "mesh", "material", "tool", "solve"} <= set(schema["properties"])
 
 
 @pytest.mark.parametrize("material, solve, expected", [

@@ -685,21 +685,22 @@ def test_duplicate_tool_names_and_newton(tmp_path):
 
 def test_every_tool_key_is_documented(tmp_path):
     """Every [[tool]] key the parser accepts is in docs/scenes.md's [[tool]] section."""
-    from taichi_shell_mpm import scene as scene_module
+    from taichi_shell_mpm.scene import reader as scene_module
+    from taichi_shell_mpm.scene.tool import read_tool
     text = (Path(__file__).resolve().parents[1] / "docs" / "scenes.md").read_text()
     section = text.split("## `[[tool]]`", 1)[1].split("\n## ", 1)[0]
-    parser = scene_module._SceneParser({}, tmp_path / "x.toml")
+    parser = scene_module.Reader({}, tmp_path / "x.toml")
     seen = set()
-    original = scene_module._SceneParser.read
+    original = scene_module.Reader.read
 
     def recording(self, path, data, spec, cls=None, required=(), extra=()):
         if path.startswith("[[tool]]"):
             seen.update(spec)
         return original(self, path, data, spec, cls, required, extra)
-    scene_module._SceneParser.read = recording
+    scene_module.Reader.read = recording
     try:
-        parser.tool("[[tool]][0]", {"name": "x", "kind": "sphere", "radius": 1.0}, None, {})
+        read_tool(parser, "[[tool]][0]", {"name": "x", "kind": "sphere", "radius": 1.0}, None, {})
     finally:
-        scene_module._SceneParser.read = original
+        scene_module.Reader.read = original
     missing = sorted(k for k in seen if f"`{k}`" not in section)
     assert seen and not missing, missing

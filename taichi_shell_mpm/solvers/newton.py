@@ -25,7 +25,7 @@ Drivers (:func:`run_newton`), by ``[solve].control``:
   |lam| reaches ``max_load_factor``, or when the monitored DOF (``control_nodes`` /
   ``control_dof``) passes ``control_displacement``.  One row per converged point.
 
-``mpm`` mode is refused (scene.py): the double mapping is discussed in docs/newton.md.
+``mpm`` mode is refused (scene/solve.py): the double mapping is discussed in docs/newton.md.
 """
 from __future__ import annotations
 
