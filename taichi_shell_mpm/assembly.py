@@ -156,7 +156,7 @@ class MaterialTable:
     names: tuple[str, ...]
     kinds: tuple[str, ...]
     kind: np.ndarray                        # (nm,)
-    rows: np.ndarray                        # (nm, MATERIAL_PARAMETERS)
+    rows: np.ndarray                        # (nm, materials.row_width(kinds))
     dilatational_speed: float               # the largest of the paper's grid-rule speeds
     hardening: tuple[str, ...]              # materials.HARDENING_LAWS used (Features.hardening)
     rate_laws: tuple[str, ...]              # materials.RATE_LAWS used (Features.rate_laws)
@@ -475,7 +475,9 @@ def _deck_specs(deck, source: str):
     H = E E_t / (E - E_t) from the tangent modulus; their Cowper-Symonds C and P (*MAT_003 SRC,
     SRP) the cowper_symonds rate law on the total strain rate (VP = 0, -1) or the plastic strain
     rate (VP = 1); FAIL (*MAT_003 FS) > 0 the failure strain (one point, LS-DYNA's NUMFIP
-    default), *MAT_024 TDEL the failure step of erosion; *SECTION_SHELL thickness T1, NIP
+    default), *MAT_024 TDEL the failure step of erosion; *MAT_037 Hill 1948 (hill48) with
+    r0 = r45 = r90 = |R| and linear hardening of its ETAN (the plastic hardening modulus, used
+    as given) or its HLCID curve; *SECTION_SHELL thickness T1, NIP
     Gauss points (QR = 0; NIP = 0 means 2), QR = 1 (trapezoidal) as Lobatto with a note, SHRF.
 
     A deck's value is checked as strictly as the same scene key (scene.value_problem, the
@@ -500,21 +502,35 @@ def _deck_specs(deck, source: str):
         if card.kind != "elastic" and not card.curve:
             etan = v.get("etan", 0.0)
             check(f"mat_{mid}", label, (("SIGY", "material", "yield_stress", v.get("sigy", 0.0)),))
-            if not 0.0 <= etan < E and E > 0.0:
+            if card.kind == "transversely_anisotropic":
+                check(f"mat_{mid}", label, (("ETAN", "material", "hardening", etan),))
+            elif not 0.0 <= etan < E and E > 0.0:
                 problems.setdefault(f"mat_{mid}", []).append(
                     f"{label}: ETAN = {etan:g}: expected 0 <= ETAN < E = {E:g} (the tangent modulus of the "
                     "plastic range; ETAN >= E has no hardening modulus H = E ETAN/(E - ETAN) >= 0)")
         if card.kind == "elastic":
             materials[f"mat_{mid}"] = Material(E=E, nu=nu, density=rho)
             continue
-        where = f"{source}: {'*MAT_024' if card.kind == 'piecewise_linear' else '*MAT_003'} {mid}"
+        keyword = {"piecewise_linear": "*MAT_024", "plastic_kinematic": "*MAT_003",
+                   "transversely_anisotropic": "*MAT_037"}[card.kind]
+        where = f"{source}: {keyword} {mid}"
         law = {"yield_stress": v.get("sigy", 0.0), "hardening": 0.0}
         if card.curve:
             law = {"hardening_law": "tabulated", "curve": _deck_curve(card.curve, where, notes),
                    "beyond_curve": "extrapolate" if len(card.curve) > 1 else "flat"}
+        elif card.kind == "transversely_anisotropic":       # its ETAN is the plastic hardening modulus
+            law["hardening"] = v.get("etan", 0.0)
         else:
             etan = v.get("etan", 0.0)
             law["hardening"] = E * etan / (E - etan) if 0.0 < etan < E else 0.0
+        if card.kind == "transversely_anisotropic":          # Hill 1948 with normal anisotropy |R|
+            r = abs(v.get("r", 0.0))
+            check(f"mat_{mid}", label, (("R", "material", "r0", r),))
+            if v.get("r", 0.0) < 0.0:
+                notes.append(f"{where}: R = {v['r']:g} (LS-DYNA's stabilised algorithm) is read as r = {r:g}")
+            materials[f"mat_{mid}"] = Material(E=E, nu=nu, density=rho, model="hill48", **law,
+                                               model_parameters=(("r0", r), ("r45", r), ("r90", r)))
+            continue
         C, P = (v.get("src", 0.0), v.get("srp", 0.0)) if card.kind == "plastic_kinematic" else \
             (v.get("c", 0.0), v.get("p", 0.0))
         if C > 0.0 and P > 0.0:
@@ -552,7 +568,7 @@ def _deck_specs(deck, source: str):
 
 
 def _deck_curve(curve, where: str, notes: list) -> tuple[tuple[float, float], ...]:
-    """A *MAT_024 stress-strain curve as a tabulated hardening curve (scene.keys.curve_points):
+    """A *MAT_024 stress-strain curve as a tabulated hardening curve (keys.curve_points):
     starting at plastic strain 0 (its first stress there if it starts later), points that do
     not advance in plastic strain dropped, a falling stress held at the highest before it
     (softening is not supported), each change in a note."""
@@ -705,17 +721,19 @@ def _tables(scene: Scene, parts, material_specs: dict, section_specs: dict, fram
     specs = [material_specs[n] for n in material_names]
     kinds = tuple(k for k in materials.KINDS if any(spec.model == k for spec in specs))
     hardening, rates = materials.hardening_laws(specs), materials.rate_laws(specs)
-    curves = [spec.curve if spec.model == "j2" and spec.hardening_law == "tabulated" else () for spec in specs]
+    curves = [spec.curve if materials.PLASTIC[spec.model] and spec.hardening_law == "tabulated" else ()
+              for spec in specs]
     starts = np.concatenate([[0], np.cumsum([len(c) for c in curves])]).astype(int)
     points = np.array([point for c in curves for point in c]).reshape(-1, 2)
     material_table = MaterialTable(
         names=material_names, kinds=kinds,
         kind=np.array([kinds.index(spec.model) for spec in specs], dtype=np.int32),
-        rows=np.array([materials.parameter_row(spec, materials.MATERIAL_PARAMETERS, hardening, rates, start)
+        rows=np.array([materials.parameter_row(spec, materials.row_width(kinds), hardening, rates, start)
                        for spec, start in zip(specs, starts)]),
         dilatational_speed=max(materials.dilatational_speed(spec) for spec in specs),
         hardening=hardening, rate_laws=rates,
-        rate_filter=any(spec.model == "j2" and spec.rate_law != "none" and materials.rate_filter_time(spec) > 0
+        rate_filter=any(materials.PLASTIC[spec.model] and spec.rate_law != "none"
+                        and materials.rate_filter_time(spec) > 0
                         for spec in specs),
         curve_strain=points[:, 0].copy(), curve_stress=points[:, 1].copy(),
         erosion=any(materials.erodes(spec) for spec in specs),

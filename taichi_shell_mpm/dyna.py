@@ -11,7 +11,8 @@ relative to the including file's folder, else the main deck's), ``*COMMENT``, co
 (``$``), ``*NODE``, ``*ELEMENT_SHELL`` (also ``_THICKNESS``, ``_BETA``, ``_MCID`` and their
 ``_OFFSET`` forms), ``*PART`` (and ``*PART_CONTACT``), ``*SECTION_SHELL[_TITLE]``,
 ``*MAT_ELASTIC`` / ``*MAT_001``, ``*MAT_PLASTIC_KINEMATIC`` / ``*MAT_003``,
-``*MAT_PIECEWISE_LINEAR_PLASTICITY`` / ``*MAT_024`` (each also ``_TITLE``) and
+``*MAT_PIECEWISE_LINEAR_PLASTICITY`` / ``*MAT_024``,
+``*MAT_TRANSVERSELY_ANISOTROPIC_ELASTIC_PLASTIC`` / ``*MAT_037`` (each also ``_TITLE``) and
 ``*DEFINE_CURVE[_TITLE]``.  Cards are fixed format (10-character fields; ``*NODE`` 8, 16,
 16, 16, 8, 8; ``*ELEMENT_SHELL`` 8 each; curve points 20 each) or free format (a line with
 a comma is split at the commas); a blank field takes the keyword's default.  The long
@@ -75,15 +76,16 @@ class DeckSection:
 @dataclass(frozen=True)
 class DeckMaterial:
     """A material card: ``kind`` is ``"elastic"`` (*MAT_001), ``"plastic_kinematic"``
-    (*MAT_003) or ``"piecewise_linear"`` (*MAT_024); ``values`` holds its fields by their
+    (*MAT_003), ``"piecewise_linear"`` (*MAT_024) or ``"transversely_anisotropic"``
+    (*MAT_037); ``values`` holds its fields by their
     lower-case LS-DYNA names (ro, e, pr, sigy, etan, ...; blanks as 0)."""
     mid: int
     kind: str
     title: str
     values: dict
     curve: tuple[tuple[float, float], ...] = ()
-    """*MAT_024: yield stress against effective plastic strain, (eps, sigma) pairs: the
-    LCSS curve (scaled and offset as *DEFINE_CURVE says) or the EPS1..8 / ES1..8 points;
+    """*MAT_024, *MAT_037: yield stress against effective plastic strain, (eps, sigma) pairs: the
+    LCSS (HLCID) curve (scaled and offset as *DEFINE_CURVE says) or the EPS1..8 / ES1..8 points;
     empty when the material is bilinear (SIGY, ETAN) or its curve is missing (a warning)."""
     where: str = field(default="", compare=False)
     """``file:line: *KEYWORD`` of its first card, for messages about its values."""
@@ -144,6 +146,8 @@ _MATERIALS = {
                           [*_layout("c p", 10), ("lcss", 10, "i"), ("lcsr", 10, "i"), *_layout("vp lcf", 10)],
                           _layout("eps1 eps2 eps3 eps4 eps5 eps6 eps7 eps8", 10),
                           _layout("es1 es2 es3 es4 es5 es6 es7 es8", 10)]),
+    "transversely_anisotropic": (("MAT_TRANSVERSELY_ANISOTROPIC_ELASTIC_PLASTIC", "MAT_037"),
+                                 [[("mid", 10, "i"), *_layout("ro e pr sigy etan r", 10), ("hlcid", 10, "i")]]),
 }
 _MATERIAL_NAMES = {name: kind for kind, (names, _) in _MATERIALS.items() for name in names}
 _SHELL_OPTIONS = {"": (), "THICKNESS": ("thickness",), "BETA": ("thickness",), "MCID": ("thickness",),
@@ -341,7 +345,8 @@ def _material_kind(name: str) -> str | None:
     if name in _MATERIAL_NAMES:
         return _MATERIAL_NAMES[name]
     m = re.fullmatch(r"MAT_0*(\d+)", name)
-    return {1: "elastic", 3: "plastic_kinematic", 24: "piecewise_linear"}.get(int(m.group(1))) if m else None
+    return {1: "elastic", 3: "plastic_kinematic", 24: "piecewise_linear",
+            37: "transversely_anisotropic"}.get(int(m.group(1))) if m else None
 
 
 # ---------------------------------------------------------------- the reader
@@ -497,8 +502,15 @@ def read_deck(path: Path) -> tuple[np.ndarray, np.ndarray, dict, Deck, tuple[str
         if part is not None and part.title and headings.count(part.title) == 1 and part.title not in sets:
             sets[part.title] = ids
 
-    # materials: resolve MAT_024 curves; parts used by shells: say what is missing
+    # materials: resolve MAT_024 / MAT_037 curves; parts used by shells: say what is missing
     for mid, mat in list(materials.items()):
+        if mat.kind == "transversely_anisotropic" and int(mat.values["hlcid"]) > 0:
+            hlcid = int(mat.values["hlcid"])
+            if hlcid in curves:
+                materials[mid] = _replace_curve(mat, curves[hlcid])
+            else:
+                warnings.append(f"{_where(*material_lines[mid])}: material {mid}: HLCID {hlcid} is not a "
+                                "*DEFINE_CURVE of this deck: no stress-strain curve")
         if mat.kind != "piecewise_linear":
             continue
         lcss = int(mat.values["lcss"])
@@ -529,7 +541,7 @@ def read_deck(path: Path) -> tuple[np.ndarray, np.ndarray, dict, Deck, tuple[str
                             "*SECTION_SHELL of this deck")
         if part.mid not in materials:
             problems.append(f"{path}: part {pid} ({part.title or 'no heading'}): material {part.mid} is not one "
-                            "this reader reads (*MAT_001, *MAT_003, *MAT_024)")
+                            "this reader reads (*MAT_001, *MAT_003, *MAT_024, *MAT_037)")
     if len(problems) > 10:
         problems = problems[:10] + [f"{path}: ... and {len(problems) - 10} more"]
     warnings += problems

@@ -3,8 +3,9 @@ table (state.sections.material) that the constitutive updates of stages/material
 plus the stiffnesses and wave speeds the section, the time step and the hourglass control
 need.  Pure numpy; the kinds' Taichi code is in :mod:`taichi_shell_mpm.stages.material`.
 
-Columns of a row (COLUMNS, the same for every kind; unused ones stay 0; at most 32, as the
-kernels unroll the row):
+Columns of a row (COLUMNS, the same for every kind; unused ones stay 0; 32, as the kernels
+unroll the row; a plug-in model of laws/ (Hill 1948) adds its own block after them, and the
+table is as wide as the widest block among the models a scene uses: row_width):
 E, nu, density, the plane-stress stiffness c11 = E / (1 - nu^2), c12 = nu c11 and c33 = G
 (the shear modulus), the eigenvalues of the plane-stress return, lambda1 = E / (3 (1 - nu)),
 lambda2 = 2 G, lambda_min; then the J2 flow stress sigma_y(ebar) R(rate) (issue 18):
@@ -35,6 +36,8 @@ import math
 
 import numpy as np
 
+from . import laws
+
 COLUMNS = ("E", "nu", "density", "c11", "c12", "c33", "yield_stress", "hardening",
            "lambda1", "lambda2", "lambda_min",
            "hardening_law", "K", "eps0", "n", "B", "max_stress", "Q", "b", "curve_start", "curve_points",
@@ -43,22 +46,31 @@ COLUMNS = ("E", "nu", "density", "c11", "c12", "c33", "yield_stress", "hardening
            "rate_filter_time", "c22", "shear_13", "shear_23")
 COL = {name: i for i, name in enumerate(COLUMNS)}
 MATERIAL_PARAMETERS = 32             # width of a row (state.sections.material; the kernels unroll it)
-KINDS = ("elastic", "j2", "orthotropic")    # every kind the solver has (stages/material.MODELS in this order)
-PLASTIC = {"elastic": False, "j2": True, "orthotropic": False}
-ORIENTED = {"elastic": False, "j2": False, "orthotropic": True}   # needs material axes (docs/laminates.md)
+KINDS = ("elastic", "j2", "orthotropic", *laws.MODELS)   # every kind the solver has (stages/material.MODELS)
+PLASTIC = {"elastic": False, "j2": True, "orthotropic": False, **{k: True for k in laws.MODELS}}
+ORIENTED = {"elastic": False, "j2": False, "orthotropic": True,  # needs material axes (docs/laminates.md)
+            **{k: True for k in laws.MODELS}}
+BLOCK_OFFSET = MATERIAL_PARAMETERS
+"""A plug-in model's parameter block (laws/) starts here in the row."""
+
+
+def row_width(kinds) -> int:
+    """Columns of the material table of a scene whose models are `kinds`: the common row and
+    the widest block of its plug-in models (32 without one)."""
+    return MATERIAL_PARAMETERS + laws.block_width(kinds)
 HARDENING_LAWS = ("linear", "swift", "ludwik", "voce", "tabulated")   # stages/material.HARDENING in this order
 RATE_LAWS = ("cowper_symonds", "johnson_cook")                        # stages/material.RATE in this order
 
 
 def hardening_laws(specs) -> tuple[str, ...]:
-    """The hardening laws of the J2 materials among `specs` (HARDENING_LAWS order): Features.hardening."""
-    used = {s.hardening_law for s in specs if s.model == "j2"}
+    """The hardening laws of the plastic materials among `specs` (HARDENING_LAWS order): Features.hardening."""
+    used = {s.hardening_law for s in specs if PLASTIC[s.model]}
     return tuple(law for law in HARDENING_LAWS if law in used)
 
 
 def rate_laws(specs) -> tuple[str, ...]:
-    """The rate laws of the J2 materials among `specs` (RATE_LAWS order): Features.rate_laws."""
-    used = {s.rate_law for s in specs if s.model == "j2"}
+    """The rate laws of the plastic materials among `specs` (RATE_LAWS order): Features.rate_laws."""
+    used = {s.rate_law for s in specs if PLASTIC[s.model]}
     return tuple(law for law in RATE_LAWS if law in used)
 
 
@@ -86,7 +98,7 @@ def parameter_row(spec, width: int, hardening: tuple[str, ...] | None = None, ra
         G = E / (2.0 * (1.0 + nu))
         c11 = E / (1.0 - nu * nu)
         values = {"E": E, "nu": nu, "density": spec.density, "c11": c11, "c12": nu * c11, "c33": G}
-        if spec.model == "j2":
+        if PLASTIC[spec.model]:
             hardening = hardening_laws([spec]) if hardening is None else hardening
             rates = rate_laws([spec]) if rates is None else rates
             lam1, lam2 = E / (3.0 * (1.0 - nu)), 2.0 * G
@@ -102,6 +114,9 @@ def parameter_row(spec, width: int, hardening: tuple[str, ...] | None = None, ra
                               curve_extrapolate=float(spec.beyond_curve == "extrapolate"))
     for name, value in values.items():
         row[COL[name]] = value
+    if spec.model in laws.MODELS:
+        block = laws.MODELS[spec.model].block(spec.E, spec.nu, spec.parameters)
+        row[BLOCK_OFFSET:BLOCK_OFFSET + len(block)] = block
     return row
 
 

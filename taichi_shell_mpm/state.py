@@ -60,7 +60,7 @@ import taichi as ti
 
 from .assembly import added_mass_geometry, node_point_masses
 from .curves import COLUMNS as CURVE_COLUMNS
-from .materials import MATERIAL_PARAMETERS
+from .materials import row_width
 from .scene import MAX_BODIES, MAX_CURVES, MAX_MOTIONS
 from .tools import MAX_TOOLS
 
@@ -302,7 +302,7 @@ class State:
         g.table("ply_axis", ti.Vector.field(2, f64), (MAX_SECTIONS, nk),       # cos, sin of its ply angle
                 used=fx.oriented)
         g.table("material_kind", ti.field(i32), (MAX_MATERIALS,))              # index into Features.materials
-        g.table("material", ti.field(f64), (MAX_MATERIALS, MATERIAL_PARAMETERS))   # parameters (stages/material.py)
+        g.table("material", ti.field(f64), (MAX_MATERIALS, row_width(fx.materials)))   # parameters (materials.py)
         g.table("failure", ti.Vector.field(3, f64), (MAX_MATERIALS,),          # erosion (materials.failure_row)
                 used=fx.erosion)
         # tabulated hardening curves, all materials' one after the other (a row holds its first
@@ -661,7 +661,7 @@ class State:
         mats = model.materials
         nm = len(mats.names)
         w(sec.material_kind, np.concatenate([mats.kind, np.zeros(MAX_MATERIALS - nm, np.int32)]))
-        w(sec.material, np.concatenate([mats.rows, np.zeros((MAX_MATERIALS - nm, MATERIAL_PARAMETERS))]))
+        w(sec.material, np.concatenate([mats.rows, np.zeros((MAX_MATERIALS - nm, mats.rows.shape[1]))]))
         if self.features.erosion:
             w(sec.failure, np.concatenate([mats.failure, np.zeros((MAX_MATERIALS - nm, 3))]))
         if "tabulated" in self.features.hardening:

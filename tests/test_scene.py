@@ -278,7 +278,7 @@ BAD_VALUES = [  # (dotted path, value, expected message after "case.toml: ")
     ("material.E", -3, "[material].E: expected a number > 0, got -3"),
     ("material.nu", math.nan, "[material].nu: expected a number in (-1, 0.5), got nan"),
     ("material.nu", 0.5, "[material].nu: expected a number in (-1, 0.5), got 0.5"),
-    ("material.model", "plastic", "[material].model: expected one of elastic, j2, orthotropic, got 'plastic'"),
+    ("material.model", "plastic", "[material].model: expected one of elastic, j2, orthotropic, hill48, got 'plastic'"),
     ("section.thickness", True, "[section].thickness: expected a number > 0, got true"),
     ("section.shear_factor", math.inf, "[section].shear_factor: expected a number in (0, 1], got inf"),
     ("section.points", 11, "[section].points: expected an integer in [1, 10], got 11"),

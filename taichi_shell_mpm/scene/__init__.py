@@ -2,7 +2,7 @@
 
 Each table has its module, named after it (scene/material.py is ``[material]`` and
 ``[materials.NAME]``, scene/tool.py ``[[tool]]``, ...): its dataclass declares every key
-once (scene/keys.py: the check, default, unit, meaning, example), and its reader adds the
+once (taichi_shell_mpm/keys.py: the check, default, unit, meaning, example), and its reader adds the
 rules across keys.  From the declarations come the parser's checks (scene/reader.py), the
 key tables of docs/scenes.md and the JSON Schema (scene/schema.py,
 ``python -m taichi_shell_mpm schema``).  Everything downstream (mesh, nodesets, state,
@@ -25,9 +25,9 @@ from .element import ElementOptions
 from .gravity import Gravity
 from .info import SceneInfo
 from .initial import InitialVelocity
-from .keys import DOFS, Invalid, Vec3, hint, inertia_tensor, keys_of
+from ..keys import DOFS, Invalid, Vec3, hint, inertia_tensor, keys_of
 from .load import Load
-from .material import AnyMaterial, Material, OrthotropicMaterial
+from .material import LAW_KEYS, AnyMaterial, Material, OrthotropicMaterial
 from .mesh import DECK_SUFFIXES, FileMesh, HemisphereMesh, MeshSpec, PlateMesh, TubeMesh
 from .method import Method
 from .motion import MAX_MOTIONS, MOTION_KINDS, Motion
@@ -58,8 +58,10 @@ def value_problem(table: str, key: str, value: Any) -> str | None:
     """What is wrong with `value` as the key `key` of [material] or [section] (`table`), or
     None: an LS-DYNA deck's values are checked by the scene's own declarations
     (assembly._deck_specs), so a deck value is held to the same range as the scene key."""
+    declared = {"material": {**keys_of(Material), **{n: k for keys in LAW_KEYS.values() for n, k in keys.items()}},
+                "section": keys_of(Section)}[table]
     try:
-        keys_of({"material": Material, "section": Section}[table])[key].check(value)
+        declared[key].check(value)
     except Invalid as exc:
         return str(exc)
     return None

@@ -4,7 +4,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Literal
 
-from .keys import choice, dof_list, key, keys_of, node_set
+from ..keys import choice, dof_list, key, keys_of, node_set
 from .reader import Reader
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .keys import key, non_negative, number, positive, unit_interval
+from ..keys import key, non_negative, number, positive, unit_interval
 from .reader import Reader
 
 

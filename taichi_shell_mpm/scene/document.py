@@ -16,7 +16,7 @@ from .element import ElementOptions
 from .gravity import Gravity
 from .info import SceneInfo
 from .initial import InitialVelocity
-from .keys import Invalid, hint, key_path, one_line, show
+from ..keys import Invalid, hint, key_path, one_line, show
 from .load import Load, read_load
 from .material import AnyMaterial
 from .mesh import MeshSpec, read_mesh

@@ -4,7 +4,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
-from .keys import choice, key, positive, unit_interval
+from ..keys import choice, key, positive, unit_interval
 
 
 @dataclass(frozen=True)

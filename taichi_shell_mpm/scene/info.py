@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .keys import file_name, key, nonempty, text
+from ..keys import file_name, key, nonempty, text
 
 
 @dataclass(frozen=True)

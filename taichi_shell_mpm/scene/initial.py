@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .keys import Vec3, key, node_set, vec3
+from ..keys import Vec3, key, node_set, vec3
 
 
 @dataclass(frozen=True)

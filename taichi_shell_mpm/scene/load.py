@@ -4,7 +4,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Literal
 
-from .keys import Vec3, boolean, choice, curve_name, key, keys_of, node_set, show, vec3
+from ..keys import Vec3, boolean, choice, curve_name, key, keys_of, node_set, show, vec3
 from .reader import Reader
 
 

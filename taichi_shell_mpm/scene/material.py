@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal, Union
 
-from .keys import (
+from ..keys import (
     Check,
     Invalid,
     choice,
@@ -23,9 +23,12 @@ from .keys import (
     positive,
     show,
 )
+from ..laws import MODELS as LAWS
 from .reader import Reader
 
-MATERIAL_MODELS = ("elastic", "j2", "orthotropic")
+MATERIAL_MODELS = ("elastic", "j2", "orthotropic", *LAWS)
+"""The built-in models and the plug-in ones (laws/: their own keys below)."""
+LAW_KEYS = {name: law.KEYS for name, law in LAWS.items()}
 
 
 HARDENING_KEYS = {"linear": (("yield_stress",), ("hardening",)),
@@ -82,12 +85,13 @@ class Material:
     nu: float = key(number(-1, 0.5, lo_open=True, hi_open=True), "Poisson's ratio")
     density: float = key(positive, unit="mass/length³",
         doc="mass density (per volume); fictitious in static solves, ρ = 1 is fine")
-    model: Literal["elastic", "j2"] = key(
-        choice(*MATERIAL_MODELS), default="elastic", allowed="`elastic`, `j2`, `orthotropic`",
+    model: str = key(
+        choice(*MATERIAL_MODELS), default="elastic",
         doc="`elastic`: linear, in the element's corotational frame; `j2`: von Mises plasticity in plane stress "
             "with isotropic hardening, flow stress σ_f = σ_y(ε̄ᵖ) R(ε̇) of the hardening and rate laws below "
             "(consistent plane-stress return map, method.md 3.4; a return that does not converge stops the run "
-            "naming the element); `orthotropic`: the keys of the orthotropic table below instead of `E`, `nu`")
+            "naming the element); `orthotropic`: the keys of the orthotropic table below instead of `E`, `nu`; "
+            + "; ".join(law.DOC for law in LAWS.values()))
     yield_stress: float = key(
         positive, default=0.0, unit="stress", default_text="required for `linear`, `ludwik`, `voce`",
         doc="initial yield stress σ_y0 (Ludwik's A; `swift`: instead of `eps0`, which is then (σ_y0/K)^(1/n))")
@@ -154,6 +158,12 @@ class Material:
     failure_min_dt: float = key(positive, default=0.0, unit="time", default_text="none",
         doc="erosion (any model, dynamic solves; LS-DYNA TDEL): an element also fails once its stable time step "
             "(after mass scaling) falls below this")
+    model_parameters: tuple[tuple[str, float], ...] = ()
+    """A plug-in model's own keys (laws/<model>.py KEYS) with their values, defaults filled in."""
+
+    @property
+    def parameters(self) -> dict[str, float]:
+        return dict(self.model_parameters)
 
 
 @dataclass(frozen=True)
@@ -188,9 +198,17 @@ def read_material(r: Reader, path: str, data: Any) -> AnyMaterial | None:
             return None
         return material
     mark = len(r.messages)
-    values = r.read(path, data, keys_of(Material), Material)
+    law_keys = {name: k for keys in LAW_KEYS.values() for name, k in keys.items()}
+    values = r.read(path, data, {**keys_of(Material), **law_keys}, Material)
     if values is None:
         return None
+    for name, declared in LAW_KEYS.items():      # a plug-in model's keys: with it only
+        given = {n: values.pop(n) for n in declared if n in values}
+        for n in declared:
+            if n in data and "model" in values and values["model"] != name:
+                r.error(f"{path}.{n}", f'only for model = "{name}"')
+        if values.get("model") == name:
+            values["model_parameters"] = tuple((n, given.get(n, k.default)) for n, k in declared.items())
     plasticity = {k for table in (HARDENING_KEYS, RATE_KEYS) for keys in table.values() for group in keys
                   for k in group} | {"hardening_law", "rate_law"}
     if values.get("model") == "elastic":

@@ -5,7 +5,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal, Union
 
-from .keys import (
+from ..keys import (
     BOX,
     Check,
     Invalid,

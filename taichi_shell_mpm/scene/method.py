@@ -4,7 +4,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Literal
 
-from .keys import (
+from ..keys import (
     Vec3,
     choice,
     key,

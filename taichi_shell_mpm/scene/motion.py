@@ -5,7 +5,7 @@ from dataclasses import dataclass
 from typing import Any, Literal
 
 from .curves import Curve
-from .keys import (
+from ..keys import (
     choice,
     curve_name,
     dof_list,

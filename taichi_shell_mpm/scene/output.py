@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .keys import boolean, integer, key, non_negative, times
+from ..keys import boolean, integer, key, non_negative, times
 
 
 @dataclass(frozen=True)

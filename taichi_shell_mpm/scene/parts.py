@@ -4,7 +4,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Literal
 
-from .keys import (
+from ..keys import (
     BOX,
     BOX_KEYS,
     TOML_BARE_KEY,

@@ -4,7 +4,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from .keys import identifier, key, keys_of, node_set, non_negative
+from ..keys import identifier, key, keys_of, node_set, non_negative
 from .reader import Reader
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from .keys import curve_name, hint, key, keys_of, nonempty, nonzero
+from ..keys import curve_name, hint, key, keys_of, nonempty, nonzero
 from .mesh import FileMesh
 from .reader import Reader
 

@@ -8,7 +8,7 @@ from functools import partial
 from pathlib import Path
 from typing import Any
 
-from .keys import (
+from ..keys import (
     DOFS,
     TOML_BARE_KEY,
     Check,

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from .keys import (
+from ..keys import (
     Check,
     choice,
     contextual,

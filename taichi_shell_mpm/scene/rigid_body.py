@@ -4,7 +4,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from .keys import (
+from ..keys import (
     Vec3,
     boolean,
     dof_list,

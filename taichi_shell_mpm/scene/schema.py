@@ -24,9 +24,9 @@ from .element import ElementOptions
 from .gravity import Gravity
 from .info import SceneInfo
 from .initial import InitialVelocity
-from .keys import REQUIRED, Key, keys_of, shown_default
+from ..keys import REQUIRED, Key, keys_of, shown_default
 from .load import Load
-from .material import Material, OrthotropicMaterial
+from .material import LAW_KEYS, Material, OrthotropicMaterial
 from .mesh import MESH_KIND_KEYS, MESHES
 from .method import Method
 from .motion import Motion
@@ -57,6 +57,7 @@ DOC_TABLES: dict[str, Any] = {
     **{f"mesh.{kind}": (lambda cls=cls: keys_of(cls)) for kind, cls in MESHES.items()},
     "material": lambda: keys_of(Material),
     "material.orthotropic": lambda: {n: k for n, k in keys_of(OrthotropicMaterial).items() if n != "model"},
+    **{f"material.{name}": (lambda keys=keys: keys) for name, keys in LAW_KEYS.items()},
     "section": lambda: keys_of(Section),
     "section.layered": _layered,
     "elementsets": lambda: ELEMENT_SET_KEYS,
@@ -181,7 +182,8 @@ def _named(schema: dict, what: str) -> dict:
 
 def scene_schema() -> dict:
     """The JSON Schema of a scene file: draft 7, which Taplo and the common editors read."""
-    material = {"anyOf": [table_schema(keys_of(Material)),
+    law_keys = {name: k for keys in LAW_KEYS.values() for name, k in keys.items()}
+    material = {"anyOf": [table_schema({**keys_of(Material), **law_keys}),
                           {**table_schema(keys_of(OrthotropicMaterial)),
                            "required": [*table_schema(keys_of(OrthotropicMaterial))["required"], "model"]}]}
     section = table_schema(keys_of(Section), required=False)

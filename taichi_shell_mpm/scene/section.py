@@ -5,7 +5,7 @@ import math
 from dataclasses import MISSING, dataclass, fields
 from typing import Any, Literal
 
-from .keys import (
+from ..keys import (
     Check,
     Vec3,
     choice,

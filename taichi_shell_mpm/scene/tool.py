@@ -8,7 +8,7 @@ from typing import Any, Literal
 
 from .contact import check_penalty_damping
 from .curves import Curve
-from .keys import (
+from ..keys import (
     Vec3,
     choice,
     curve_name,

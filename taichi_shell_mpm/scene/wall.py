@@ -4,7 +4,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from .keys import Vec3, hint, identifier, key, keys_of, nonzero_vec3, vec3
+from ..keys import Vec3, hint, identifier, key, keys_of, nonzero_vec3, vec3
 from .reader import Reader
 
 

@@ -16,7 +16,8 @@ parameters, the tabulated curves included, are run-time data too.
 
 import taichi as ti
 
-from ..materials import COL, ORIENTED
+from .. import laws
+from ..materials import BLOCK_OFFSET, COL, ORIENTED
 
 
 # ---------------------------------------------------------------- hardening laws sigma_y(ebar)
@@ -287,17 +288,52 @@ class PlaneStressJ2(PlaneStressElastic):
         return sy, slope
 
     @ti.func
-    def consistency(self, row, a1, b, ebar_n, dlam, base, weight, fixed):
+    def trial(self, row, axes, trial):
+        """The von Mises stress q of the in-plane trial stress and the terms of its return:
+        a1 = (s11 + s22)^2 and b = (s11 - s22)^2 / 2 + 2 s12^2, its projections on the
+        eigenvectors of C P, then s11 + s22, s11 - s22, s12 (method.md 3.4).  Isotropic:
+        `axes` is not read."""
+        s11, s22, s12 = trial[0], trial[1], trial[2]
+        q = ti.sqrt(s11 * s11 - s11 * s22 + s22 * s22 + 3.0 * s12 * s12)
+        s_sum, s_diff = s11 + s22, s11 - s22
+        return q, ti.Vector([s_sum * s_sum, 0.5 * s_diff * s_diff + 2.0 * s12 * s12, s_sum, s_diff, s12])
+
+    @ti.func
+    def smallest_eigenvalue(self, row):
+        """The smallest eigenvalue of C P (the return's bracket)."""
+        return row[COL["lambda_min"]]
+
+    @ti.func
+    def xi(self, row, terms, dlam):
+        """xi(dlambda) = sigma.P.sigma of the returned stress and its derivative:
+        a1 u1^2 / 6 + b u2^2 with u_i = 1 / (1 + lambda_i dlambda)."""
+        lambda1, lambda2 = row[COL["lambda1"]], row[COL["lambda2"]]
+        u1 = 1.0 / (1.0 + lambda1 * dlam)
+        u2 = 1.0 / (1.0 + lambda2 * dlam)
+        xi = terms[0] * u1 * u1 / 6.0 + terms[1] * u2 * u2
+        dxi = -lambda1 * terms[0] * u1 ** 3 / 3.0 - 2.0 * lambda2 * terms[1] * u2 ** 3
+        return xi, dxi
+
+    @ti.func
+    def returned(self, row, axes, stress, terms, dlam):
+        """`stress` with its in-plane part returned by dlambda: (I + dlambda C P)^-1 sigma_trial."""
+        u1 = 1.0 / (1.0 + row[COL["lambda1"]] * dlam)
+        u2 = 1.0 / (1.0 + row[COL["lambda2"]] * dlam)
+        s_sum, s_diff = terms[2], terms[3]
+        out = stress
+        out[0] = 0.5 * (s_sum * u1 + s_diff * u2)
+        out[1] = 0.5 * (s_sum * u1 - s_diff * u2)
+        out[2] = terms[4] * u2
+        return out
+
+    @ti.func
+    def consistency(self, row, terms, ebar_n, dlam, base, weight, fixed):
         """F(dlambda), F'(dlambda), ebar(dlambda), its increment and the flow stress there
         (method.md 3.4).  The rate takes the increment itself, not ebar - ebar_n: that
         difference keeps only the digits of the increment that ebar_n leaves, and the steps
         of R it then makes were larger than the tolerance on F (a tube point with ebar_n
         ~0.1 and d ebar ~1e-7 never converged)."""
-        lambda1, lambda2 = row[COL["lambda1"]], row[COL["lambda2"]]
-        u1 = 1.0 / (1.0 + lambda1 * dlam)
-        u2 = 1.0 / (1.0 + lambda2 * dlam)
-        xi = a1 * u1 * u1 / 6.0 + b * u2 * u2
-        dxi = -lambda1 * a1 * u1 ** 3 / 3.0 - 2.0 * lambda2 * b * u2 ** 3
+        xi, dxi = self.xi(row, terms, dlam)
         flow_rate = ti.sqrt(2.0 * xi / 3.0)          # d ebar / d dlambda at fixed xi
         ebar = ebar_n + dlam * flow_rate
         increment = 0.0
@@ -329,8 +365,7 @@ class PlaneStressJ2(PlaneStressElastic):
                 base, weight = (1.0 - alpha) * strain_rate, alpha / dt
             else:
                 base = alpha * (effective_strain_increment(d_strain) / dt) + (1.0 - alpha) * strain_rate
-        s11, s22, s12 = new[0], new[1], new[2]
-        q_trial = ti.sqrt(s11 * s11 - s11 * s22 + s22 * s22 + 3.0 * s12 * s12)
+        q_trial, terms = self.trial(row, axes, new)
         # R >= 1: a trial stress below the rate-free sigma_y(ebar_n) is elastic at any rate, and
         # R is not evaluated (most points, most steps) [choice, measured: docs/performance.md]
         sy_n, _ = self.hardening(row, plastic_strain)
@@ -341,9 +376,6 @@ class PlaneStressJ2(PlaneStressElastic):
                 fixed = ti.Vector([R, dR])
                 sy_n, _ = self.flow_stress(row, plastic_strain, base, weight, fixed)
         if q_trial > sy_n:
-            s_sum, s_diff = s11 + s22, s11 - s22
-            a1 = s_sum * s_sum
-            b = 0.5 * s_diff * s_diff + 2.0 * s12 * s12
             # F(0) = (q_trial^2 - sy_n^2)/3 > 0, and F <= 0 where xi(dlambda) <= xi(0)/(1 + lambda_min
             # dlambda)^2 reaches 2 sy_n^2/3: the root lies in [lo, hi].  Newton from 0; a Newton
             # iterate outside the bracket is replaced by bisection, or (regula_falsi) by the Illinois
@@ -353,11 +385,11 @@ class PlaneStressJ2(PlaneStressElastic):
             # (Cowper-Symonds p = 5 on the plastic rate: Newton from the right lands below 0 every
             # time); with the Illinois step at most 17 (a numpy copy of this loop, 20 000 random
             # trials 1e-10 to 10 above yield).
-            lo, hi, dlam, root = 0.0, (q_trial / sy_n - 1.0) / row[COL["lambda_min"]], 0.0, 0.0
+            lo, hi, dlam, root = 0.0, (q_trial / sy_n - 1.0) / self.smallest_eigenvalue(row), 0.0, 0.0
             f_lo, f_hi, side = 0.0, 0.0, 0           # F at the ends; the end moved last (1: lo, -1: hi)
             converged = False
             for _iteration in range(self.max_iterations):
-                f, df, ebar_k, increment_k, sy = self.consistency(row, a1, b, plastic_strain, dlam, base, weight,
+                f, df, ebar_k, increment_k, sy = self.consistency(row, terms, plastic_strain, dlam, base, weight,
                                                                   fixed)
                 ebar, increment = ebar_k, increment_k
                 root = dlam                      # the dlambda that ebar belongs to
@@ -379,11 +411,7 @@ class PlaneStressJ2(PlaneStressElastic):
                     dlam = 0.5 * (lo + hi)
                     if f_hi < 0.0 and self.regula_falsi(row):
                         dlam = lo + (hi - lo) * f_lo / (f_lo - f_hi)
-            u1 = 1.0 / (1.0 + row[COL["lambda1"]] * root)
-            u2 = 1.0 / (1.0 + row[COL["lambda2"]] * root)
-            new[0] = 0.5 * (s_sum * u1 + s_diff * u2)
-            new[1] = 0.5 * (s_sum * u1 - s_diff * u2)
-            new[2] = s12 * u2
+            new = self.returned(row, axes, new, terms, root)
             sy_mid, _ = self.flow_stress(row, 0.5 * (plastic_strain + ebar), base + weight * increment, weight, fixed)
             work = sy_mid * (ebar - plastic_strain)
         return new, ebar, base + weight * increment, work, converged
@@ -429,7 +457,9 @@ class PlaneStressOrthotropic:
             s * t13 + c * t23]), plastic_strain, strain_rate, 0.0, True
 
 
-MODELS = {cls.kind: cls for cls in (PlaneStressElastic, PlaneStressJ2, PlaneStressOrthotropic)}   # materials.KINDS
+MODELS = {cls.kind: cls for cls in (PlaneStressElastic, PlaneStressJ2, PlaneStressOrthotropic,
+                                     *(law.kernel(PlaneStressJ2, BLOCK_OFFSET) for law in laws.MODELS.values()))}
+"""Every model, materials.KINDS: the built-in ones and the plug-ins of laws/ (on the J2 return)."""
 
 
 @ti.data_oriented

@@ -1,4 +1,5 @@
-"""Scene keys: how one is declared, and the checks (validators) a declaration names.
+"""Scene keys: how one is declared, and the checks (validators) a declaration names (the
+tables of scene/ and the material models of laws/ declare their keys with them).
 
 A key is declared once, as a field of its table's frozen dataclass::
 
@@ -8,7 +9,8 @@ A key is declared once, as a field of its table's frozen dataclass::
 tuple).  The declaration gives the check, the default (none: required), the unit, the
 one-line meaning, an example and, where a cross-key rule says more than the check, the
 "allowed" and "default" texts; from it come the parser's checks (scene/reader.py), the key
-tables of docs/scenes.md and the JSON Schema (scene/schema.py).
+tables of docs/scenes.md and the JSON Schema (scene/schema.py).  It imports nothing of the
+package, so that any layer may declare keys.
 
 A check converts one TOML value (ints -> float for real quantities, arrays -> tuples) or
 raises :class:`Invalid` with the ``<problem>`` part of the one-line message; it also says
