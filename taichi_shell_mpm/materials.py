@@ -10,17 +10,15 @@ E, nu, density, the plane-stress stiffness c11 = E / (1 - nu^2), c12 = nu c11 an
 (the shear modulus), the eigenvalues of the plane-stress return, lambda1 = E / (3 (1 - nu)),
 lambda2 = 2 G, lambda_min; then the J2 flow stress sigma_y(ebar) R(rate) (issue 18):
 
-- the hardening law sigma_y(ebar) (``hardening_law``: its index into Features.hardening) and
-  its parameters: yield stress (linear, Ludwik's A, Voce) and linear modulus H (the linear
-  law; the linear term of Swift, Ludwik and Voce),
-  Swift's K, eps0 and Swift's and Ludwik's exponent n, Ludwik's B and cap max_stress (0: none),
-  Voce's Q and b, the tabulated curve's first point and point count in the curve table
-  (state.sections.curve_strain / curve_stress) and whether it is extrapolated beyond its
-  last point (1) or flat (0);
-- the rate law R (``rate_law``: its index into Features.rate_laws, -1: none) and its
-  parameters: Cowper-Symonds C and p, Johnson-Cook c and the reference rate, the rate
-  measure (``rate_plastic`` 1: the equivalent plastic strain rate, 0: the effective total
-  strain rate) and the filter's time constant (0: unfiltered).
+- the hardening law sigma_y(ebar) (``hardening_law``: its index into Features.hardening), the
+  yield stress and linear modulus H every law reads, and its own parameters in the 10 columns
+  ``hardening_0``.. (its file in laws/hardening/ names them: BLOCK; the tabulated law: its
+  curve's first point and point count in the curve table state.sections.curve_strain /
+  curve_stress, extrapolated (1) or flat);
+- the rate law R (``rate_law``: its index into Features.rate_laws, -1: none), its parameters
+  in the 4 columns ``rate_0``.. (laws/rate/), the rate measure (``rate_plastic`` 1: the
+  equivalent plastic strain rate, 0: the effective total strain rate) and the filter's time
+  constant (0: unfiltered).
 
 An orthotropic material (docs/laminates.md) fills E = E1, nu = nu12, density, its
 plane-stress stiffness in its own axes c11 = Q11, c22 = Q22, c12 = Q12, c33 = Q66 = G12, and
@@ -37,12 +35,15 @@ import math
 import numpy as np
 
 from . import laws
+from .laws.hardening import BLOCK_WIDTH as HARDENING_BLOCK
+from .laws.hardening import LAWS as HARDENING
+from .laws.rate import BLOCK_WIDTH as RATE_BLOCK
+from .laws.rate import LAWS as RATE
 
 COLUMNS = ("E", "nu", "density", "c11", "c12", "c33", "yield_stress", "hardening",
            "lambda1", "lambda2", "lambda_min",
-           "hardening_law", "K", "eps0", "n", "B", "max_stress", "Q", "b", "curve_start", "curve_points",
-           "curve_extrapolate",
-           "rate_law", "cowper_symonds_C", "cowper_symonds_p", "johnson_cook_c", "reference_rate", "rate_plastic",
+           "hardening_law", *(f"hardening_{i}" for i in range(HARDENING_BLOCK)),
+           "rate_law", *(f"rate_{i}" for i in range(RATE_BLOCK)), "rate_plastic",
            "rate_filter_time", "c22", "shear_13", "shear_23")
 COL = {name: i for i, name in enumerate(COLUMNS)}
 MATERIAL_PARAMETERS = 32             # width of a row (state.sections.material; the kernels unroll it)
@@ -58,8 +59,15 @@ def row_width(kinds) -> int:
     """Columns of the material table of a scene whose models are `kinds`: the common row and
     the widest block of its plug-in models (32 without one)."""
     return MATERIAL_PARAMETERS + laws.block_width(kinds)
-HARDENING_LAWS = ("linear", "swift", "ludwik", "voce", "tabulated")   # stages/material.HARDENING in this order
-RATE_LAWS = ("cowper_symonds", "johnson_cook")                        # stages/material.RATE in this order
+HARDENING_LAWS = tuple(HARDENING)       # laws/hardening/ (stages/material.HARDENING in this order)
+RATE_LAWS = tuple(RATE)                 # laws/rate/
+
+
+def law_column(law: str, parameter: str) -> int:
+    """The row column of a hardening or rate law's parameter (its block, laws/)."""
+    if law in HARDENING:
+        return COL["hardening_0"] + HARDENING[law].BLOCK.index(parameter)
+    return COL["rate_0"] + RATE[law].BLOCK.index(parameter)
 
 
 def hardening_laws(specs) -> tuple[str, ...]:
@@ -104,14 +112,12 @@ def parameter_row(spec, width: int, hardening: tuple[str, ...] | None = None, ra
             lam1, lam2 = E / (3.0 * (1.0 - nu)), 2.0 * G
             values.update(yield_stress=spec.yield_stress, hardening=spec.hardening, lambda1=lam1, lambda2=lam2,
                           lambda_min=min(lam1, lam2), hardening_law=hardening.index(spec.hardening_law),
-                          K=spec.K, eps0=spec.eps0, n=spec.n, B=spec.B, max_stress=spec.max_stress or 0.0, Q=spec.Q,
-                          b=spec.b, rate_law=rates.index(spec.rate_law) if spec.rate_law in rates else -1,
-                          cowper_symonds_C=spec.C, cowper_symonds_p=spec.p, johnson_cook_c=spec.c,
-                          reference_rate=spec.reference_rate, rate_plastic=float(spec.rate_measure == "plastic"),
-                          rate_filter_time=rate_filter_time(spec))
-            if spec.hardening_law == "tabulated":
-                values.update(curve_start=curve_start, curve_points=len(spec.curve),
-                              curve_extrapolate=float(spec.beyond_curve == "extrapolate"))
+                          rate_law=rates.index(spec.rate_law) if spec.rate_law in rates else -1,
+                          rate_plastic=float(spec.rate_measure == "plastic"), rate_filter_time=rate_filter_time(spec))
+            values.update({f"hardening_{i}": x for i, x in
+                           enumerate(HARDENING[spec.hardening_law].block(spec, curve_start))})
+            if spec.rate_law in RATE:
+                values.update({f"rate_{i}": x for i, x in enumerate(RATE[spec.rate_law].block(spec))})
     for name, value in values.items():
         row[COL[name]] = value
     if spec.model in laws.MODELS:

@@ -530,7 +530,7 @@ def test_lsdyna_curve_and_cowper_symonds(tmp_path):
     total rate (VP = 0); *MAT_024: its LCSS curve -> the tabulated law, extrapolated (a curve
     from ebar 0.01 takes its first stress from 0, a falling point is held: notes), C/P with
     VP = 1 -> Cowper-Symonds on the plastic rate."""
-    from taichi_shell_mpm.materials import COL
+    from taichi_shell_mpm.materials import COL, law_column
     from taichi_shell_mpm.preflight import prepare
     (tmp_path / "deck.k").write_text(DECK)
     scene = write_scene(tmp_path, '[scene]\nname = "deck"\nunits = "N-mm-s"\n[mesh]\nkind = "file"\npath = "deck.k"\n'
@@ -542,10 +542,11 @@ def test_lsdyna_curve_and_cowper_symonds(tmp_path):
     kin, cur = mats.rows
     assert kin[COL["hardening_law"]] == 0 and kin[COL["yield_stress"]] == 250.0
     assert kin[COL["hardening"]] == pytest.approx(2.1e5 * 1000.0 / (2.1e5 - 1000.0), rel=1e-15)
-    assert (kin[COL["rate_law"]], kin[COL["cowper_symonds_C"]], kin[COL["cowper_symonds_p"]],
+    assert (kin[COL["rate_law"]], kin[law_column("cowper_symonds", "C")], kin[law_column("cowper_symonds", "p")],
             kin[COL["rate_plastic"]]) == (0, 40.4, 5.0, 0.0)
-    assert cur[COL["hardening_law"]] == 1 and cur[COL["curve_extrapolate"]] == 1.0
-    assert (cur[COL["curve_start"]], cur[COL["curve_points"]], cur[COL["rate_plastic"]]) == (0, 4, 1.0)
+    assert cur[COL["hardening_law"]] == 1 and cur[law_column("tabulated", "curve_extrapolate")] == 1.0
+    assert (cur[law_column("tabulated", "curve_start")], cur[law_column("tabulated", "curve_points")],
+            cur[COL["rate_plastic"]]) == (0, 4, 1.0)
     assert mats.curve_strain.tolist() == [0.0, 0.01, 0.1, 0.2] and mats.curve_stress.tolist() == [260, 260, 300, 300]
     notes = " | ".join(model.notes)
     assert "*MAT_024 2: the curve starts at plastic strain 0.01" in notes

@@ -1,29 +1,24 @@
 """[material] and [materials.NAME]: elastic, j2 (with its hardening, rate and failure laws) and orthotropic materials."""
 from __future__ import annotations
 
-import csv
 import math
-from dataclasses import dataclass
-from pathlib import Path
+from dataclasses import dataclass, field, make_dataclass
 from typing import Any, Literal, Union
 
 from ..keys import (
-    Check,
-    Invalid,
     choice,
-    curve_points,
-    hardening_curve,
     integer,
     key,
     key_path,
     keys_of,
     non_negative,
     number,
-    one_line,
     positive,
-    show,
 )
 from ..laws import MODELS as LAWS
+from ..laws.hardening import LAWS as HARDENING
+from ..laws.rate import LAWS as RATE
+from ..laws.rate import OPTIONAL as RATE_OPTIONAL
 from .reader import Reader
 
 MATERIAL_MODELS = ("elastic", "j2", "orthotropic", *LAWS)
@@ -31,56 +26,15 @@ MATERIAL_MODELS = ("elastic", "j2", "orthotropic", *LAWS)
 LAW_KEYS = {name: law.KEYS for name, law in LAWS.items()}
 
 
-HARDENING_KEYS = {"linear": (("yield_stress",), ("hardening",)),
-                   "swift": (("K", "n"), ("eps0", "yield_stress", "hardening")),
-                   "ludwik": (("yield_stress", "B", "n"), ("max_stress", "hardening")),
-                   "voce": (("yield_stress", "Q", "b"), ("hardening",)),
-                   "tabulated": ((), ("curve", "curve_file", "beyond_curve"))}
-
-
-RATE_KEYS = {"none": ((), ()), "cowper_symonds": (("C", "p"), ("rate_measure", "rate_filter_time",
-                                                                  "rate_cutoff_frequency")),
-              "johnson_cook": (("c", "reference_rate"), ("rate_measure", "rate_filter_time",
-                                                          "rate_cutoff_frequency"))}
-
-
-def read_curve_file(r: Reader, value: Any) -> tuple[Path, tuple[tuple[float, float], ...]]:
-    """A CSV file of (plastic strain, yield stress) rows, relative to the scene file (an
-    optional header row; blank lines and lines starting with '#' are skipped): its path
-    and points (curve_points)."""
-    path = r.file(value)
-    try:
-        with path.open(newline="", encoding="utf-8-sig") as f:
-            rows = [(i, row) for i, row in enumerate(csv.reader(f), 1)
-                    if row and "".join(row).strip() and not row[0].lstrip().startswith("#")]
-    except (OSError, UnicodeDecodeError, csv.Error) as exc:
-        raise Invalid(f"cannot read {path.name} ({one_line(exc)})")
-
-    def number(text: str) -> float | None:
-        try:
-            x = float(text)
-        except ValueError:
-            return None
-        return x if math.isfinite(x) else None
-    if rows and any(number(cell) is None for cell in rows[0][1]):
-        rows = rows[1:]                           # the header
-    points, lines = [], []
-    for line, row in rows:
-        cells = [number(cell) for cell in row]
-        if len(cells) != 2 or None in cells:
-            raise Invalid(f"{path.name} line {line}: expected two numbers (plastic strain, yield stress), "
-                           f"got {show(','.join(row))}")
-        points.append((cells[0], cells[1]))
-        lines.append(line)
-    return path, curve_points(points, lambda i: f"{path.name} line {lines[i]}")
-
-
-curve_file = Check(None, "string", "an existing file", {"type": "string"}, context=read_curve_file)
-"""The CSV file of a tabulated hardening curve (read_curve_file)."""
+HARDENING_KEYS = {name: (law.REQUIRED, law.OPTIONAL) for name, law in HARDENING.items()}
+"""The keys of each hardening law: (required, optional); a key of another law is an error."""
+RATE_KEYS = {"none": ((), ()), **{name: (law.REQUIRED, RATE_OPTIONAL) for name, law in RATE.items()}}
 
 
 @dataclass(frozen=True)
-class Material:
+class MaterialKeys:
+    """The keys of [material] that every elastic or plastic material has; Material adds those
+    of the hardening and rate laws, declared in their files (laws/hardening/, laws/rate/)."""
     E: float = key(positive, "Young's modulus", unit="stress")
     nu: float = key(number(-1, 0.5, lo_open=True, hi_open=True), "Poisson's ratio")
     density: float = key(positive, unit="mass/length³",
@@ -98,49 +52,14 @@ class Material:
     hardening: float = key(non_negative, default=0.0, unit="stress",
         doc="linear hardening modulus H: the `linear` law, and a linear term of `swift`, `ludwik` and `voce` (0 ="
             " none; `linear` with 0 is perfectly plastic)")
-    hardening_law: Literal["linear", "swift", "ludwik", "voce", "tabulated"] = key(
-        choice("linear", "swift", "ludwik", "voce", "tabulated"), default="linear",
-        doc="σ_y(ε̄ᵖ), each law with its own keys (a key of another law is an error): `linear` σ_y0 + H ε̄ᵖ "
-            "(`yield_stress`, `hardening`); `swift` K (ε₀ + ε̄ᵖ)ⁿ + H ε̄ᵖ (`K`, `n`, and `eps0` or "
-            "`yield_stress`, `hardening`); `ludwik` σ_y0 + B (ε̄ᵖ)ⁿ + H ε̄ᵖ, Johnson–Cook's strain term, capped "
-            "at `max_stress` when given (`yield_stress` = A, `B`, `n`, `hardening`, `max_stress`); `voce` σ_y0 + "
-            "Q (1 − e^(−b ε̄ᵖ)) + H ε̄ᵖ (`yield_stress`, `Q`, `b`, `hardening`); `tabulated` linear between the "
-            "points of `curve` or `curve_file`, beyond the last as `beyond_curve` says")
-    K: float = key(positive, default=0.0, unit="stress", default_text="required for `swift`",
-        doc="Swift's strength coefficient")
-    eps0: float = key(positive, default=0.0, default_text="`swift`: this or `yield_stress`",
-        doc="Swift's prestrain ε₀ (the initial yield stress is K ε₀ⁿ)")
-    n: float = key(positive, default=0.0, default_text="required for `swift`, `ludwik`",
-        doc="hardening exponent; `ludwik` with n < 1 has an infinite slope at ε̄ᵖ = 0, which the return handles "
-            "(method below)")
-    B: float = key(non_negative, default=0.0, unit="stress", default_text="required for `ludwik`",
-        doc="Ludwik's (Johnson–Cook's) hardening coefficient")
-    max_stress: float | None = key(positive, default=None, unit="stress", allowed="> `yield_stress`",
-        doc="`ludwik`: σ_y is capped here")
-    Q: float = key(non_negative, default=0.0, unit="stress", default_text="required for `voce`",
-        doc="Voce's saturation stress increase")
-    b: float = key(non_negative, default=0.0, default_text="required for `voce`",
-        doc="Voce's saturation rate (1 / strain)")
-    curve: tuple[tuple[float, float], ...] = key(hardening_curve, default=(), default_text="–",
-        doc="`tabulated`: the points, e.g. `[[0.0, 0.25], [0.05, 0.31], [0.2, 0.38]]`")
-    curve_file: Path | None = key(curve_file, default=None, default_text="–",
-        doc="`tabulated`: a CSV file of `ε̄ᵖ, σ_y` rows (relative to the scene file; an optional header row; "
-            "blank lines and lines starting with `#` skipped); exactly one of `curve` and `curve_file`")
-    beyond_curve: Literal["flat", "extrapolate"] = key(choice("flat", "extrapolate"), default="flat",
-        doc="beyond the last point: its stress, or the last segment's line (needs two points)")
-    rate_law: Literal["none", "cowper_symonds", "johnson_cook"] = key(
-        choice("none", "cowper_symonds", "johnson_cook"), default="none",
-        doc="strain-rate factor R(ε̇) on any hardening law (`model = \"j2\"`, dynamic solves): `cowper_symonds` 1 +"
-            " (ε̇/C)^(1/p); `johnson_cook` 1 + c ln(ε̇/ε̇₀), not below 1 (so rates at or under ε̇₀, and a zero "
-            "rate, give the rate-free answer exactly)")
-    C: float = key(positive, default=0.0, unit="1/time", default_text="required for `cowper_symonds`",
-        doc="Cowper–Symonds rate constant, 1/time in the scene's units (D = 40.4 /s is 0.0404 /ms in kN-mm-ms)")
-    p: float = key(positive, default=0.0, default_text="required for `cowper_symonds`",
-        doc="Cowper–Symonds exponent (q = 5 for mild steel)")
-    c: float = key(non_negative, default=0.0, default_text="required for `johnson_cook`",
-        doc="Johnson–Cook rate coefficient")
-    reference_rate: float = key(positive, default=0.0, unit="1/time", default_text="required for `johnson_cook`",
-        doc="ε̇₀, 1/time")
+    hardening_law: str = key(
+        choice(*HARDENING), default="linear",
+        doc="σ_y(ε̄ᵖ), each law with its own keys (a key of another law is an error; laws/hardening/): "
+            + "; ".join(law.DOC for law in HARDENING.values()))
+    rate_law: str = key(
+        choice("none", *RATE), default="none",
+        doc="strain-rate factor R(ε̇) on any hardening law (a plastic model, dynamic solves; laws/rate/): "
+            + "; ".join(law.DOC for law in RATE.values()))
     rate_measure: Literal["total", "plastic"] = key(choice("total", "plastic"), default="total",
         doc="the rate ε̇: the effective total strain rate of the step (LS-DYNA VP = 0), or the equivalent plastic"
             " strain rate (VP = 1, solved in the return map)")
@@ -164,6 +83,21 @@ class Material:
     @property
     def parameters(self) -> dict[str, float]:
         return dict(self.model_parameters)
+
+
+def _with_law_keys(base: type) -> type:
+    """`base` and the keys of every hardening and rate law (each declared once, in its law's
+    file), as one frozen dataclass: the scene's Material."""
+    declared = {name: k for law in (*HARDENING.values(), *RATE.values()) for name, k in law.KEYS.items()}
+    cls = make_dataclass("Material", [(name, Any, field(default=k.default, metadata={"key": k}))
+                                      for name, k in declared.items()], bases=(base,), frozen=True)
+    cls.__module__, cls.__qualname__ = __name__, "Material"
+    cls.__doc__ = ("A material of [material] / [materials.NAME]: MaterialKeys and the keys of the hardening and "
+                   "rate laws (laws/).")
+    return cls
+
+
+Material = _with_law_keys(MaterialKeys)
 
 
 @dataclass(frozen=True)
@@ -219,22 +153,9 @@ def read_material(r: Reader, path: str, data: Any) -> AnyMaterial | None:
         for key, table in (("hardening_law", HARDENING_KEYS), ("rate_law", RATE_KEYS)):
             if key in values:
                 check_law_keys(r, path, data, key, values[key], table)
-        if values.get("hardening_law") == "swift":
-            if ("eps0" in data) == ("yield_stress" in data):
-                r.error(f"{path}.eps0", "expected exactly one of eps0 and yield_stress for hardening_law = "
-                                           "\"swift\" (yield_stress sets eps0 = (yield_stress / K)^(1/n))")
-            elif all(k in data and k in values for k in ("yield_stress", "K", "n")):
-                values["eps0"] = (values["yield_stress"] / values["K"]) ** (1.0 / values["n"])
-        if values.get("hardening_law") == "tabulated" and ("curve" in data) == ("curve_file" in data):
-            r.error(f"{path}.curve", "expected exactly one of curve and curve_file for "
-                                        "hardening_law = \"tabulated\"")
-        if "curve_file" in data and "curve_file" in values:
-            values["curve_file"], values["curve"] = values["curve_file"]
-        if values.get("beyond_curve") == "extrapolate" and 0 < len(values.get("curve", ())) < 2:
-            r.error(f"{path}.beyond_curve", "\"extrapolate\" needs a curve of at least two points")
-        cap, sy = values.get("max_stress"), values.get("yield_stress")
-        if "max_stress" in data and "yield_stress" in data and cap is not None and sy is not None and cap <= sy:
-            r.error(f"{path}.max_stress", f"expected a number above yield_stress = {sy:g}, got {cap:g}")
+        law = HARDENING.get(values.get("hardening_law"))
+        if law is not None and hasattr(law, "rules"):           # the law's own rules across keys
+            law.rules(r, path, data, values)
         if "rate_filter_time" in data and "rate_cutoff_frequency" in data:
             r.error(f"{path}.rate_cutoff_frequency", "give the rate filter either as rate_filter_time or "
                                                         "as rate_cutoff_frequency, not both")

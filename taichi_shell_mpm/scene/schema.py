@@ -26,7 +26,7 @@ from .info import SceneInfo
 from .initial import InitialVelocity
 from ..keys import REQUIRED, Key, keys_of, shown_default
 from .load import Load
-from .material import LAW_KEYS, Material, OrthotropicMaterial
+from .material import HARDENING, LAW_KEYS, RATE, Material, OrthotropicMaterial
 from .mesh import MESH_KIND_KEYS, MESHES
 from .method import Method
 from .motion import Motion
@@ -45,6 +45,21 @@ from .tool import Tool
 from .wall import Wall
 
 
+def _material() -> dict[str, Key]:
+    """[material]'s keys with each law's keys after the key that picks the law."""
+    declared = keys_of(Material)
+    own = {name: k for laws in (HARDENING, RATE) for law in laws.values() for name, k in law.KEYS.items()}
+    out: dict[str, Key] = {}
+    for name, k in declared.items():
+        if name in own:
+            continue
+        out[name] = k
+        if name in ("hardening_law", "rate_law"):
+            for law in (HARDENING if name == "hardening_law" else RATE).values():
+                out.update(law.KEYS)
+    return out
+
+
 def _layered() -> dict[str, Key]:
     section = keys_of(Section)
     plies = {f"plies[i].{name}": k for name, k in keys_of(Ply).items()}
@@ -55,7 +70,7 @@ DOC_TABLES: dict[str, Any] = {
     "scene": lambda: keys_of(SceneInfo),
     "mesh": lambda: MESH_KIND_KEYS,
     **{f"mesh.{kind}": (lambda cls=cls: keys_of(cls)) for kind, cls in MESHES.items()},
-    "material": lambda: keys_of(Material),
+    "material": _material,
     "material.orthotropic": lambda: {n: k for n, k in keys_of(OrthotropicMaterial).items() if n != "model"},
     **{f"material.{name}": (lambda keys=keys: keys) for name, keys in LAW_KEYS.items()},
     "section": lambda: keys_of(Section),

@@ -10,151 +10,25 @@ model with a ``ti.static`` loop over the models the scene uses (Features.materia
 those are compiled [choice, issue 17, as Genesis's MPM solver dispatches its materials]; parameter
 values are run-time data (a changed E or yield stress loads the kernels from the cache).
 The J2 model's flow stress sigma_y(ebar) R(rate) dispatches the same way over the hardening
-and rate laws the scene uses (Features.hardening, Features.rate_laws; issue 18): the laws'
-parameters, the tabulated curves included, are run-time data too.
+and rate laws the scene uses (Features.hardening, Features.rate_laws; one file each in
+laws/hardening/ and laws/rate/): the laws' parameters, the tabulated curves included, are
+run-time data too.
 """
 
 import taichi as ti
 
-from .. import laws
+from ..laws import MODELS as PLUG_INS
+from ..laws.hardening import LAWS as HARDENING_LAWS
+from ..laws.rate import LAWS as RATE_LAWS
 from ..materials import BLOCK_OFFSET, COL, ORIENTED
 
 
-# ---------------------------------------------------------------- hardening laws sigma_y(ebar)
-# Each returns (sigma_y, d sigma_y / d ebar).  The flow stress never falls with ebar (the
-# scene's checks), which the return map's bracket needs.
-
-@ti.data_oriented
-class LinearHardening:
-    """sigma_y = sigma_y0 + H ebar."""
-    law = "linear"
-
-    @ti.func
-    def flow_stress(self, row, ebar):
-        return row[COL["yield_stress"]] + row[COL["hardening"]] * ebar, row[COL["hardening"]]
-
-
-@ti.data_oriented
-class SwiftHardening:
-    """sigma_y = K (eps0 + ebar)^n + H ebar (eps0 > 0: a finite slope everywhere)."""
-    law = "swift"
-
-    @ti.func
-    def flow_stress(self, row, ebar):
-        n, strain, H = row[COL["n"]], row[COL["eps0"]] + ebar, row[COL["hardening"]]
-        power = row[COL["K"]] * strain ** n
-        return power + H * ebar, n * power / strain + H
-
-
-@ti.data_oriented
-class LudwikHardening:
-    """sigma_y = sigma_y0 + B ebar^n + H ebar (Ludwik; Johnson-Cook's strain term), capped at
-    max_stress when that is set.  For n < 1 the slope n B ebar^(n-1) is infinite at ebar = 0;
-    it is taken as 0 there [choice]: Newton's first step from a virgin point is then the
-    perfectly plastic one, which overshoots the root (the flow stress rises above sigma_y0) and
-    becomes the upper end of the bracket, and the iterates that follow have ebar > 0 and a
-    finite slope."""
-    law = "ludwik"
-
-    @ti.func
-    def flow_stress(self, row, ebar):
-        n, B, H, cap = row[COL["n"]], row[COL["B"]], row[COL["hardening"]], row[COL["max_stress"]]
-        sy, slope = row[COL["yield_stress"]] + H * ebar, H
-        if ebar > 0.0:
-            power = ebar ** n
-            sy += B * power
-            slope += n * B * power / ebar
-        elif n == 1.0:
-            slope += B
-        if cap > 0.0 and sy > cap:
-            sy, slope = cap, 0.0
-        return sy, slope
-
-
-@ti.data_oriented
-class VoceHardening:
-    """sigma_y = sigma_y0 + Q (1 - exp(-b ebar)) + H ebar."""
-    law = "voce"
-
-    @ti.func
-    def flow_stress(self, row, ebar):
-        Q, b, H = row[COL["Q"]], row[COL["b"]], row[COL["hardening"]]
-        decay = ti.exp(-b * ebar)
-        return row[COL["yield_stress"]] + Q * (1.0 - decay) + H * ebar, Q * b * decay + H
-
-
-@ti.data_oriented
-class TabulatedHardening:
-    """sigma_y linear between the points of the material's curve (state.sections.curve_strain /
-    curve_stress from row curve_start, curve_points of them; the first at ebar = 0), found by
-    bisection; beyond the last point its stress (flat) or the last segment's line
-    (curve_extrapolate = 1).  At a point the slope is the next segment's."""
-    law = "tabulated"
-
-    def __init__(self, state):
-        self.s = state
-
-    @ti.func
-    def flow_stress(self, row, ebar):
-        strain, stress = ti.static(self.s.sections.curve_strain, self.s.sections.curve_stress)
-        first = ti.cast(row[COL["curve_start"]], ti.i32)
-        last = first + ti.cast(row[COL["curve_points"]], ti.i32) - 1
-        sy, slope = stress[last], 0.0
-        if ebar < strain[last]:
-            lo, hi = first, last                     # strain[lo] <= ebar < strain[hi]
-            while hi - lo > 1:
-                mid = (lo + hi) // 2
-                if strain[mid] <= ebar:
-                    lo = mid
-                else:
-                    hi = mid
-            slope = (stress[hi] - stress[lo]) / (strain[hi] - strain[lo])
-            sy = stress[lo] + slope * (ebar - strain[lo])
-        elif row[COL["curve_extrapolate"]] > 0.0:
-            slope = (stress[last] - stress[last - 1]) / (strain[last] - strain[last - 1])
-            sy = stress[last] + slope * (ebar - strain[last])
-        return sy, slope
-
-
-HARDENING = {cls.law: cls for cls in (LinearHardening, SwiftHardening, LudwikHardening, VoceHardening,
-                                      TabulatedHardening)}              # materials.HARDENING_LAWS
-
-
-# ---------------------------------------------------------------- rate laws R(rate) >= 1
-# Each returns (R, dR / d rate); R = 1 exactly at rates that have no effect, so those give
-# the rate-free answer bit for bit.
-
-@ti.data_oriented
-class CowperSymonds:
-    """R = 1 + (rate / C)^(1/p).  At rate 0, R = 1 and the slope, infinite for p > 1, is taken
-    as 0 (as Ludwik's at ebar = 0)."""
-    law = "cowper_symonds"
-
-    @ti.func
-    def factor(self, row, rate):
-        R, slope = 1.0, 0.0
-        if rate > 0.0:
-            p = row[COL["cowper_symonds_p"]]
-            x = (rate / row[COL["cowper_symonds_C"]]) ** (1.0 / p)
-            R, slope = 1.0 + x, x / (p * rate)
-        return R, slope
-
-
-@ti.data_oriented
-class JohnsonCookRate:
-    """R = 1 + c ln(rate / rate0) above the reference rate rate0, else 1."""
-    law = "johnson_cook"
-
-    @ti.func
-    def factor(self, row, rate):
-        R, slope = 1.0, 0.0
-        c, reference = row[COL["johnson_cook_c"]], row[COL["reference_rate"]]
-        if rate > reference:
-            R, slope = 1.0 + c * ti.log(rate / reference), c / rate
-        return R, slope
-
-
-RATE = {cls.law: cls for cls in (CowperSymonds, JohnsonCookRate)}     # materials.RATE_LAWS
+# ---------------------------------------------------------------- flow-stress laws (laws/hardening/, laws/rate/)
+_SHARED = {name: COL[name] for name in ("yield_stress", "hardening")}
+HARDENING = {name: law.kernel(COL["hardening_0"], _SHARED) for name, law in HARDENING_LAWS.items()}
+"""sigma_y(ebar) of each hardening law (materials.HARDENING_LAWS)."""
+RATE = {name: law.kernel(COL["rate_0"]) for name, law in RATE_LAWS.items()}
+"""R(rate) of each rate law (materials.RATE_LAWS)."""
 
 
 @ti.func
@@ -232,7 +106,7 @@ class PlaneStressJ2(PlaneStressElastic):
         fx = state.features if state is not None else None
         hardening = hardening or (fx.hardening if fx is not None and fx.hardening else ("linear",))
         rates = rates if rates is not None else (fx.rate_laws if fx is not None else ())
-        self.laws = tuple(TabulatedHardening(state) if law == "tabulated" else HARDENING[law]() for law in hardening)
+        self.laws = tuple(HARDENING[law](state) for law in hardening)
         self.rates = tuple(RATE[law]() for law in rates)
 
     @ti.func
@@ -458,7 +332,7 @@ class PlaneStressOrthotropic:
 
 
 MODELS = {cls.kind: cls for cls in (PlaneStressElastic, PlaneStressJ2, PlaneStressOrthotropic,
-                                     *(law.kernel(PlaneStressJ2, BLOCK_OFFSET) for law in laws.MODELS.values()))}
+                                     *(law.kernel(PlaneStressJ2, BLOCK_OFFSET) for law in PLUG_INS.values()))}
 """Every model, materials.KINDS: the built-in ones and the plug-ins of laws/ (on the J2 return)."""
 
 
