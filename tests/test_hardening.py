@@ -37,6 +37,7 @@ RATES = (0.1, 1.0, 10.0)                  # 1/time: dt = INCREMENT / rate
 SWIFT = dict(K=500.0, eps0=0.01, n=0.2)
 LUDWIK = dict(B=400.0, n=0.4, hardening=50.0, max_stress=480.0)   # n < 1: infinite slope at ebar = 0; capped
 VOCE = dict(Q=150.0, b=15.0, H=200.0)
+HOCKETT_SHERBY = dict(saturation_stress=420.0, saturation_rate=6.0, saturation_exponent=0.7, hardening=50.0)
 LINEAR_H = 1000.0
 CS = dict(C=1.0, p=5.0)                   # Cowper-Symonds: rate / C = 0.1, 1, 10
 JC = dict(c=0.05, rate0=0.01)             # Johnson-Cook: rate / rate0 = 10, 100, 1000
@@ -75,6 +76,11 @@ HARDENING = {          # law: (scene keys, closed form sigma_y(ebar))
                          lambda p: 500.0 * ((250.0 / 500.0) ** 5 + p) ** 0.2 + 100.0 * p),
     "voce": (f'hardening_law = "voce"\nyield_stress = {SY0}\nQ = {VOCE["Q"]}\nb = {VOCE["b"]}\nhardening = {VOCE["H"]}',
              lambda p: SY0 + VOCE["Q"] * (1 - np.exp(-VOCE["b"] * p)) + VOCE["H"] * p),
+    "hockett_sherby": (f'hardening_law = "hockett_sherby"\nyield_stress = {SY0}\n'
+                       + "\n".join(f"{k} = {v}" for k, v in HOCKETT_SHERBY.items()),
+                       lambda p: (HOCKETT_SHERBY["saturation_stress"] - (HOCKETT_SHERBY["saturation_stress"] - SY0)
+                                  * np.exp(-HOCKETT_SHERBY["saturation_rate"] * p ** HOCKETT_SHERBY["saturation_exponent"])
+                                  + HOCKETT_SHERBY["hardening"] * p)),
     "tabulated": ('hardening_law = "tabulated"\nbeyond_curve = "extrapolate"\ncurve = '
                   + json.dumps([[float(e), float(swift(e))] for e in SAMPLES]),
                   interpolated(SAMPLES, swift(SAMPLES), True)),
@@ -101,7 +107,7 @@ def cases():
     out = {}
     for law, (keys, _) in HARDENING.items():
         out[f"{law}_uniaxial"] = (keys, "uniaxial")
-        if law in ("linear", "swift", "ludwik", "voce", "tabulated"):
+        if law in ("linear", "swift", "ludwik", "voce", "tabulated", "hockett_sherby"):
             out[f"{law}_equibiaxial"] = (keys, "equibiaxial")
     for law, keys in RATE_KEYS.items():
         for measure in ("total", "plastic"):

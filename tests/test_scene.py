@@ -966,7 +966,7 @@ J2 = {"E": 200.0, "nu": 0.3, "density": 1.0, "model": "j2", "yield_stress": 0.25
     ({"model": "elastic", "yield_stress": None, "rate_law": "cowper_symonds"},
      ['[material].rate_law: only for model = "j2"']),
     ({"hardening_law": "power"},
-     ["[material].hardening_law: expected one of linear, swift, ludwik, voce, tabulated, got 'power'"]),
+     ["[material].hardening_law: expected one of linear, swift, ludwik, voce, tabulated, hockett_sherby, got 'power'"]),
 ])
 def test_hardening_and_rate_key_errors(scene_dir, table, expected):
     """One line per mistake, naming the key (the CLI exits with code 2: tests/test_hardening.py)."""

@@ -18,9 +18,9 @@ needs.  The J2 model (stages/material.py) dispatches over the laws a scene uses.
 """
 from __future__ import annotations
 
-from . import linear, ludwik, swift, tabulated, voce
+from . import hockett_sherby, linear, ludwik, swift, tabulated, voce
 
-LAWS = {law.NAME: law for law in (linear, swift, ludwik, voce, tabulated)}
+LAWS = {law.NAME: law for law in (linear, swift, ludwik, voce, tabulated, hockett_sherby)}
 """NAME -> its module (materials.HARDENING_LAWS order)."""
 BLOCK_WIDTH = 10
 """Columns of the material row for a law's parameters."""
