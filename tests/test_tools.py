@@ -21,7 +21,7 @@ from taichi_shell_mpm.mesh import build_mesh
 from taichi_shell_mpm.scene import SceneError, load_scene, parse_scene
 from taichi_shell_mpm.simulation import Simulation, init_taichi, prepare
 from taichi_shell_mpm.solvers.dynamic import run_dynamic
-from taichi_shell_mpm.tools import bucket_grid, read_surface
+from taichi_shell_mpm.tool_kinds.mesh import bucket_grid, read_surface
 
 from .test_reliability import assert_clean_output, cli_run
 

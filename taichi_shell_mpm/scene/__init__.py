@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from ..keys import DOFS, Invalid, Vec3, hint, inertia_tensor, keys_of
 from .boundary import Boundary
 from .contact import Contact, penalty_damping_limit
 from .crush import CRUSH_FORMULAS, Crush
@@ -25,7 +26,6 @@ from .element import ElementOptions
 from .gravity import Gravity
 from .info import SceneInfo
 from .initial import InitialVelocity
-from ..keys import DOFS, Invalid, Vec3, hint, inertia_tensor, keys_of
 from .load import Load
 from .material import LAW_KEYS, AnyMaterial, Material, OrthotropicMaterial
 from .mesh import DECK_SUFFIXES, FileMesh, HemisphereMesh, MeshSpec, PlateMesh, TubeMesh

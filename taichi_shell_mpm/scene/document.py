@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from ..keys import Invalid, hint, key_path, one_line, show
 from .boundary import Boundary, read_boundary
 from .contact import Contact, check_penalty_damping
 from .crush import Crush, read_crush
@@ -16,7 +17,6 @@ from .element import ElementOptions
 from .gravity import Gravity
 from .info import SceneInfo
 from .initial import InitialVelocity
-from ..keys import Invalid, hint, key_path, one_line, show
 from .load import Load, read_load
 from .material import AnyMaterial
 from .mesh import MeshSpec, read_mesh

@@ -4,7 +4,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Literal
 
-from .curves import Curve
 from ..keys import (
     choice,
     curve_name,
@@ -17,6 +16,7 @@ from ..keys import (
     numbers,
     show,
 )
+from .curves import Curve
 from .reader import Reader
 from .solve import Solve
 

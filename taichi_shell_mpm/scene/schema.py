@@ -16,6 +16,7 @@ import re
 from pathlib import Path
 from typing import Any
 
+from ..keys import REQUIRED, Key, keys_of, shown_default
 from .boundary import Boundary
 from .contact import Contact
 from .crush import Crush
@@ -24,7 +25,6 @@ from .element import ElementOptions
 from .gravity import Gravity
 from .info import SceneInfo
 from .initial import InitialVelocity
-from ..keys import REQUIRED, Key, keys_of, shown_default
 from .load import Load
 from .material import HARDENING, LAW_KEYS, RATE, Material, OrthotropicMaterial
 from .mesh import MESH_KIND_KEYS, MESHES
@@ -41,22 +41,21 @@ from .reference import Reference, ReferenceColumn
 from .rigid_body import RigidBody
 from .section import Ply, Section
 from .solve import Solve
-from .tool import Tool
+from .tool import KINDS, Tool
 from .wall import Wall
 
 
-def _material() -> dict[str, Key]:
-    """[material]'s keys with each law's keys after the key that picks the law."""
-    declared = keys_of(Material)
-    own = {name: k for laws in (HARDENING, RATE) for law in laws.values() for name, k in law.KEYS.items()}
+def _grouped(cls: type, groups: dict[str, dict]) -> dict[str, Key]:
+    """`cls`'s keys with the keys its plug-ins declare (each module's KEYS) placed after the
+    key that picks them: groups = {that key: {name: module}}."""
+    own = {name for modules in groups.values() for module in modules.values() for name in module.KEYS}
     out: dict[str, Key] = {}
-    for name, k in declared.items():
+    for name, k in keys_of(cls).items():
         if name in own:
             continue
         out[name] = k
-        if name in ("hardening_law", "rate_law"):
-            for law in (HARDENING if name == "hardening_law" else RATE).values():
-                out.update(law.KEYS)
+        for module in groups.get(name, {}).values():
+            out.update({n: keys_of(cls)[n] for n in module.KEYS})
     return out
 
 
@@ -70,7 +69,7 @@ DOC_TABLES: dict[str, Any] = {
     "scene": lambda: keys_of(SceneInfo),
     "mesh": lambda: MESH_KIND_KEYS,
     **{f"mesh.{kind}": (lambda cls=cls: keys_of(cls)) for kind, cls in MESHES.items()},
-    "material": _material,
+    "material": lambda: _grouped(Material, {"hardening_law": HARDENING, "rate_law": RATE}),
     "material.orthotropic": lambda: {n: k for n, k in keys_of(OrthotropicMaterial).items() if n != "model"},
     **{f"material.{name}": (lambda keys=keys: keys) for name, keys in LAW_KEYS.items()},
     "section": lambda: keys_of(Section),
@@ -95,7 +94,7 @@ DOC_TABLES: dict[str, Any] = {
     "rigid_body": lambda: keys_of(RigidBody),
     "point_mass": lambda: keys_of(PointMass),
     "wall": lambda: keys_of(Wall),
-    "tool": lambda: keys_of(Tool),
+    "tool": lambda: _grouped(Tool, {"kind": KINDS}),
     "contact": lambda: keys_of(Contact),
     "crush": lambda: keys_of(Crush),
 }

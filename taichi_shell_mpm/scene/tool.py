@@ -1,13 +1,9 @@
 """[[tool]]: rigid tools in penalty contact with the shell."""
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
-from pathlib import Path
-from typing import Any, Literal
+from dataclasses import dataclass, field, make_dataclass
+from typing import Any
 
-from .contact import check_penalty_damping
-from .curves import Curve
 from ..keys import (
     Vec3,
     choice,
@@ -18,57 +14,31 @@ from ..keys import (
     key_path,
     keys_of,
     non_negative,
-    nonzero_vec3,
     number,
-    positive,
-    scene_file,
-    size2,
     unit_interval,
     vec3,
 )
+from ..tool_kinds import KINDS
+from .contact import check_penalty_damping
+from .curves import Curve
 from .reader import Reader
 from .solve import Solve
 
-TOOL_KINDS = ("plane", "rectangle", "cylinder", "sphere", "mesh")     # tools.TOOL_KINDS
-
-
-TOOL_KEYS = {"plane": (("normal",), ("center",)),
-              "rectangle": (("normal", "size"), ("center", "axis")),
-              "cylinder": (("axis", "radius", "length"), ("center",)),
-              "sphere": (("radius",), ("center",)),
-              "mesh": (("file",), ("center", "scale"))}
-
-
-TOOL_SHAPE_KEYS = ("normal", "axis", "radius", "length", "size", "file", "scale")
+TOOL_KINDS = tuple(KINDS)       # tools.TOOL_KINDS
+TOOL_KEYS = {name: (kind.REQUIRED, kind.OPTIONAL) for name, kind in KINDS.items()}
+"""The shape keys of each kind: (required, optional); a key of another kind is an error."""
+SHAPE_KEYS = {name: k for kind in KINDS.values() for name, k in kind.KEYS.items()}
+"""Every kind's own keys (declared in its file, tool_kinds/)."""
 
 
 @dataclass(frozen=True)
-class Tool:
-    """A rigid tool (stages/tools.py, docs/scenes.md [[tool]]): penalty contact with the
-    shell's mid-surface at half its thickness, Coulomb friction; fixed, moving with a rigid
-    body, or moved by a velocity or displacement (times a curve)."""
+class ToolKeys:
+    """The keys every [[tool]] has; Tool adds the kinds' shape keys (tool_kinds/)."""
     name: str = key(identifier, "force.csv columns `<name>.*`", allowed="an identifier, unique")
-    kind: Literal["plane", "rectangle", "cylinder", "sphere", "mesh"] = key(choice(*TOOL_KINDS), "the shape")
+    kind: str = key(choice(*TOOL_KINDS), "the shape (tool_kinds/<kind>.py)")
     center: Vec3 = key(vec3, default=(0.0, 0.0, 0.0), unit="length",
         doc="plane: a point of it; rectangle, cylinder, sphere: the centre; mesh: where the mesh's origin goes "
             "(at t = 0)")
-    normal: Vec3 | None = key(nonzero_vec3, default=None, default_text="required for plane, rectangle",
-        doc="the side the shell stays on")
-    axis: Vec3 | None = key(
-        nonzero_vec3, default=None, allowed="non-zero; not along `normal`", default_text="cylinder: required; rectangle: optional",
-        doc="cylinder: its axis; rectangle: the direction of the first side (projected on the plane; default: "
-            "any)")
-    radius: float | None = key(positive, default=None, unit="length", default_text="required for cylinder, sphere",
-        doc="radius")
-    length: float | None = key(positive, default=None, unit="length", default_text="required for cylinder",
-        doc="length along the axis (flat caps)")
-    size: tuple[float, float] | None = key(
-        size2, default=None, unit="length", allowed="> 0", default_text="required for rectangle",
-        doc="side lengths (a along `axis`)")
-    file: Path | None = key(
-        scene_file, default=None, allowed="a file meshio reads, relative to the scene", default_text="required for mesh",
-        doc="the surface (triangles, quads)")
-    scale: float = key(positive, "mesh coordinates times this", default=1.0)
     stiffness: float = key(number(0, 1, lo_open=True), "α of the penalty k = α m / Δt²", default=0.1)
     damping: float = key(
         unit_interval, default=0.1, allowed="[0, 1], and `stiffness` + 2 `damping` √`stiffness` ≤ 2 (at `stiffness` = 1: ≤ 0.5)",
@@ -85,9 +55,18 @@ class Tool:
         doc="the time function")
 
 
+Tool = make_dataclass("Tool", [(name, Any, field(default=k.default, metadata={"key": k}))
+                               for name, k in SHAPE_KEYS.items()], bases=(ToolKeys,), frozen=True)
+Tool.__module__, Tool.__qualname__ = __name__, "Tool"
+Tool.__doc__ = """A rigid tool (stages/tools.py, docs/scenes.md [[tool]]): penalty contact with the shell's
+mid-surface at half its thickness, Coulomb friction; fixed, moving with a rigid body, or moved by a
+velocity or displacement (times a curve).  ToolKeys and the shape keys of its kind."""
+
+
 def read_tool(r: Reader, path: str, data: Any, solve: Solve | None, curves: dict[str, Curve]) -> Tool | None:
     """A [[tool]]: its kind's keys (a key of another kind is an error), at most one way to
-    move, a surface mesh read here (so that an unusable file is a scene error)."""
+    move, then its kind's rules (a mesh's surface is read there, so that an unusable file is a
+    scene error)."""
     mark = len(r.messages)
     v = r.read(path, data, keys_of(Tool), Tool)
     if v is None:
@@ -97,17 +76,11 @@ def read_tool(r: Reader, path: str, data: Any, solve: Solve | None, curves: dict
         required, optional = TOOL_KEYS[kind]
         own = (*required, *optional)
         for name in data:
-            if name in TOOL_SHAPE_KEYS and name not in own:
+            if name in SHAPE_KEYS and name not in own:
                 r.error(f"{path}.{key_path(name)}", f'not used by kind = "{kind}" (its keys: {", ".join(own)})')
         for name in required:
             if name not in data:
                 r.error(f"{path}.{name}", f'missing required key for kind = "{kind}"')
-        if kind == "rectangle" and v.get("axis") is not None and v.get("normal") is not None:
-            (a1, a2, a3), (n1, n2, n3) = v["axis"], v["normal"]
-            cross = math.hypot(a2 * n3 - a3 * n2, a3 * n1 - a1 * n3, a1 * n2 - a2 * n1)
-            if cross <= 1e-9 * math.hypot(a1, a2, a3) * math.hypot(n1, n2, n3):
-                r.error(f"{path}.axis", "is parallel to normal (it gives the direction of the first side, "
-                                           "in the rectangle's plane)")
     check_penalty_damping(r, path, v.get("stiffness", Tool.stiffness), v.get("damping", Tool.damping))
     moving = [key for key in ("moves_with", "velocity", "displacement") if key in data]
     if len(moving) > 1:
@@ -135,10 +108,6 @@ def read_tool(r: Reader, path: str, data: Any, solve: Solve | None, curves: dict
             if start != 0.0:
                 r.error(f"{path}.curve", f"the displacement curve {v['curve']!r} is {start:g} at t = 0, "
                                             "not 0 (the tool would jump at t = 0)")
-    if kind == "mesh" and v.get("file") is not None and len(r.messages) == mark:
-        from ..tools import ToolMeshError, read_surface
-        try:
-            read_surface(v["file"], v.get("scale", 1.0))
-        except ToolMeshError as exc:
-            r.error(f"{path}.file", str(exc))
+    if kind in KINDS and hasattr(KINDS[kind], "rules"):     # the kind's own rules (clean: nothing else wrong)
+        KINDS[kind].rules(r, path, data, v, len(r.messages) == mark)
     return r.build(mark, Tool, v)

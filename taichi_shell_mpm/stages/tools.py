@@ -16,23 +16,9 @@ dt_stable, not a step shortened to land on an output time), plus the regularised
 friction of stages/contact.coulomb_friction on the slip v - v_tool.  The forces act at
 x^n (the start of the step) like every other load, so m (v^(n+1/2) - v^(n-1/2)) = dt f.
 
-Geometry, in the tool's frame (q = F (x - c), tools.py): d and n of
-* plane: d = q3 (one-sided: a node behind the plane is pushed out, however deep);
-* rectangle (half sides a, b): over it (|q1| <= a, |q2| <= b) as the plane down to ``reach``
-  behind it (the mesh's depth: a node deeper behind a finite plate came from its back, and
-  pulling it through to the front is wrong; issue 28 item 3); beside it, on the front side
-  (q3 >= 0), the distance to the nearest rim point (a rounded rim); behind and beside it, no
-  contact [choice: a finite plate has a front only];
-* cylinder (radius R, half length L), capped [choice: a solid with flat ends, the exact
-  signed distance: outside, the distance to the nearest point of the solid, n along it;
-  inside, the depth below the nearer of the mantle and the cap];
-* sphere: d = |q| - R, n = q / |q| (solid);
-* mesh: the nearest facet within reach among those of the node's bucket (tools.bucket_grid);
-  d = +-|q - p| (p: the nearest point of that facet), the sign that of (q - p) . n_facet
-  [choice: one-sided by the facet normal, so a closed surface with outward normals is a
-  solid and an open one (a die) has a front; n = +-(q - p)/|q - p|, the facet normal where p
-  lies inside the facet].  Nodes more than ``reach`` (the thickest shell) behind the surface
-  are not found.
+Geometry, in the tool's frame (q = F (x - c), tools.py): d and n of each kind, in its file
+(tool_kinds/plane.py, rectangle.py, cylinder.py, sphere.py, mesh.py), dispatched with
+``ti.static`` over the kinds the scene uses.
 
 Step limit [issue 28 item 3: a mesh tool moving more than its reach per step went through
 the shell].  As the self-contact's (stages/timestep.contact_step), the next step keeps every
@@ -75,9 +61,11 @@ of that body are not in contact with it.
 """
 import taichi as ti
 
+from ..tool_kinds import KINDS
 from ..tools import BODY, DISPLACEMENT, FIXED, TOOL_KINDS, VELOCITY
+from . import contact
 from .accumulate import Accumulator
-from .contact import closest_point_on_triangle, coulomb_friction
+from .contact import coulomb_friction
 from .timestep import DT_UNSET, approach_step, impulse_time
 
 
@@ -91,6 +79,8 @@ class RigidTools:
         self.loads = loads              # stages/loads.ExternalLoads (curves)
         self.acc = Accumulator(cfg.serial)
         self.scatter_acc = Accumulator(not cfg.atomic_scatter)
+        self.shapes = tuple(KINDS[name].kernel(state.tools, contact) for name in cfg.tool_kinds)
+        self.kind_index = tuple(TOOL_KINDS.index(name) for name in cfg.tool_kinds)
 
     # ------------------------------------------------------------------ pose
     @ti.func
@@ -137,105 +127,14 @@ class RigidTools:
 
     # ------------------------------------------------------------------ geometry (tool frame)
     @ti.func
-    def plane(self, k, q):
-        return q[2], ti.Vector([0.0, 0.0, 1.0]), True
-
-    @ti.func
-    def rectangle(self, k, q):
-        a, b = self.g.size[k][0], self.g.size[k][1]
-        d, n, hit = q[2], ti.Vector([0.0, 0.0, 1.0]), q[2] > -self.g.reach[None]
-        if ti.abs(q[0]) > a or ti.abs(q[1]) > b:
-            r = q - ti.Vector([ti.min(ti.max(q[0], -a), a), ti.min(ti.max(q[1], -b), b), 0.0])
-            d = r.norm()
-            hit = q[2] >= 0.0
-            n = r / ti.max(d, 1e-300)
-        return d, n, hit
-
-    @ti.func
-    def cylinder(self, k, q):
-        radius, half = self.g.size[k][0], self.g.size[k][1]
-        rho = ti.sqrt(q[0] * q[0] + q[1] * q[1])
-        u = ti.Vector([1.0, 0.0, 0.0])
-        if rho > 0.0:
-            u = ti.Vector([q[0] / rho, q[1] / rho, 0.0])
-        side = 1.0 if q[2] >= 0.0 else -1.0
-        cap = ti.Vector([0.0, 0.0, side])
-        w0, w1 = rho - radius, ti.abs(q[2]) - half
-        d, n = 0.0, u
-        if w0 > 0.0 or w1 > 0.0:
-            e0, e1 = ti.max(w0, 0.0), ti.max(w1, 0.0)
-            d = ti.sqrt(e0 * e0 + e1 * e1)
-            n = (e0 * u + e1 * cap) / d
-        elif w0 > w1:
-            d = w0
-        else:
-            d, n = w1, cap
-        return d, n, True
-
-    @ti.func
-    def sphere(self, k, q):
-        r = q.norm()
-        n = ti.Vector([0.0, 0.0, 1.0])
-        if r > 0.0:
-            n = q / r
-        return r - self.g.size[k][0], n, True
-
-    @ti.func
-    def mesh(self, k, q):
-        """The nearest facet of the node's bucket (module docstring); none within reach: d =
-        reach, a lower bound of the distance (a bucket lists every facet within reach of it)."""
-        d, n, hit = self.g.reach[None], ti.Vector([0.0, 0.0, 1.0]), False
-        cell = ti.floor((q - self.g.grid_lo[k]) / self.g.grid_h[k], ti.i32)
-        dims = self.g.grid_dims[k]
-        inside = True
-        for a in ti.static(range(3)):
-            if cell[a] < 0 or cell[a] >= dims[a]:
-                inside = False
-        if inside:
-            bucket = self.g.bucket_first[k] + cell[0] + dims[0] * (cell[1] + dims[1] * cell[2])
-            best = 1e300
-            best_r = ti.Vector([0.0, 0.0, 0.0])
-            best_t = -1
-            for i in range(self.g.bucket_start[bucket], self.g.bucket_start[bucket + 1]):
-                t = self.g.bucket_items[i]
-                x = self.g.triangles[t]
-                p, _ = closest_point_on_triangle(q, ti.Vector([x[0, 0], x[0, 1], x[0, 2]]),
-                                                 ti.Vector([x[1, 0], x[1, 1], x[1, 2]]),
-                                                 ti.Vector([x[2, 0], x[2, 1], x[2, 2]]))
-                r = q - p
-                if r.norm_sqr() < best:
-                    best, best_r, best_t = r.norm_sqr(), r, t
-            if best_t >= 0:
-                facet = self.g.tri_normal[best_t]
-                sign = 1.0 if best_r.dot(facet) >= 0.0 else -1.0
-                length = ti.sqrt(best)
-                d = sign * length
-                n = facet
-                if length > 1e-12 * self.g.grid_h[k]:
-                    n = sign * best_r / length
-                hit = d > -self.g.reach[None]
-        return d, n, hit
-
-    @ti.func
     def distance(self, k, q):
-        """Signed distance, outward normal (tool frame) and whether tool k can touch q."""
+        """Signed distance, outward normal (tool frame) and whether tool k can touch q: its
+        kind's (tool_kinds/<kind>.py), dispatched over the kinds the scene uses."""
         d, n, hit = 0.0, ti.Vector([0.0, 0.0, 1.0]), False
         kind = self.g.kind[k]
-        if ti.static("plane" in self.cfg.tool_kinds):
-            if kind == ti.static(TOOL_KINDS.index("plane")):
-                d, n, hit = self.plane(k, q)
-        if ti.static("rectangle" in self.cfg.tool_kinds):
-            if kind == ti.static(TOOL_KINDS.index("rectangle")):
-                d, n, hit = self.rectangle(k, q)
-        if ti.static("cylinder" in self.cfg.tool_kinds):
-            if kind == ti.static(TOOL_KINDS.index("cylinder")):
-                d, n, hit = self.cylinder(k, q)
-        if ti.static("sphere" in self.cfg.tool_kinds):
-            if kind == ti.static(TOOL_KINDS.index("sphere")):
-                d, n, hit = self.sphere(k, q)
-        if ti.static("mesh" in self.cfg.tool_kinds):
-            if kind == ti.static(TOOL_KINDS.index("mesh")):
-                d, n, hit = self.mesh(k, q)
+        for i, shape in ti.static(enumerate(self.shapes)):
+            if kind == ti.static(self.kind_index[i]):
+                d, n, hit = shape.distance(k, q)
         return d, n, hit
 
     # ------------------------------------------------------------------ the stage
