@@ -38,9 +38,9 @@ def child(steps: int, overrides: list[str]) -> None:
 
     import taichi as ti
 
-    from taichi_shell_mpm.assembly import assemble
-    from taichi_shell_mpm.preflight import prepare
     from taichi_shell_mpm import simulation
+    from taichi_shell_mpm.model.assembly import assemble
+    from taichi_shell_mpm.preflight import prepare
     from taichi_shell_mpm.simulation import Simulation, init_taichi
     no_contact = "no_contact" in overrides
     if "batched" in overrides:

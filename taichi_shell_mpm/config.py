@@ -11,9 +11,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .assembly import Model
+from .model.assembly import Model
 from .scene import Scene
-from .tools import TOOL_KINDS
+from .model.tools import TOOL_KINDS
 
 
 @dataclass(frozen=True)
@@ -108,14 +108,14 @@ class Features:
 
     @property
     def plastic(self) -> bool:
-        from .materials import PLASTIC
+        from .model.materials import PLASTIC
         return any(PLASTIC[k] for k in self.materials)
 
     @property
     def oriented(self) -> bool:
         """A material with axes (orthotropic): the points read the element's material axis and
         their ply angle."""
-        from .materials import ORIENTED
+        from .model.materials import ORIENTED
         return any(ORIENTED[k] for k in self.materials)
 
     @staticmethod

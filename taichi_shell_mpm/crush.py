@@ -37,7 +37,7 @@ from __future__ import annotations
 import numpy as np
 
 from .energy import ENERGY_COLUMNS
-from .materials import COL
+from .model.materials import COL
 
 MEAN_FORCE_FORMULAS = {"wierzbicki_abramowicz": 38.12 / 4, "abramowicz_jones": 52.22 / 4}
 """k of P_m = k sigma0 t^(5/3) C^(1/3) = 4k M0 (C/t)^(1/3), M0 = sigma0 t^2 / 4 (benchmarks.md

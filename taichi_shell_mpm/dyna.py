@@ -23,7 +23,7 @@ Node and element ids are the deck's own: positions in ``points`` and ``elements`
 order read, and :attr:`Deck.node_ids` / :attr:`Deck.element_ids` map positions back to ids.
 A shell with n3 = n4 is a triangle.  Problems are :class:`~taichi_shell_mpm.scene.SceneError`
 lines naming the file, the line and the keyword.  The values of materials and sections are
-checked where they become scene values (assembly._deck_specs, by the scene's own validators),
+checked where they become scene values (model/deck.deck_specs, by the scene's own validators),
 so each card keeps its ``where`` (file:line: *KEYWORD) for those messages.
 """
 from __future__ import annotations
@@ -35,7 +35,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .scene import DECK_SUFFIXES as DYNA_SUFFIXES, SceneError  # noqa: F401 (re-exported: file endings read as decks, any case)
+from .scene import DECK_SUFFIXES as DYNA_SUFFIXES  # noqa: F401 (re-exported: file endings read as decks, any case)
+from .scene import SceneError
 
 MAX_INCLUDE_DEPTH = 20
 

@@ -84,9 +84,9 @@ from __future__ import annotations
 import numpy as np
 import taichi as ti
 
+from .model.tools import DISPLACEMENT, VELOCITY
 from .stages.accumulate import Accumulator
 from .state import STATUS_ENERGY, STATUS_OK
-from .tools import DISPLACEMENT, VELOCITY
 
 ENERGY_COLUMNS = ("kinetic", "internal", "hourglass", "external_work", "damped", "wall", "contact",
                   "plastic_work", "drilling", "stagger", "motion_work", "eroded", "mass_scaling", "balance_error")

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import materials
+from .model import materials
 from .quadrature import through_thickness_rule
 
 AXIS_TOLERANCE_DEG = 1.0

@@ -174,7 +174,7 @@ def assemble_loading(scene: Scene, points: np.ndarray, elements: np.ndarray, nod
     """(load_force, load_moment, Loading) of the scene; raises SceneError for loads that cannot
     act (a set of fully fixed nodes, a line load without edges) and motions that clash with
     supports, rigid bodies or one another.  `elements_of(name, path)`: the element ids of a
-    set (assembly._element_selection)."""
+    set (model/parts.element_selection)."""
     n = len(points)
     src = scene.source.name
     index = {name: i for i, name in enumerate(scene.curves)}

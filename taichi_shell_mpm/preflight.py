@@ -23,7 +23,7 @@ def assembly_problems(scene, mesh) -> tuple[list[str], object]:
     """Every assembly-time problem of `scene` on `mesh` (empty node sets, loads on fixed
     nodes, bad symmetry planes, rigid-body conflicts, a grid not covering the mesh ...),
     found by assembling each item on its own; returns (messages, model or None)."""
-    from .assembly import assemble
+    from .model.assembly import assemble
     from .nodesets import select_nodes
     from .scene import SceneError
     try:

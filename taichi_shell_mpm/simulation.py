@@ -15,9 +15,9 @@ from pathlib import Path
 import numpy as np
 import taichi as ti
 
-from .assembly import Model, assemble, element_length
+from .model.assembly import Model, assemble, element_length
 from .config import Features
-from .materials import COL
+from .model.materials import COL
 from .mesh import Mesh, build_mesh
 from .crush import crush_summary
 from .output import FrameWriter, OutputError, write_csv, write_json

@@ -58,11 +58,12 @@ from types import SimpleNamespace
 import numpy as np
 import taichi as ti
 
-from .assembly import added_mass_geometry, node_point_masses
+from .model.assembly import added_mass_geometry
+from .model.bodies import node_point_masses
 from .curves import COLUMNS as CURVE_COLUMNS
-from .materials import row_width
+from .model.materials import row_width
 from .scene import MAX_BODIES, MAX_CURVES, MAX_MOTIONS
-from .tools import MAX_TOOLS
+from .model.tools import MAX_TOOLS
 
 (STATUS_OK, STATUS_CONVERGED, STATUS_INVERTED, STATUS_LEFT_GRID, STATUS_NONFINITE, STATUS_DT_COLLAPSE,
  STATUS_CONTACT_FULL, STATUS_ENERGY, STATUS_RETURN_FAILED, STATUS_MASS_ADDED, STATUS_BODY_ROTATION,
@@ -388,7 +389,7 @@ class State:
         # impulse, angular_impulse: of walls (tools) this step, applied at its end;
         # wall_energy: work of the walls moving with it, on it; external_work: of gravity on
         # its added mass and of the applied loads; stable_step: the step its mass and inertia allow
-        # (assembly.body_step); inertia_min: the smallest principal J about its free axes (the
+        # (model/bodies.body_step); inertia_min: the smallest principal J about its free axes (the
         # step's turn limit); omega_mid, center_start: the kick's (omega^- + omega^+) / 2 and x_c^n of
         # this step (the tools moving with it book their work with them)
         g.table("direction", ti.Vector.field(3, f64), (MAX_BODIES,), nb)

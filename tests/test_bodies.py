@@ -511,8 +511,8 @@ def test_plate_struck_by_a_rigid_body_keeps_momentum_and_energy(tmp_path):
     impulses set the body spinning."""
     import meshio
 
-    from taichi_shell_mpm.assembly import assemble
     from taichi_shell_mpm.mesh import build_mesh
+    from taichi_shell_mpm.model.assembly import assemble
     from taichi_shell_mpm.scene import load_scene
     xs = np.linspace(0.0, 1.0, 5)
     points = [[x, y, 0.0] for y in xs for x in xs]
@@ -552,8 +552,8 @@ def test_free_body_spinning_off_its_mass_centre_keeps_linear_momentum(tmp_path):
     (about the corner, omega x M (x_G - x_C) turned with it: the momentum changed with no force)."""
     import meshio
 
-    from taichi_shell_mpm.assembly import assemble
     from taichi_shell_mpm.mesh import build_mesh
+    from taichi_shell_mpm.model.assembly import assemble
     from taichi_shell_mpm.scene import load_scene
     body = FREE_BODY.replace("mass = 2.0\ninertia", "center = [0.0, 0.0, 0.0]\ninertia").replace(
         "mass_from_nodes = false", "mass_from_nodes = true")
@@ -606,6 +606,7 @@ def test_light_body_named_when_it_sets_the_step_and_refused_far_below(tmp_path):
     nodes') would need a step below 1e-3 of the elements': refused, naming the body."""
     from taichi_shell_mpm.preflight import prepare
     from taichi_shell_mpm.scene import SceneError
+
     from .test_matrix import write_case
     scene = write_case(tmp_path, ("body",))
     _, _, model = prepare(scene, [])

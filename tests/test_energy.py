@@ -78,6 +78,7 @@ def test_moving_wall_that_carries_load_balances(tmp_path, method):
     with dt (box beam: 27-30 %)."""
     from taichi_shell_mpm.scene import load_scene
     from taichi_shell_mpm.solvers.dynamic import run_dynamic
+
     from .conftest import simulation
     speed, end = 0.02, 0.25           # 0.5 % compression
     sim = simulation(load_scene(pushed_plate(tmp_path, method, speed, end)), tmp_path)
@@ -144,7 +145,8 @@ def test_unstable_run_stops_on_the_energy_guard(tmp_path, monkeypatch):
     (measured: guard at step 29, inversion at step 73)."""
     import dataclasses
     import xml.etree.ElementTree as ET
-    from taichi_shell_mpm import assembly
+
+    from taichi_shell_mpm.model import assembly
     assemble = assembly.assemble
     monkeypatch.setattr(assembly, "assemble", lambda scene, mesh: dataclasses.replace(
         assemble(scene, mesh), parameters=dataclasses.replace(assemble(scene, mesh).parameters, dt_safety=SAFETY)))

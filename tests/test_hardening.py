@@ -536,7 +536,7 @@ def test_lsdyna_curve_and_cowper_symonds(tmp_path):
     total rate (VP = 0); *MAT_024: its LCSS curve -> the tabulated law, extrapolated (a curve
     from ebar 0.01 takes its first stress from 0, a falling point is held: notes), C/P with
     VP = 1 -> Cowper-Symonds on the plastic rate."""
-    from taichi_shell_mpm.materials import COL, law_column
+    from taichi_shell_mpm.model.materials import COL, law_column
     from taichi_shell_mpm.preflight import prepare
     (tmp_path / "deck.k").write_text(DECK)
     scene = write_scene(tmp_path, '[scene]\nname = "deck"\nunits = "N-mm-s"\n[mesh]\nkind = "file"\npath = "deck.k"\n'

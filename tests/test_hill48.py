@@ -7,7 +7,7 @@ import pytest
 import taichi as ti
 
 from taichi_shell_mpm.laws import hill48
-from taichi_shell_mpm.materials import hardening_laws, parameter_row, rate_laws, row_width
+from taichi_shell_mpm.model.materials import hardening_laws, parameter_row, rate_laws, row_width
 from taichi_shell_mpm.scene import Material
 from taichi_shell_mpm.simulation import init_taichi
 from taichi_shell_mpm.stages.material import MODELS
@@ -300,7 +300,7 @@ def test_mat_037_deck_is_hill48(tmp_path):
     """*MAT_037: r0 = r45 = r90 = |R| (a negative R, LS-DYNA's stabilised algorithm, with a
     note), ETAN the plastic hardening modulus as given, HLCID the tabulated law; R = 0 is
     refused as the scene's r0 would be."""
-    from taichi_shell_mpm.materials import BLOCK_OFFSET, COL
+    from taichi_shell_mpm.model.materials import BLOCK_OFFSET, COL
     from taichi_shell_mpm.preflight import prepare
     from taichi_shell_mpm.scene import SceneError
     (tmp_path / "deck.k").write_text(MAT_037)

@@ -13,8 +13,8 @@ import meshio
 import numpy as np
 import pytest
 
-from taichi_shell_mpm.assembly import assemble
 from taichi_shell_mpm.mesh import build_mesh
+from taichi_shell_mpm.model.assembly import assemble
 from taichi_shell_mpm.scene import load_scene
 
 from .conftest import element_stage, simulation, unwarmed_simulation, write_scene
@@ -534,6 +534,7 @@ def test_layered_roof_newton_arc_length_matches_relaxation(tmp_path):
     (measured 0.003 %; the issue asked 0.1 %).  Before the fix Newton stopped at its first point: "tangent stiffness is singular"
     (solvers/tangent.virtual_model tiled the (m, 2) material axis along the wrong axis)."""
     from scipy.interpolate import CubicSpline
+
     from taichi_shell_mpm.solvers.newton import ShellEquations, run_newton
     from taichi_shell_mpm.solvers.static import run_static
     section = ply_section(ROOF_PLY, [("ply", 4.2, 0.0), ("ply", 4.2, 90.0), ("ply", 4.2, 0.0)])

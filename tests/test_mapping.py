@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import taichi as ti
 
-from taichi_shell_mpm.assembly import cpdi2_weights
+from taichi_shell_mpm.model.assembly import cpdi2_weights
 
 from .conftest import plate_scene, simulation
 

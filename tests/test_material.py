@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import taichi as ti
 
-from taichi_shell_mpm.materials import MATERIAL_PARAMETERS, hardening_laws, parameter_row, rate_laws
+from taichi_shell_mpm.model.materials import MATERIAL_PARAMETERS, hardening_laws, parameter_row, rate_laws
 from taichi_shell_mpm.quadrature import through_thickness_rule
 from taichi_shell_mpm.scene import Material, load_scene
 from taichi_shell_mpm.simulation import init_taichi

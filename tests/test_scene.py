@@ -1229,7 +1229,7 @@ def test_static_solve_keeps_the_scaled_rotary_inertia(tmp_path):
     stalled at 0.70 of the load after 400 000 steps (docs/scenes.md, rotary_inertia).  A
     dynamic solve keeps m t^2 / 12."""
     import numpy as np
-    from taichi_shell_mpm.assembly import assemble
+    from taichi_shell_mpm.model.assembly import assemble
     from taichi_shell_mpm.config import Features
     from taichi_shell_mpm.mesh import build_mesh
     from .conftest import plate_scene

@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 import taichi as ti
 
-from taichi_shell_mpm.assembly import assemble
 from taichi_shell_mpm.mesh import build_mesh
+from taichi_shell_mpm.model.assembly import assemble
 from taichi_shell_mpm.scene import SceneError, load_scene, parse_scene
 from taichi_shell_mpm.simulation import Simulation, init_taichi, prepare
 from taichi_shell_mpm.solvers.dynamic import run_dynamic
@@ -583,7 +583,7 @@ def test_mesh_punch_faster_than_its_reach_per_step_does_not_pass_through(tmp_pat
     step's approach within 0.2 thickness, so the plate's nodes under the punch stay in front of
     its face (without it the punch jumped past them, 11.5 thicknesses in 6 steps).  Printed:
     the deepest node under the punch and the steps taken."""
-    from taichi_shell_mpm.assembly import element_steps
+    from taichi_shell_mpm.model.assembly import element_steps
     init_taichi("cpu")
     start = 0.05 + T                                   # the punch's face one half-thickness clear
     bare = load_scene(write(tmp_path, scene_text({}, end_time=1.0)))

@@ -18,8 +18,8 @@ import meshio
 import numpy as np
 import pytest
 
-from taichi_shell_mpm.assembly import triangle_shear_gain
 from taichi_shell_mpm.mesh import build_mesh
+from taichi_shell_mpm.model.assembly import triangle_shear_gain
 from taichi_shell_mpm.scene import PlateMesh
 
 from .conftest import ROOT, element_simulation, element_stage
@@ -411,7 +411,7 @@ def test_stepped_cantilever_with_a_triangle_part_from_gmsh(tmp_path, method):
     Euler-Bernoulli + shear closed form; the frames hold a quad and a triangle block with the
     part and thickness of each element; parts.csv sums to energy.csv and the root (triangles)
     has no hourglass energy; each half holds its bending share of the strain energy."""
-    from .test_parts import A, COMMON, L, NAMED, P, T1, T2, stepped_tip_deflection
+    from .test_parts import COMMON, NAMED, T1, T2, A, L, P, stepped_tip_deflection
     write_mixed_strip(tmp_path / "strip.msh")
     scene = tmp_path / "mixed.toml"
     scene.write_text(COMMON.format(mesh='[mesh]\nkind = "file"\npath = "strip.msh"\n', method=method, P=P)

@@ -208,8 +208,8 @@ def solve_static(scene, mesh=None, model=None, *, load_steps: int | None = None,
     """
     if not available():
         raise ImportError("KratosMultiphysics is not importable: pip install 'taichi_shell_mpm[peers]'")
-    from ..assembly import assemble
     from ..mesh import build_mesh
+    from ..model.assembly import assemble
     if model is None:
         mesh = mesh if mesh is not None else build_mesh(scene.mesh)
         model = assemble(scene, mesh)

@@ -57,7 +57,7 @@ __all__ = [
 def value_problem(table: str, key: str, value: Any) -> str | None:
     """What is wrong with `value` as the key `key` of [material] or [section] (`table`), or
     None: an LS-DYNA deck's values are checked by the scene's own declarations
-    (assembly._deck_specs), so a deck value is held to the same range as the scene key."""
+    (model/deck.deck_specs), so a deck value is held to the same range as the scene key."""
     declared = {"material": {**keys_of(Material), **{n: k for keys in LAW_KEYS.values() for n, k in keys.items()}},
                 "section": keys_of(Section)}[table]
     try:

@@ -225,7 +225,7 @@ def read_scene(r: Reader) -> Scene:
     for i, name in enumerate(names):
         if name in names[:i]:
             r.error("[[tool]]", f"duplicate tool name {name!r}")
-    from ..tools import MAX_TOOLS
+    from ..model.tools import MAX_TOOLS
     if len(tools) > MAX_TOOLS:
         r.error("[[tool]]", f"expected at most {MAX_TOOLS} tools, got {len(tools)}")
     contact = r.table_object("[contact]", r.raw["contact"], Contact) if "contact" in r.raw else None

@@ -53,7 +53,7 @@ Other stages load a body through add_force (at t^n, before update) and add_impul
 the node update; applied at the end of the step); see /work/notes/bodies_api.md.
 
 Time step (issue 28 item 7): a body limits the next step to its stable step on the elements it
-carries (assembly.body_step, host, from its mass and inertia) and to MAX_TURN of rotation.
+carries (model/bodies.body_step, host, from its mass and inertia) and to MAX_TURN of rotation.
 """
 import taichi as ti
 
@@ -432,7 +432,7 @@ class RigidBodies:
 
     @ti.func
     def step_limit(self, b):
-        """The next step body b allows: its stable step on its elements (assembly.body_step) and,
+        """The next step body b allows: its stable step on its elements (model/bodies.body_step) and,
         turning, MAX_TURN / (|L| / J_min) free or MAX_TURN / |omega| (module constants)."""
         limit = self.s.bodies.stable_step[b]
         if ti.static(self.cfg.body_rotation):

@@ -82,7 +82,7 @@ instead of 7, the same v+ up to rounding.
 
 import taichi as ti
 
-from ..assembly import KEY_BITS
+from ..model.assembly import KEY_BITS
 from ..state import MAX_FIELDS, State
 from .timestep import impulse_time
 

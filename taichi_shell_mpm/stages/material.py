@@ -20,8 +20,7 @@ import taichi as ti
 from ..laws import MODELS as PLUG_INS
 from ..laws.hardening import LAWS as HARDENING_LAWS
 from ..laws.rate import LAWS as RATE_LAWS
-from ..materials import BLOCK_OFFSET, COL, ORIENTED
-
+from ..model.materials import BLOCK_OFFSET, COL, ORIENTED
 
 # ---------------------------------------------------------------- flow-stress laws (laws/hardening/, laws/rate/)
 _SHARED = {name: COL[name] for name in ("yield_stress", "hardening")}

@@ -177,7 +177,7 @@ def initial_dt(model, velocity: np.ndarray, cfg) -> float:
     """The same rules evaluated on the initial configuration of `model` (numpy, before the
     first step; the element rule: assembly.element_steps, with the initial mass factors of
     selective mass scaling)."""
-    from ..assembly import element_steps
+    from ..model.assembly import element_steps
     p = model.parameters
     dt = float(np.min(element_steps(model.points, model.elements, model.element, p.dt_safety)
                       * np.sqrt(model.mass_factor)))
@@ -194,7 +194,7 @@ def initial_dt(model, velocity: np.ndarray, cfg) -> float:
         if spread > 0.0:
             dt = min(dt, contact_step(p.contact_stiffness) * p.contact_thickness / spread)
     if cfg.tools:
-        from ..tools import first_step_limit
+        from ..model.tools import first_step_limit
         tt = model.tools
         dt = min(dt, first_step_limit(tt, model.points, model.node_thickness, velocity, model.node_body,
                                       np.array([contact_step(a) for a in tt.coefficients[:, 0]])))

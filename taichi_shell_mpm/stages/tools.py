@@ -61,8 +61,8 @@ of that body are not in contact with it.
 """
 import taichi as ti
 
+from ..model.tools import BODY, DISPLACEMENT, FIXED, TOOL_KINDS, VELOCITY
 from ..tool_kinds import KINDS
-from ..tools import BODY, DISPLACEMENT, FIXED, TOOL_KINDS, VELOCITY
 from . import contact
 from .accumulate import Accumulator
 from .contact import coulomb_friction

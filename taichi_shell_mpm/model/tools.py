@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .tool_kinds import KINDS
+from ..tool_kinds import KINDS
 
 TOOL_KINDS = tuple(KINDS)
 FIXED, BODY, VELOCITY, DISPLACEMENT = range(4)      # how a tool moves (state.tools.motion)
@@ -59,7 +59,7 @@ def build_tools(tools, bodies, curves: dict, reach: float, cell: float | None = 
     """The ToolTable of the scene's [[tool]] entries (scene.Tool); `bodies`: the
     assembly.RigidBodySpec list, `curves`: the scene's curves by name; `reach`: how far behind
     a mesh's surface a node is still caught (the thickest shell's thickness)."""
-    from .curves import evaluate
+    from ..curves import evaluate
     body_names, curve_names = [b.name for b in bodies], list(curves)
     k = len(tools)
     kind_index = np.array([TOOL_KINDS.index(t.kind) for t in tools], np.int32)

@@ -34,11 +34,11 @@ import math
 
 import numpy as np
 
-from . import laws
-from .laws.hardening import BLOCK_WIDTH as HARDENING_BLOCK
-from .laws.hardening import LAWS as HARDENING
-from .laws.rate import BLOCK_WIDTH as RATE_BLOCK
-from .laws.rate import LAWS as RATE
+from .. import laws
+from ..laws.hardening import BLOCK_WIDTH as HARDENING_BLOCK
+from ..laws.hardening import LAWS as HARDENING
+from ..laws.rate import BLOCK_WIDTH as RATE_BLOCK
+from ..laws.rate import LAWS as RATE
 
 COLUMNS = ("E", "nu", "density", "c11", "c12", "c33", "yield_stress", "hardening",
            "lambda1", "lambda2", "lambda_min",
