@@ -453,13 +453,12 @@ def _run(args) -> int:
         sim.progress(f"{scene.info.name}: {len(sim.model.points)} nodes, {len(sim.model.elements)} elements, "
                      f"{sim.cfg.method}, kernels ready in {time.perf_counter() - t0:.1f} s -> {sim.out_dir}"
                      + (f" (restarted at step {sim.state.step.step[None]})" if ckpt else ""))
-        with control.catch_interrupts():
-            if scene.solve.kind == "dynamic":
-                extra = run_dynamic(sim, control)
-            elif newton is not None:
-                extra = run_newton(sim, newton, control)
-            else:
-                extra = run_static(sim, control)
+        if scene.solve.kind == "dynamic":          # each driver runs in a run_control.RunLoop (signals too)
+            extra = run_dynamic(sim, control)
+        elif newton is not None:
+            extra = run_newton(sim, newton, control)
+        else:
+            extra = run_static(sim, control)
         summary = sim.write_results(extra)
     except (SceneError, CheckpointError) as exc:
         return _fail(EXIT_SCENE, exc.messages)

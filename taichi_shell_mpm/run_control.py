@@ -1,5 +1,11 @@
-"""A run's control at its batch boundaries: periodic checkpoints and a clean stop on Ctrl-C,
-SIGTERM or SIGHUP (the checkpoint itself: checkpoint.py).
+"""The loop every driver runs in, and a run's control at its batch boundaries: periodic
+checkpoints and a clean stop on Ctrl-C, SIGTERM or SIGHUP (the checkpoint itself:
+checkpoint.py).
+
+:class:`RunLoop` is the one object the static, dynamic and Newton drivers (solvers/) run in:
+it starts and ends the run's clock and progress display, catches the stop signals, and gives
+the driver its guards (the simulation's status checks), progress lines, recording and batch
+boundaries (checkpoint, clean stop), so that a driver holds only its stepping logic.
 
 :class:`RunControl` is what the drivers call at every batch boundary: it writes the
 periodic checkpoint (``--checkpoint-every N``: at the first boundary at or after each
@@ -86,6 +92,73 @@ def stop_on_signals():
     compile).  Their default action would end the process at once, with nothing written and
     no checkpoint."""
     return _handlers(_raise_interrupted, [s for s in STOP_SIGNALS if s != signal.SIGINT], only_default=True)
+
+
+# ------------------------------------------------------------------ the run loop
+class RunLoop:
+    """A driver's run (module docstring)::
+
+        with RunLoop(sim, control, fraction) as loop:      # fraction: how far the run is (None: unknown)
+            position = loop.resume or {...}
+            ...                                              # the driver's steps
+            loop.guard()                                     # the simulation's status checks
+            loop.progress("load step 3/10 ...", dt, 0.2)     # the live line, when due
+            loop.boundary(position)                          # checkpoint / clean stop
+            loop.record(lam, frame=True)
+            loop.note("load step 3/10 ...")                  # a progress line with the run time
+
+    On leaving, the run time (wall and CPU, all sessions) is stored in the simulation and the
+    progress display closed, however the driver ended."""
+
+    def __init__(self, sim, control: RunControl | None = None, fraction: float | None = None):
+        self.sim = sim
+        self.control = control or RunControl()
+        self.fraction = fraction
+        self._signals = None
+
+    @property
+    def resume(self) -> dict | None:
+        """The checkpoint's position of a restarted run, else None."""
+        return self.control.resume
+
+    def __enter__(self) -> RunLoop:
+        self._signals = self.control.catch_interrupts()
+        self._signals.__enter__()
+        self.control.start(self.sim)
+        self.sim.reporter.start(int(self.sim.state.step.step[None]), self.fraction)
+        return self
+
+    def __exit__(self, *exc) -> bool:
+        try:
+            self.sim.run_seconds, self.sim.run_cpu_seconds = self.control.run_seconds(), self.control.run_cpu_seconds()
+            self.sim.reporter.close()
+        finally:
+            self._signals.__exit__(*exc)
+        return False
+
+    def guard(self) -> None:
+        """The simulation's checks after a batch (a stopped status raises SimulationError)."""
+        self.sim.check_status()
+
+    def progress(self, label: str, dt: float, fraction: float | None) -> None:
+        """The live progress line, when it is due: `label`, the step, dt, the energy balance."""
+        from .energy import balance_ratio
+        reporter = self.sim.reporter
+        if reporter.due():
+            reporter.show(label, int(self.sim.state.step.step[None]), dt, balance_ratio(self.sim.energies()),
+                          fraction)
+
+    def boundary(self, position: dict) -> None:
+        """A safe point between batches: periodic checkpoint, and a requested stop (RunControl)."""
+        self.control.boundary(self.sim, position)
+
+    def record(self, key: float, frame: bool) -> None:
+        """Histories (and a frame) at the load factor or time `key`."""
+        self.sim.record(key, frame)
+
+    def note(self, text: str) -> None:
+        """A progress line, with the run time so far."""
+        self.sim.progress(f"{text}  [{self.control.run_seconds():.1f} s]")
 
 
 # ------------------------------------------------------------------ run control

@@ -8,8 +8,7 @@ fixed size, so a restarted run takes the same batches.
 """
 
 from ..checkpoint import event_times
-from ..energy import balance_ratio
-from ..run_control import RunControl
+from ..run_control import RunControl, RunLoop
 from ..simulation import Simulation
 from ..stages.timestep import landing_step
 from .static import batch_size
@@ -21,23 +20,19 @@ def events_of(sim: Simulation) -> tuple[list[float], set[float]]:
 
 
 def run_dynamic(sim: Simulation, control: RunControl | None = None) -> dict:
-    control = control or RunControl()
     scene, s, stepper = sim.scene, sim.state.step, sim.stepper
     out, end = scene.output, scene.solve.end_time
     every = out.every_steps
     chunk = every if every > 0 else batch_size(sim, 5_000)
     events, frame_times = events_of(sim)
-    control.start(sim)
-    reporter = sim.reporter
-    reporter.start(int(s.step[None]), s.time[None] / end if end > 0 else None)
-    if control.resume is None:
-        s.load_factor[None] = 1.0            # dead loads act in full (they are load-stepped only in statics)
-        sim.record(0.0, frame=True)
-        pos = {"event": 0, "started": False}
-    else:
-        pos = control.resume
-    i, started = int(pos["event"]), bool(pos["started"])
-    try:
+    with RunLoop(sim, control, s.time[None] / end if end > 0 else None) as loop:
+        if loop.resume is None:
+            s.load_factor[None] = 1.0            # dead loads act in full (they are load-stepped only in statics)
+            loop.record(0.0, frame=True)
+            pos = {"event": 0, "started": False}
+        else:
+            pos = loop.resume
+        i, started = int(pos["event"]), bool(pos["started"])
         while i < len(events):
             target = events[i]
             if not started:
@@ -46,19 +41,14 @@ def run_dynamic(sim: Simulation, control: RunControl | None = None) -> dict:
                 started = True
             while s.dt[None] > 0.0:
                 sim.total_steps += stepper.advance(chunk)
-                sim.check_status()
+                loop.guard()
                 if every > 0:
-                    sim.record(s.time[None], frame=True)
-                if reporter.due():
-                    reporter.show(f"t {s.time[None]:.5g}/{end:g}", int(s.step[None]), s.dt_stable[None],
-                                  balance_ratio(sim.energies()),
-                                  s.time[None] / end if end > 0 else None)
-                control.boundary(sim, {"event": i, "started": True})
+                    loop.record(s.time[None], frame=True)
+                loop.progress(f"t {s.time[None]:.5g}/{end:g}", s.dt_stable[None],
+                              s.time[None] / end if end > 0 else None)
+                loop.boundary({"event": i, "started": True})
             if every == 0:
-                sim.record(s.time[None], frame=target in frame_times)
+                loop.record(s.time[None], frame=target in frame_times)
             i, started = i + 1, False
-            control.boundary(sim, {"event": i, "started": False})
-    finally:
-        sim.run_seconds, sim.run_cpu_seconds = control.run_seconds(), control.run_cpu_seconds()
-        reporter.close()
+            loop.boundary({"event": i, "started": False})
     return {}

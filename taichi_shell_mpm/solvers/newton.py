@@ -36,7 +36,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..nodesets import select_nodes
-from ..run_control import RunControl
+from ..run_control import RunControl, RunLoop
 from ..scene import DOFS
 from ..simulation import FAILURES, Simulation, SimulationError
 from .path import JumpMonitor, PathError, Plan, Settings, follow
@@ -176,7 +176,6 @@ class ShellEquations:
 def run_newton(sim: Simulation, eq: ShellEquations, control: RunControl | None = None) -> dict:
     """Drive the static solve of `sim` (its equations `eq`, :meth:`ShellEquations.compiled`)
     by Newton with the scene's control (module docstring)."""
-    control = control or RunControl()
     scene = sim.scene
     sol = scene.solve
     settings = Settings(tolerance=sol.tolerance, increment_tolerance=sol.increment_tolerance,
@@ -190,27 +189,21 @@ def run_newton(sim: Simulation, eq: ShellEquations, control: RunControl | None =
                 target_iterations=sol.target_iterations, max_cutbacks=sol.max_cutbacks)
     data = sim.driver_data
     data.setdefault("iterations", [])
-    control.start(sim)
-    reporter = sim.reporter
-    reporter.start(int(sim.state.step.step[None]), None)
     t_start = time.perf_counter()
+    with RunLoop(sim, control) as loop:
+        def accept(outcome, lam_old, record):
+            _accept(sim, eq, outcome, lam_old, record, loop)
 
-    def accept(outcome, lam_old, record):
-        _accept(sim, eq, outcome, lam_old, record, control)
-
-    try:
-        jumps = JumpMonitor(sim.warn) if sol.control == "load" else None
-        if jumps is not None:
-            jumps.replay(data.get("level_increments", []))      # a restart: the steps before it
-        follow(eq, settings, plan, accept, position=control.resume, log=data,
-               boundary=lambda pos: control.boundary(sim, pos), note=sim.progress, jumps=jumps)
-        if jumps is not None:
-            jumps.finish()
-    except PathError as exc:
-        raise SimulationError(str(exc)) from None
-    finally:
-        sim.run_seconds = control.run_seconds()
-        reporter.close()
+        try:
+            jumps = JumpMonitor(sim.warn) if sol.control == "load" else None
+            if jumps is not None:
+                jumps.replay(data.get("level_increments", []))      # a restart: the steps before it
+            follow(eq, settings, plan, accept, position=loop.resume, log=data, boundary=loop.boundary,
+                   note=sim.progress, jumps=jumps)
+            if jumps is not None:
+                jumps.finish()
+        except PathError as exc:
+            raise SimulationError(str(exc)) from None
     its = data["iterations"]
     return {"solver": "newton", "control": sol.control, "points": len(its), "iterations": int(sum(its)),
             "iterations_per_point": list(its), "cutbacks": int(data["cutbacks"]),
@@ -220,7 +213,7 @@ def run_newton(sim: Simulation, eq: ShellEquations, control: RunControl | None =
             "equations": eq.ndof, "matrix_nonzeros": eq.nnz, "newton_seconds": time.perf_counter() - t_start}
 
 
-def _accept(sim, eq, outcome, lam_old, record, control):
+def _accept(sim, eq, outcome, lam_old, record, loop):
     """Commit a converged point: state, energies, reaction, counters (one launch:
     tangent.IncrementalForces._commit), record, progress."""
     lam = outcome.lam
@@ -230,7 +223,7 @@ def _accept(sim, eq, outcome, lam_old, record, control):
     sim.driver_data["iterations"].append(outcome.iterations)
     sim.check_hourglass()
     if record:
-        sim.record(lam, frame=sim.scene.output.load_steps)
+        loop.record(lam, frame=sim.scene.output.load_steps)
     ratios = " ".join(f"{r:.1e}" for r in outcome.residual_ratios)
-    sim.progress(f"point {len(sim.driver_data['iterations']):3d}  lambda {lam:+.5f}  iterations {outcome.iterations:2d}"
-                 f"  residual/load {ratios}  [{control.run_seconds():.1f} s]")
+    loop.note(f"point {len(sim.driver_data['iterations']):3d}  lambda {lam:+.5f}  iterations {outcome.iterations:2d}"
+              f"  residual/load {ratios}")

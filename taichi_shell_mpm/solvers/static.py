@@ -36,9 +36,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..curves import evaluate
-from ..energy import balance_ratio
 from ..loading import reference_loads
-from ..run_control import RunControl
+from ..run_control import RunControl, RunLoop
 from ..simulation import Simulation, SimulationError
 from ..state import STATUS_CONVERGED, STATUS_OK
 from .path import JumpMonitor
@@ -87,16 +86,14 @@ def batch_size(sim: Simulation, cap: int) -> int:
 
 
 def run_static(sim: Simulation, control: RunControl | None = None) -> dict:
-    control = control or RunControl()
     scene, s, stepper = sim.scene, sim.state.step, sim.stepper
     n_levels = scene.solve.load_steps
     budget = scene.solve.max_steps_per_load_step
     chunk = batch_size(sim, 20_000)
     s.tolerance_sq[None] = scene.solve.tolerance ** 2
     level_steps = sim.driver_data.setdefault("level_steps", [])
-    pos = control.resume or {"level": 1, "steps": 0, "started": False}
+    pos = (control.resume if control is not None else None) or {"level": 1, "steps": 0, "started": False}
     j, steps, started = int(pos["level"]), int(pos["steps"]), bool(pos["started"])
-    control.start(sim)
     jumps = JumpMonitor(sim.warn)            # a jump to a remote branch between two levels (issue 19)
     jumps.replay(sim.driver_data.get("level_increments", []))
     # the positions of the last converged level: a restart in the middle of a level measures
@@ -105,63 +102,55 @@ def run_static(sim: Simulation, control: RunControl | None = None) -> dict:
     if previous is None or not started:
         previous = sim.state.fetch("nodes.position")
     sim.driver_arrays["level_start"] = previous
-    reporter = sim.reporter
-    reporter.start(int(s.step[None]), (j - 1) / n_levels)
-    try:
-        while j <= n_levels:
-            lam = j / n_levels
-            if not started:
-                s.load_factor[None] = lam
-                s.residual_target_sq[None] = (scene.solve.tolerance * load_norm(sim, lam)) ** 2
-                s.motion_ramp[None] = motion_ramp(sim, (j - 1) / n_levels, lam)
-                s.velocity_keep[None] = 0.0          # start each level from rest ...
-                s.restart_factor[None] = 0.5         # ... with the central-difference half step
-                s.kinetic_prev[None] = 0.0
-                s.fire_alpha[None], s.fire_uphill[None], s.fire_mix[None] = FIRE_ALPHA_START, 0, 0.0
-                s.status[None] = STATUS_OK
-                steps, started = 0, True
-            while True:
-                steps += stepper.advance(min(chunk, budget - steps))
-                code = s.status[None]
-                if code == STATUS_CONVERGED:
-                    break
-                sim.check_status()
-                if steps >= budget:
-                    ratio = np.sqrt(s.residual_sq[None] / max(target_sq(sim), 1e-300)) * scene.solve.tolerance
-                    raise SimulationError(
-                        f"load step {j}/{n_levels} (load factor {lam:.4g}) did not converge in {budget} steps "
-                        f"at {sim.where()} (residual {ratio:.2e} of the load; raise "
-                        "[solve].max_steps_per_load_step or load_steps)")
-                if reporter.due():
+    with RunLoop(sim, control, (j - 1) / n_levels) as loop:
+        try:
+            while j <= n_levels:
+                lam = j / n_levels
+                if not started:
+                    s.load_factor[None] = lam
+                    s.residual_target_sq[None] = (scene.solve.tolerance * load_norm(sim, lam)) ** 2
+                    s.motion_ramp[None] = motion_ramp(sim, (j - 1) / n_levels, lam)
+                    s.velocity_keep[None] = 0.0          # start each level from rest ...
+                    s.restart_factor[None] = 0.5         # ... with the central-difference half step
+                    s.kinetic_prev[None] = 0.0
+                    s.fire_alpha[None], s.fire_uphill[None], s.fire_mix[None] = FIRE_ALPHA_START, 0, 0.0
+                    s.status[None] = STATUS_OK
+                    steps, started = 0, True
+                while True:
+                    steps += stepper.advance(min(chunk, budget - steps))
+                    code = s.status[None]
+                    if code == STATUS_CONVERGED:
+                        break
+                    loop.guard()
+                    if steps >= budget:
+                        ratio = np.sqrt(s.residual_sq[None] / max(target_sq(sim), 1e-300)) * scene.solve.tolerance
+                        raise SimulationError(
+                            f"load step {j}/{n_levels} (load factor {lam:.4g}) did not converge in {budget} steps "
+                            f"at {sim.where()} (residual {ratio:.2e} of the load; raise "
+                            "[solve].max_steps_per_load_step or load_steps)")
                     target = max(target_sq(sim), 1e-300)
-                    reporter.show(f"load step {j}/{n_levels} (residual/target "
-                                  f"{np.sqrt(s.residual_sq[None] / target):.1e})", int(s.step[None]),
-                                  s.dt[None], balance_ratio(sim.energies()),
-                                  (j - 1) / n_levels)
-                control.boundary(sim, {"level": j, "steps": steps, "started": True})
-            sim.check_status()                       # hourglass energy of the converged level
-            sim.total_steps += steps
-            level_steps.append(steps)
-            started = False                          # this level's steps are counted
-            s.status[None] = STATUS_OK
-            sim.record(lam, frame=scene.output.load_steps)
-            position = sim.state.fetch("nodes.position")
-            size = float(np.linalg.norm(position - previous))
-            previous = sim.driver_arrays["level_start"] = position
-            jumps.add(lam, size)
-            sim.driver_data.setdefault("level_increments", []).append((lam, size))
-            e = sim.energies()
-            sim.progress(f"load step {j:3d}/{n_levels}  lambda {lam:.3f}  steps {steps:7d}  dt {s.dt[None]:.3e}  "
-                         f"W_ext {e['external_work']:.4e}  E_int {e['internal']:.4e}  E_hg {e['hourglass']:.2e}  "
-                         f"[{control.run_seconds():.1f} s]")
-            j, steps, started = j + 1, 0, False
-            control.boundary(sim, {"level": j, "steps": 0, "started": False})
-        jumps.finish()
-    except BaseException:
-        if started:          # a failed or interrupted level: its steps were taken too (summary, us/step)
-            sim.total_steps += steps
-        raise
-    finally:
-        sim.run_seconds, sim.run_cpu_seconds = control.run_seconds(), control.run_cpu_seconds()
-        reporter.close()
+                    loop.progress(f"load step {j}/{n_levels} (residual/target "
+                                  f"{np.sqrt(s.residual_sq[None] / target):.1e})", s.dt[None], (j - 1) / n_levels)
+                    loop.boundary({"level": j, "steps": steps, "started": True})
+                loop.guard()                             # hourglass energy of the converged level
+                sim.total_steps += steps
+                level_steps.append(steps)
+                started = False                          # this level's steps are counted
+                s.status[None] = STATUS_OK
+                loop.record(lam, frame=scene.output.load_steps)
+                position = sim.state.fetch("nodes.position")
+                size = float(np.linalg.norm(position - previous))
+                previous = sim.driver_arrays["level_start"] = position
+                jumps.add(lam, size)
+                sim.driver_data.setdefault("level_increments", []).append((lam, size))
+                e = sim.energies()
+                loop.note(f"load step {j:3d}/{n_levels}  lambda {lam:.3f}  steps {steps:7d}  dt {s.dt[None]:.3e}  "
+                          f"W_ext {e['external_work']:.4e}  E_int {e['internal']:.4e}  E_hg {e['hourglass']:.2e}")
+                j, steps, started = j + 1, 0, False
+                loop.boundary({"level": j, "steps": 0, "started": False})
+            jumps.finish()
+        except BaseException:
+            if started:          # a failed or interrupted level: its steps were taken too (summary, us/step)
+                sim.total_steps += steps
+            raise
     return {"load_steps": n_levels, "steps_per_load_step": list(level_steps)}
