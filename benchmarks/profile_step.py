@@ -38,13 +38,14 @@ def child(steps: int, overrides: list[str]) -> None:
 
     import taichi as ti
 
-    from taichi_shell_mpm import simulation
+    from taichi_shell_mpm import runtime
     from taichi_shell_mpm.model.assembly import assemble
     from taichi_shell_mpm.preflight import prepare
-    from taichi_shell_mpm.simulation import Simulation, init_taichi
+    from taichi_shell_mpm.simulation import Simulation
+    from taichi_shell_mpm.runtime import init_taichi
     no_contact = "no_contact" in overrides
     if "batched" in overrides:
-        simulation.FORCE_LAUNCH = "batched"
+        runtime.FORCE_LAUNCH = "batched"
     overrides = [o for o in overrides if o not in ("no_contact", "batched")]
     scene, mesh, model = prepare(ROOT / "scenes" / "square_tube.toml", ["solve.end_time=5", *overrides])
     if no_contact:

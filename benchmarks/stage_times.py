@@ -22,7 +22,8 @@ import taichi as ti
 
 from taichi_shell_mpm.checkpoint import load_checkpoint, restore_checkpoint
 from taichi_shell_mpm.preflight import prepare
-from taichi_shell_mpm.simulation import Simulation, init_taichi
+from taichi_shell_mpm.simulation import Simulation
+from taichi_shell_mpm.runtime import init_taichi
 
 
 def main() -> int:

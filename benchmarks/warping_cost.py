@@ -23,7 +23,8 @@ from pathlib import Path
 import taichi as ti
 
 from taichi_shell_mpm.scene import load_scene
-from taichi_shell_mpm.simulation import Simulation, init_taichi
+from taichi_shell_mpm.simulation import Simulation
+from taichi_shell_mpm.runtime import init_taichi
 
 VARIANTS = ("none", "bwc")
 

@@ -414,7 +414,8 @@ def _run(args) -> int:
 
     if args.quiet:           # Taichi prints a banner when imported unless told not to
         os.environ.setdefault("ENABLE_TAICHI_HEADER_PRINT", "false")
-    from .simulation import Simulation, SimulationError, init_taichi
+    from .simulation import Simulation, SimulationError
+    from .runtime import init_taichi
     from .solvers.dynamic import run_dynamic
     from .solvers.newton import ShellEquations, run_newton
     from .solvers.tangent import newton_is_serial

@@ -1,13 +1,13 @@
 """A run of one scene: build (mesh -> model -> fields -> kernels), drive, record, write.
 
-:class:`Simulation` owns one Taichi runtime's worth of state.  Drivers:
-:func:`taichi_shell_mpm.solvers.static.run_static` and
-:func:`taichi_shell_mpm.solvers.dynamic.run_dynamic`.
+:class:`Simulation` owns one Taichi runtime's worth of state (runtime.py starts it).  Drivers:
+:func:`taichi_shell_mpm.solvers.static.run_static`,
+:func:`taichi_shell_mpm.solvers.dynamic.run_dynamic` and
+:func:`taichi_shell_mpm.solvers.newton.run_newton`, each in a run_control.RunLoop.
 """
 from __future__ import annotations
 
 import math
-import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -30,12 +30,10 @@ from .state import (CANDIDATES_PER_NODE, MAX_FIELDS, STATUS_CONTACT_FULL, STATUS
                     STATUS_BODY_ROTATION, STATUS_INVERTED, STATUS_LEFT_GRID, STATUS_MASS_ADDED, STATUS_NONFINITE, STATUS_RETURN_FAILED,
                     STATUS_SMS_SOLVE,
                     State)
-from . import energy, frontend
+from . import energy
+from .runtime import choose_launch
 from .energy import (ENERGY_COLUMNS, PART_COLUMNS, added_kinetic, added_mass, deformation_mass, eroded_elements,
                      part_energies, part_names)
-
-ARCHS = {"cpu": "cpu", "cuda": "cuda", "vulkan": "vulkan"}
-
 
 
 class SimulationError(Exception):
@@ -81,89 +79,8 @@ FAILURES = {
                     "too stiff: [contact].stiffness) or a constraint that works on the shell; --energy-limit "
                     "sets this limit"),
 }
-FORCE_LAUNCH: str | None = None         # tests and profiles: "batched" | "threads" | "gpu" on any arch
-THREADS_MIN_ELEMENTS = 1000             # CPU: smaller meshes run the batched serial kernel (choose_launch)
 HOURGLASS_WARN, HOURGLASS_STOP = 0.10, 0.20     # (E_hg + E_drill) / E_int
 HOURGLASS_ACTIVE = 1e-6     # ratio checked once max(E_int, E_hg) > this x max(W_ext, KE0)
-
-
-def choose_launch(arch: str, n_elements: int, static: bool) -> str:
-    """How the step kernels run (solvers/stepper.py): ``gpu`` on a GPU; on the CPU
-    ``threads`` (one parallel kernel per step) for a dynamic scene of at least
-    THREADS_MIN_ELEMENTS elements when there is more than one core, else ``batched`` (one
-    serial kernel for many steps, no launch cost per step).  Statics stay batched: their
-    relaxation decisions read energy sums, which threads add in a varying order, and a
-    static run should take the same steps every time.  Measured in the note of issue 4."""
-    if FORCE_LAUNCH is not None:
-        return FORCE_LAUNCH
-    if arch != "cpu":
-        return "gpu"
-    if static or cpu_threads() < 2 or n_elements < THREADS_MIN_ELEMENTS:
-        return "batched"
-    return "threads"
-
-
-def cpu_threads() -> int:
-    """CPU threads of a run: $TAICHI_SHELL_MPM_THREADS when set (a sweep's local cluster sets
-    cores / workers in each worker, so that the cases running at once do not share cores),
-    else every core."""
-    text = os.environ.get("TAICHI_SHELL_MPM_THREADS", "")
-    try:
-        return max(1, int(text))
-    except ValueError:
-        return os.cpu_count() or 1
-
-
-def init_taichi(arch: str = "cpu", quiet: bool = False, threads: int | None = None) -> str:
-    """Start Taichi on `arch`; returns the arch it actually runs on ("cpu" when Taichi fell
-    back from an unavailable GPU backend).  `quiet`: without its "[Taichi] Starting on"
-    line.  `threads`: the CPU threads (default :func:`cpu_threads`).  Taichi's own probing
-    warnings for a missing GPU are held back (the caller reports the fallback).
-    On the CPU Taichi's own IR optimizations are off unless :func:`ir_optimization`."""
-    import contextlib
-    import io
-    frontend.speed_up()
-    level = ti.WARN if arch == "cpu" else ti.ERROR
-    with contextlib.redirect_stdout(io.StringIO()) if quiet else contextlib.nullcontext():
-        ti.init(arch=getattr(ti, ARCHS[arch]), default_fp=ti.f64, default_ip=ti.i32, offline_cache=True,
-                offline_cache_file_path=kernel_cache_dir(), log_level=level, cpu_max_num_threads=threads or cpu_threads(),
-                advanced_optimization=arch != "cpu" or ir_optimization())
-    if level != ti.WARN:
-        ti.set_logging_level(ti.WARN)
-    used = ti.lang.impl.current_cfg().arch
-    return next((name for name, a in ARCHS.items() if getattr(ti, a) == used), "cpu")
-
-
-def ir_optimization() -> bool:
-    """Whether Taichi's own IR optimizations (``advanced_optimization``) run on the CPU:
-    only with $TAICHI_SHELL_MPM_IR_OPTIMIZATION=1 [choice, issue 29 session 3; measured in
-    docs/performance.md "Cold compile"].  They took two thirds of a cold compile (the tube
-    87 s -> 29 s, the cantilever 61 s -> 17 s) and LLVM's -O3, which runs either way, makes
-    the step as fast without them on the tube (B/A 1.02 plain, 0.98 with selective mass
-    scaling; within noise).  GPU backends always run them (not measured there)."""
-    return os.environ.get("TAICHI_SHELL_MPM_IR_OPTIMIZATION", "") == "1"
-
-
-def kernel_cache_base() -> Path:
-    """The folder that holds the kernel caches of every build: $TAICHI_SHELL_MPM_CACHE or
-    ~/.cache/taichi_shell_mpm."""
-    return Path(os.environ.get("TAICHI_SHELL_MPM_CACHE") or Path.home() / ".cache" / "taichi_shell_mpm")
-
-
-def kernel_cache_dir() -> str:
-    """Taichi's offline kernel cache of this build of the package: a folder per hash of its
-    sources, under $TAICHI_SHELL_MPM_CACHE or ~/.cache/taichi_shell_mpm [choice, issue 17].
-    Taichi keys a cached kernel by its IR and the SNodes it touches, identified by their own
-    structure and id but not by their place in the tree; a kernel cached by another build
-    whose tree puts another field at that SNode id would be loaded and address the wrong
-    memory (seen: a segmentation fault).  Within one build every run builds the same tree
-    (state.py), so the folder is shared by all runs of the build; runs with Taichi's IR
-    optimizations (:func:`ir_optimization`) have a folder of their own ("-ir")."""
-    import hashlib
-    digest = hashlib.sha256()
-    for path in sorted(Path(__file__).parent.rglob("*.py")):
-        digest.update(path.read_bytes())
-    return str(kernel_cache_base() / (digest.hexdigest()[:16] + ("-ir" if ir_optimization() else "")))
 
 
 def prepare(scene: Scene, model: Model, launch: str) -> tuple[Features, State, Stepper]:

@@ -43,7 +43,7 @@ not by its place in the tree: when the set of fields varied with the features, a
 cached by an fem run was loaded by an mpm run for another field at the same SNode id and
 wrote the wrong memory (a segmentation fault).  So every run creates every field, in the
 same order (a field the features do not use has the minimal size), and the cache folder is
-per build of the package (simulation.kernel_cache_dir).  The points' count and the grid's
+per build of the package (runtime.kernel_cache_dir).  The points' count and the grid's
 layout, which depend on the features, come last.
 
 Host access goes through :meth:`State.read` / :meth:`State.write` (the first ``count``

@@ -13,7 +13,8 @@ import taichi as ti
 from hypothesis import settings
 
 from taichi_shell_mpm.scene import load_scene
-from taichi_shell_mpm.simulation import Simulation, init_taichi, kernel_cache_base
+from taichi_shell_mpm.simulation import Simulation
+from taichi_shell_mpm.runtime import init_taichi, kernel_cache_base
 from taichi_shell_mpm.solvers.stepper import Stepper
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -89,7 +89,7 @@ def test_launches_match(tmp_path, monkeypatch):
     processes keep a kernel cache each, and a file stays in one process)."""
     runs = {}
     for launch in ("batched", "threads", "gpu"):
-        monkeypatch.setattr("taichi_shell_mpm.simulation.FORCE_LAUNCH", launch)
+        monkeypatch.setattr("taichi_shell_mpm.runtime.FORCE_LAUNCH", launch)
         runs[launch] = launch_run(tmp_path, launch)
         assert runs[launch][0]["launch"] == launch
     serial, e_serial = runs["batched"]

@@ -109,7 +109,7 @@ def test_offline_cache_key_is_the_same_with_and_without_the_patch(tmp_path):
 def test_ir_optimization_runs_have_a_kernel_cache_of_their_own(monkeypatch):
     """$TAICHI_SHELL_MPM_IR_OPTIMIZATION=1 turns Taichi's IR optimizations back on for the CPU
     (docs/performance.md "Cold compile"); their kernels are cached beside, not over, the others."""
-    from taichi_shell_mpm.simulation import ir_optimization, kernel_cache_dir
+    from taichi_shell_mpm.runtime import ir_optimization, kernel_cache_dir
     monkeypatch.delenv("TAICHI_SHELL_MPM_IR_OPTIMIZATION", raising=False)
     plain = kernel_cache_dir()
     assert not ir_optimization() and not plain.endswith("-ir")

@@ -328,17 +328,17 @@ def test_grid_contact_needs_the_multi_field_grid(tmp_path):
 def test_multi_field_claim_rounds_of_the_gpu_launch_match_the_serial_claim(tmp_path, monkeypatch):
     """The GPU launch chooses the fields with atomics in MAX_FIELDS rounds
     (GridUpdate.claim_rounds) instead of the CPU's claim in P2G order; run here on the CPU's
-    threads (simulation.FORCE_LAUNCH = "gpu"), the two sheets of the test above, approaching
+    threads (runtime.FORCE_LAUNCH = "gpu"), the two sheets of the test above, approaching
     within h/4 and touching, take the same path as on the serial launch (to round-off: the
     atomic sums change the order of additions)."""
-    from taichi_shell_mpm import simulation
+    from taichi_shell_mpm import runtime
     gap, slide, approach, thickness = 0.5, 0.1, -0.2, 0.02
     end = (gap - thickness) / -approach + 0.3
     sheets_mesh(tmp_path / "sheets.vtu", gap)
     text = SHEETS.format(t=thickness, fields="multi", gap=gap, slide=slide, approach=approach, end=end, every=0.01)
     probes = {}
     for launch in ("batched", "gpu"):
-        monkeypatch.setattr(simulation, "FORCE_LAUNCH", launch)
+        monkeypatch.setattr(runtime, "FORCE_LAUNCH", launch)
         out, summary = run(tmp_path, text, f"sheets_{launch}")
         assert summary["launch"] == launch and summary["grid"]["fields"] > 1
         assert summary["grid"]["field_overflow"] == 0

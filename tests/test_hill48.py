@@ -9,7 +9,7 @@ import taichi as ti
 from taichi_shell_mpm.laws import hill48
 from taichi_shell_mpm.model.materials import hardening_laws, parameter_row, rate_laws, row_width
 from taichi_shell_mpm.scene import Material
-from taichi_shell_mpm.simulation import init_taichi
+from taichi_shell_mpm.runtime import init_taichi
 from taichi_shell_mpm.stages.material import MODELS
 
 E, NU, SY0, H = 2.1e5, 0.3, 180.0, 1500.0

@@ -11,7 +11,7 @@ import taichi as ti
 from taichi_shell_mpm.model.materials import MATERIAL_PARAMETERS, hardening_laws, parameter_row, rate_laws
 from taichi_shell_mpm.quadrature import through_thickness_rule
 from taichi_shell_mpm.scene import Material, load_scene
-from taichi_shell_mpm.simulation import init_taichi
+from taichi_shell_mpm.runtime import init_taichi
 from taichi_shell_mpm.stages.material import PlaneStressJ2
 
 from .conftest import element_stage, unwarmed_simulation, write_scene

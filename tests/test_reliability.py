@@ -193,7 +193,8 @@ def test_kernel_flags_the_guard_itself(tmp_path, guard, status):
     when nothing was flagged before."""
     from taichi_shell_mpm import state as state_module
     from taichi_shell_mpm.scene import load_scene
-    from taichi_shell_mpm.simulation import Simulation, SimulationError, init_taichi
+    from taichi_shell_mpm.simulation import Simulation, SimulationError
+    from taichi_shell_mpm.runtime import init_taichi
     from taichi_shell_mpm.solvers.dynamic import run_dynamic
     kwargs, _ = GUARDS[guard]
     init_taichi("cpu")
@@ -220,7 +221,8 @@ def test_kernel_flags_the_guard_itself(tmp_path, guard, status):
 def test_hourglass_warning_then_stop(tmp_path, capsys):
     """E_hg/E_int above 10%: one warning; above 20%: SimulationError; not before E_int matters."""
     from taichi_shell_mpm.scene import load_scene
-    from taichi_shell_mpm.simulation import Simulation, SimulationError, init_taichi
+    from taichi_shell_mpm.simulation import Simulation, SimulationError
+    from taichi_shell_mpm.runtime import init_taichi
     init_taichi("cpu")
     sim = Simulation(load_scene(plate(tmp_path, "hg", extra=CLAMP)), tmp_path / "out", quiet=True)
     s = sim.state

@@ -144,7 +144,7 @@ def test_artificial_loads_are_the_transpose_of_the_rates(part):
     sum_a (f_a . v_a + m_a . theta_a) = Q . q, on a distorted, warped quad."""
     import taichi as ti
 
-    from taichi_shell_mpm.simulation import init_taichi
+    from taichi_shell_mpm.runtime import init_taichi
     from taichi_shell_mpm.stages.drilling import DrillingSpring
     from taichi_shell_mpm.stages.hourglass import Hourglass
     from taichi_shell_mpm.stages.shell import gradient_operators

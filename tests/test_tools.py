@@ -19,7 +19,8 @@ import taichi as ti
 from taichi_shell_mpm.mesh import build_mesh
 from taichi_shell_mpm.model.assembly import assemble
 from taichi_shell_mpm.scene import SceneError, load_scene, parse_scene
-from taichi_shell_mpm.simulation import Simulation, init_taichi, prepare
+from taichi_shell_mpm.simulation import Simulation, prepare
+from taichi_shell_mpm.runtime import init_taichi
 from taichi_shell_mpm.solvers.dynamic import run_dynamic
 from taichi_shell_mpm.tool_kinds.mesh import bucket_grid, read_surface
 
@@ -627,7 +628,7 @@ def test_a_new_tool_mesh_compiles_nothing_new(tmp_path):
     no file is added to the offline kernel cache.  The triangle and bucket fields are sized in
     power-of-4 classes (state.capacity, at least 16 384 entries), so this holds for any surface
     up to 16 384 triangles; a larger one compiles once per class."""
-    from taichi_shell_mpm.simulation import kernel_cache_dir
+    from taichi_shell_mpm.runtime import kernel_cache_dir
 
     def run(surface: str, name: str) -> set[str]:
         tools = {"punch": f'kind = "mesh"\nfile = "{surface}"\ncenter = [0, 0, 0.06]\nvelocity = [0, 0, -1]'}

@@ -107,7 +107,7 @@ def test_power_identity_with_warping(geometry):
     rates and random resultants: the loads are the exact transpose of the rates."""
     import taichi as ti
 
-    from taichi_shell_mpm.simulation import init_taichi
+    from taichi_shell_mpm.runtime import init_taichi
     from taichi_shell_mpm.stages import warping
     from taichi_shell_mpm.stages.shell import gradient_operators, local_geometry, resultant_loads, strain_rates
     init_taichi("cpu")

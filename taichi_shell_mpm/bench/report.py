@@ -208,7 +208,7 @@ def write_report(path: Path, out: Path, rows: list[dict], planned: list[Case], c
               f"The tube (mpm, J2, self-contact, grid h = l/2) refined from 720 to 103 680 elements, each run "
               f"to {SCALING_END_TIME:g} ms (impact and yielding; the contact search runs, no folds touch yet).  "
               "Linear scaling = constant µs per element-step.  Launch "
-              "(`simulation.choose_launch`): the `threads` kernel on both cores from 1 000 elements on, "
+              "(`runtime.choose_launch`): the `threads` kernel on both cores from 1 000 elements on, "
               "the batched serial kernel below (the 720-element case).", "",
               "| case | mesh | elements | steps | compile s | run s | ms / step | µs / element-step | peak MB | status |",
               "|---|---|---|---|---|---|---|---|---|---|"]

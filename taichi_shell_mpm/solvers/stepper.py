@@ -1,13 +1,13 @@
 """Sequences the stages of one explicit step (method.md 2, "update stress last") and
 compiles them into kernels.
 
-Three launches (``StepConfig.launch``, chosen by :func:`taichi_shell_mpm.simulation.choose_launch`)
+Three launches (``StepConfig.launch``, chosen by :func:`taichi_shell_mpm.runtime.choose_launch`)
 share the same stage code:
 
 * ``batched`` (CPU: statics and small meshes): one kernel runs many steps in a serial
   loop, so the ~90-140 us Python launch cost is paid once per batch; every scatter is a
   plain add.
-* ``threads`` (CPU, dynamics from simulation.THREADS_MIN_ELEMENTS elements on): one kernel
+* ``threads`` (CPU, dynamics from runtime.THREADS_MIN_ELEMENTS elements on): one kernel
   per step whose stage loops run on all cores.  Nothing in it is an f64 atomic add (13 ns
   here against 1 ns for a plain one): element loads are gathered at the nodes
   (stages/accumulate.py), P2G runs in grid slabs of alternating parity

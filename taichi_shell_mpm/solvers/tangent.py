@@ -41,7 +41,7 @@ import numpy as np
 import taichi as ti
 
 from ..energy import ELEMENT_PARTS, EnergyLedger
-from ..simulation import THREADS_MIN_ELEMENTS, cpu_threads
+from ..runtime import THREADS_MIN_ELEMENTS, cpu_threads
 from ..stages.rotation import quaternion_exp, quaternion_product
 from ..stages.shell import ShellElement
 from ..state import STATUS_OK, State
@@ -55,7 +55,7 @@ MAX_VIRTUAL_ELEMENTS = 1 << 22            # ~85 000 shell elements (about 8 GB):
 
 def newton_is_serial(n_elements: int) -> bool:
     """Whether Newton's kernels run serially on the CPU: a virtual mesh (SLOTS copies of each
-    element) below simulation.THREADS_MIN_ELEMENTS, or one core.  The CLI then starts Taichi
+    element) below runtime.THREADS_MIN_ELEMENTS, or one core.  The CLI then starts Taichi
     with one thread [measured, docs/newton.md]: a thread-pool dispatch per parallel loop costs
     more than the work of a few hundred element updates, and on a busy machine each one waits
     for a worker to be scheduled (a 10x1 cantilever's tangent: 0.27 ms median, 0.29 ms mean

@@ -4,7 +4,7 @@
 The worker imports Taichi once and keeps it; each case starts Taichi's runtime afresh
 (``ti.init`` inside the run, as every run does) and loads its kernels from the offline
 cache that every process of this build of the package shares
-(``simulation.kernel_cache_dir``), so a study compiles each feature set once [issue 21].
+(``runtime.kernel_cache_dir``), so a study compiles each feature set once [issue 21].
 The console output of the case (its warnings, the final summary, the ``error:`` line) goes
 to ``run.log`` in its folder, from the file descriptors down, so that Taichi's own messages
 land there too.
@@ -24,7 +24,7 @@ import sys
 import time
 from pathlib import Path
 
-THREADS_ENV = "TAICHI_SHELL_MPM_THREADS"     # read by simulation.cpu_threads
+THREADS_ENV = "TAICHI_SHELL_MPM_THREADS"     # read by runtime.cpu_threads
 
 
 @contextlib.contextmanager
