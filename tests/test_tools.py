@@ -220,7 +220,7 @@ def tools_only(tmp_path, text: str):
     scene = load_scene(write(tmp_path, text))
     model = assemble(scene, build_mesh(scene.mesh))
     _, state, stepper = prepare(scene, model, "batched")
-    return model, state, stepper.tools
+    return model, state, stepper.bodies.tools
 
 
 def test_signed_distance_and_normal_of_each_kind(tmp_path):

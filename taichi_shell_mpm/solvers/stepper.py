@@ -56,9 +56,8 @@ class Stepper:
         self.energy = EnergyLedger(state, cfg, cfg.plastic)
         self.loads = ExternalLoads(state, cfg)
         self.motion = PrescribedMotion(state, cfg, self.loads, self.energy)
-        self.bodies = RigidBodies(state, cfg, self.energy, self.loads)
-        self.tools = self.bodies.tools      # the rigid tools: part of the rigid system (stages/bodies.py)
-        self.nodes = NodeUpdate(state, cfg, self.bodies, self.energy, self.loads, self.motion, self.tools)
+        self.bodies = RigidBodies(state, cfg, self.energy, self.loads)     # the rigid system, tools included
+        self.nodes = NodeUpdate(state, cfg, self.bodies, self.energy, self.loads, self.motion)
         self.contact = SelfContact(state, cfg, model) if cfg.contact else None
         self.shell = ShellElement(state, cfg, self.energy)
         self.timestep = TimeStep(state, cfg)
@@ -87,8 +86,7 @@ class Stepper:
             self.s.contact.velocity_low[None] = ti.Vector([1e300, 1e300, 1e300])
             self.contact.forces()
         if ti.static(self.cfg.tools):
-            self.tools.begin()
-            self.tools.forces()
+            self.bodies.begin()
 
     @ti.func
     def velocity_update(self):
@@ -112,11 +110,8 @@ class Stepper:
         if ti.static(self.cfg.contact):
             self.contact.check_skin()
         shell_kinetic = self.s.step.kinetic[None]     # the nodes' (the bodies' is added below)
-        if ti.static(self.cfg.bodies):
-            self.bodies.apply_impulses()
-            self.bodies.add_kinetic_energy()
-        if ti.static(self.cfg.tools):
-            self.tools.end()
+        if ti.static(self.cfg.bodies or self.cfg.tools):
+            self.bodies.end()
         self.energy.guard(shell_kinetic)         # before a relaxation reset books the KE as damped
         self.shell.masses.guard()
         self.s.step.reaction_impulse[None] += self.s.step.dt[None] * self.s.step.reaction[None]

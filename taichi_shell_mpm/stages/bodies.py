@@ -79,8 +79,13 @@ def constrained_omega(inertia, free, momentum):
 
 @ti.data_oriented
 class RigidBodies:
-    """Bodies and walls are run-time tables (state.bodies); Features.bodies / walls /
-    body_rotation decide whether their code is compiled."""
+    """The rigid system: bodies, walls and tools (stages/tools.py, built here).  The step
+    talks to it through a narrow interface: :meth:`begin` (the tools' poses and forces at
+    t^n), :meth:`update` (the bodies' velocities), the node-level :meth:`slave_motion`,
+    :meth:`slave_omega`, :meth:`walls` and :meth:`tool_work`, and :meth:`end` (impulses back
+    to the bodies, their kinetic energy, the tools' work).  Bodies and walls are run-time
+    tables (state.bodies); Features.bodies / walls / body_rotation / tools decide whether
+    their code is compiled."""
 
     def __init__(self, state, cfg, energy, loads):
         self.s = state
@@ -94,6 +99,31 @@ class RigidBodies:
         # threads launch: wall impulses summed in node order instead of by atomics (serial
         # and gpu launches add them directly)
         self.impulses_in_node_order = cfg.launch == "threads" and cfg.moving_walls
+
+    # ------------------------------------------------------------ the step's interface
+    @ti.func
+    def begin(self):
+        """Before the velocity update: each tool's pose and velocity at t^n and its forces on
+        the nodes (stages/tools.py)."""
+        if ti.static(self.cfg.tools):
+            self.tools.begin()
+            self.tools.forces()
+
+    @ti.func
+    def end(self):
+        """After the nodes' update: the walls' (and tools') impulses back to the bodies, the
+        bodies' kinetic energy, then each tool's work at its own motion (once the bodies'
+        velocities are final)."""
+        if ti.static(self.cfg.bodies):
+            self.apply_impulses()
+            self.add_kinetic_energy()
+        if ti.static(self.cfg.tools):
+            self.tools.end()
+
+    @ti.func
+    def tool_work(self, c, v_mid, kick):
+        """The work done against the tools' forces on node c over the step (its contact column)."""
+        return self.tools.book_node(c, v_mid, kick)
 
     # ------------------------------------------------------------ pose (bodies_api.md)
     @ti.func

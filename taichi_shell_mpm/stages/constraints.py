@@ -29,11 +29,10 @@ def drop_fixed(vec, mask, first_bit: ti.template()):
 
 @ti.data_oriented
 class NodeUpdate:
-    def __init__(self, state: State, cfg, bodies, energy, loads, motion, tools):
+    def __init__(self, state: State, cfg, bodies, energy, loads, motion):
         self.s = state
         self.cfg = cfg
-        self.bodies = bodies
-        self.tools = tools              # stages/tools.RigidTools (None without tools)
+        self.bodies = bodies            # stages/bodies.RigidBodies: the rigid system (its tools too)
         self.energy = energy            # energy.EnergyLedger
         self.loads = loads              # stages/loads.ExternalLoads
         self.motion = motion            # stages/motion.PrescribedMotion
@@ -207,7 +206,7 @@ class NodeUpdate:
             if rigid:           # a rotating body books its slaves' load and self-contact work (stages/bodies.py)
                 external, contact = 0.0, 0.0
         if ti.static(self.cfg.tools):
-            contact += self.tools.book_node(c, v_mid, kick)
+            contact += self.bodies.tool_work(c, v_mid, kick)
         if ti.static(self.cfg.contact or self.cfg.tools):
             force += self.contact_force(c)
         wall = -self.s.nodes.mass[c] * (vg - before_walls).dot(v_mid)     # minus the walls' impulse . v_mid
