@@ -23,7 +23,7 @@ import json
 import math
 import re
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import MISSING, dataclass, field, fields, replace
+from dataclasses import MISSING, dataclass, field, fields, make_dataclass, replace
 from functools import cache
 from typing import Any
 
@@ -463,6 +463,16 @@ def key(check: Check, doc: str, *, default: Any = REQUIRED, unit: str = "", exam
 def keys_of(cls: type) -> dict[str, Key]:
     """The scene keys declared as fields of the dataclass `cls`, by name, in order."""
     return {f.name: replace(f.metadata["key"], name=f.name) for f in fields(cls) if "key" in f.metadata}
+
+
+def extended(base: type, name: str, module: str, declared: dict[str, Key], doc: str) -> type:
+    """The frozen dataclass `name` (of `module`): `base`'s fields and one more per key of
+    `declared` (keys that plug-ins declare in their own files: a law's, a tool kind's), each
+    with its default; a key read by keys_of like any other."""
+    cls = make_dataclass(name, [(n, Any, field(default=k.default, metadata={"key": k})) for n, k in declared.items()],
+                         bases=(base,), frozen=True)
+    cls.__module__, cls.__qualname__, cls.__doc__ = module, name, doc
+    return cls
 
 
 def keys(*declared: Key) -> dict[str, Key]:

@@ -188,6 +188,16 @@ def override_value(text: str) -> Any:
         return text.strip()
 
 
+def check_entries(r: Reader, key: str, entries: list, most: int, counted: str) -> None:
+    """The named entries of [[key]]: no name twice, at most `most` of them."""
+    names = [e.name for e in entries if e is not None]
+    for i, name in enumerate(names):
+        if name in names[:i]:
+            r.error(f"[[{key}]]", f"duplicate {key} name {name!r}")
+    if len(entries) > most:
+        r.error(f"[[{key}]]", f"expected at most {most} {counted}, got {len(entries)}")
+
+
 def plain(r: Reader, key: str, cls: type) -> Any:
     """The top-level table `key` without cross-checks, as `cls` (an absent one: its defaults)."""
     return r.part(key, lambda data: r.table_object(f"[{key}]", data, cls))
@@ -221,13 +231,8 @@ def read_scene(r: Reader) -> Scene:
     point_masses = r.array("point_mass", lambda path, data: read_point_mass(r, path, data))
     walls = r.array("wall", lambda path, data: read_wall(r, path, data))
     tools = r.array("tool", lambda path, data: read_tool(r, path, data, solve, curves))
-    names = [t.name for t in tools if t is not None]
-    for i, name in enumerate(names):
-        if name in names[:i]:
-            r.error("[[tool]]", f"duplicate tool name {name!r}")
     from ..model.tools import MAX_TOOLS
-    if len(tools) > MAX_TOOLS:
-        r.error("[[tool]]", f"expected at most {MAX_TOOLS} tools, got {len(tools)}")
+    check_entries(r, "tool", tools, MAX_TOOLS, "tools")
     contact = r.table_object("[contact]", r.raw["contact"], Contact) if "contact" in r.raw else None
     if contact is not None:
         check_penalty_damping(r, "[contact]", contact.stiffness, contact.damping)
@@ -242,12 +247,7 @@ def read_scene(r: Reader) -> Scene:
                 if spec is not None and getattr(spec, key, 0.0) > 0.0:
                     r.error(f"{path}.{key}", "erosion needs [solve].kind = \"dynamic\"")
     motions = r.array("motion", lambda path, data: read_motion(r, path, data, solve, curves))
-    names = [m.name for m in motions if m is not None]
-    for i, name in enumerate(names):
-        if name in names[:i]:
-            r.error("[[motion]]", f"duplicate motion name {name!r}")
-    if len(motions) > MAX_MOTIONS:
-        r.error("[[motion]]", f"expected at most {MAX_MOTIONS} entries, got {len(motions)}")
+    check_entries(r, "motion", motions, MAX_MOTIONS, "entries")
     pressures = r.array("pressure", lambda path, data: read_pressure(r, path, data, mesh, elementsets))
     gravity = r.table_object("[gravity]", r.raw["gravity"], Gravity) if "gravity" in r.raw else None
     if r.messages:

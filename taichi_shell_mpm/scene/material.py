@@ -2,11 +2,12 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, make_dataclass
+from dataclasses import dataclass
 from typing import Any, Literal, Union
 
 from ..keys import (
     choice,
+    extended,
     integer,
     key,
     key_path,
@@ -85,19 +86,10 @@ class MaterialKeys:
         return dict(self.model_parameters)
 
 
-def _with_law_keys(base: type) -> type:
-    """`base` and the keys of every hardening and rate law (each declared once, in its law's
-    file), as one frozen dataclass: the scene's Material."""
-    declared = {name: k for law in (*HARDENING.values(), *RATE.values()) for name, k in law.KEYS.items()}
-    cls = make_dataclass("Material", [(name, Any, field(default=k.default, metadata={"key": k}))
-                                      for name, k in declared.items()], bases=(base,), frozen=True)
-    cls.__module__, cls.__qualname__ = __name__, "Material"
-    cls.__doc__ = ("A material of [material] / [materials.NAME]: MaterialKeys and the keys of the hardening and "
-                   "rate laws (laws/).")
-    return cls
-
-
-Material = _with_law_keys(MaterialKeys)
+Material = extended(MaterialKeys, "Material", __name__,
+                    {n: k for law in (*HARDENING.values(), *RATE.values()) for n, k in law.KEYS.items()},
+                    "A material of [material] / [materials.NAME]: MaterialKeys and the keys of the hardening and "
+                    "rate laws, each declared in its law's file (laws/).")
 
 
 @dataclass(frozen=True)

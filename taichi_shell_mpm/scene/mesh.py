@@ -67,6 +67,13 @@ triangle_split = Check(_triangle_split, "string or table", '`"none"`, `"all"`, `
 """"none", "all" or a box {min = [x, y, z], max = [x, y, z]} (min <= max)."""
 
 
+def triangles_key() -> Any:
+    """The `triangles` key every generated mesh has."""
+    return key(triangle_split, default="none",
+               doc="cut the generated quads into two 3-node triangles each: all of them, or those whose centroid "
+                   "lies in the box (bounds included); the diagonals alternate in a checkerboard (below)")
+
+
 @dataclass(frozen=True)
 class PlateMesh:
     """Flat rectangle in the x-y plane, nx x ny quads, normals +z."""
@@ -75,9 +82,7 @@ class PlateMesh:
     nx: int = key(integer(1), "elements along x and y")
     ny: int = key(integer(1), "elements along x and y")
     origin: Vec3 = key(vec3, "corner with the smallest x and y", default=(0.0, 0.0, 0.0), unit="length")
-    triangles: TriangleSplit = key(triangle_split, default="none",
-        doc="cut the generated quads into two 3-node triangles each: all of them, or those whose centroid lies in"
-            " the box (bounds included); the diagonals alternate in a checkerboard (below)")
+    triangles: TriangleSplit = triangles_key()
     kind: Literal["plate"] = "plate"
 
 
@@ -95,9 +100,7 @@ class HemisphereMesh:
     n_around: int = key(integer(1), "elements around (on the quarter when `quarter = true`)")
     n_meridian: int = key(integer(1), "element rows from the equator to the hole, uniform in latitude")
     quarter: bool = key(boolean, "model the quarter 0° <= longitude <= 90° instead of the full circle", default=True)
-    triangles: TriangleSplit = key(triangle_split, default="none",
-        doc="cut the generated quads into two 3-node triangles each: all of them, or those whose centroid lies in"
-            " the box (bounds included); the diagonals alternate in a checkerboard (below)")
+    triangles: TriangleSplit = triangles_key()
     kind: Literal["hemisphere"] = "hemisphere"
 
 
@@ -121,9 +124,7 @@ class TubeMesh:
             " 0 = no trigger")
     trigger_start: float = key(non_negative, "z₀ of the trigger", default=5.0, unit="length")
     trigger_length: float = key(positive, "L of the trigger (one fold half-wavelength)", default=15.0, unit="length")
-    triangles: TriangleSplit = key(triangle_split, default="none",
-        doc="cut the generated quads into two 3-node triangles each: all of them, or those whose centroid lies in"
-            " the box (bounds included); the diagonals alternate in a checkerboard (below)")
+    triangles: TriangleSplit = triangles_key()
     kind: Literal["tube"] = "tube"
 
 

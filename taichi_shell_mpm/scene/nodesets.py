@@ -7,7 +7,6 @@ from typing import Any, Literal
 from ..keys import (
     BOX,
     BOX_KEYS,
-    TOML_BARE_KEY,
     VEC3_SCHEMA,
     Check,
     Key,
@@ -69,10 +68,7 @@ def read_nodesets(r: Reader, data: Any) -> list[NodeSet | None]:
 def read_nodeset(r: Reader, name: str, data: Any) -> NodeSet | None:
     path = f"[nodesets.{key_path(name)}]"
     mark = len(r.messages)
-    if name == "all":
-        r.error(path, "the name 'all' is predefined (every node); choose another name")
-    elif not TOML_BARE_KEY.fullmatch(name):
-        r.error(path, "a node set name may contain only letters, digits, '_' and '-'")
+    r.set_name(path, name, "a node set", "every node")
     v = r.read(path, data, {k: d for k, d in NODE_SET_KEYS.items() if k not in ("box", "plane")},
                extra=("box", "plane"))
     if v is None:

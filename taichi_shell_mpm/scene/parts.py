@@ -7,7 +7,6 @@ from typing import Any, Literal
 from ..keys import (
     BOX,
     BOX_KEYS,
-    TOML_BARE_KEY,
     Key,
     Vec3,
     element_ids,
@@ -146,10 +145,7 @@ def read_parts(r: Reader, mesh):
 def read_elementset(r: Reader, name: str, data: Any) -> ElementSet | None:
     path = f"[elementsets.{key_path(name)}]"
     mark = len(r.messages)
-    if name == "all":
-        r.error(path, "the name 'all' is predefined (every element); choose another name")
-    elif not TOML_BARE_KEY.fullmatch(name):
-        r.error(path, "an element set name may contain only letters, digits, '_' and '-'")
+    r.set_name(path, name, "an element set", "every element")
     v = r.read(path, data, {k: d for k, d in ELEMENT_SET_KEYS.items() if k != "box"}, extra=("box",))
     if v is None:
         return None

@@ -139,6 +139,14 @@ class Reader:
             self.error(path, f"expected {names[0]} {relation} {names[1]} in every component, "
                              f"got {names[0]} = {show(list(lo))}, {names[1]} = {show(list(hi))}")
 
+    def set_name(self, path: str, name: str, what: str, every: str) -> None:
+        """A node or element set's NAME: not the predefined 'all' (`every` what it selects),
+        letters, digits, '_' and '-' only."""
+        if name == "all":
+            self.error(path, f"the name 'all' is predefined ({every}); choose another name")
+        elif not TOML_BARE_KEY.fullmatch(name):
+            self.error(path, f"{what} name may contain only letters, digits, '_' and '-'")
+
     def named(self, key: str, reader) -> dict:
         """The [key.NAME] tables read by reader(path, data), by name (invalid ones left out)."""
         data = self.raw.get(key, {})

@@ -1,13 +1,14 @@
 """[[tool]]: rigid tools in penalty contact with the shell."""
 from __future__ import annotations
 
-from dataclasses import dataclass, field, make_dataclass
+from dataclasses import dataclass
 from typing import Any
 
 from ..keys import (
     Vec3,
     choice,
     curve_name,
+    extended,
     hint,
     identifier,
     key,
@@ -55,12 +56,10 @@ class ToolKeys:
         doc="the time function")
 
 
-Tool = make_dataclass("Tool", [(name, Any, field(default=k.default, metadata={"key": k}))
-                               for name, k in SHAPE_KEYS.items()], bases=(ToolKeys,), frozen=True)
-Tool.__module__, Tool.__qualname__ = __name__, "Tool"
-Tool.__doc__ = """A rigid tool (stages/tools.py, docs/scenes.md [[tool]]): penalty contact with the shell's
-mid-surface at half its thickness, Coulomb friction; fixed, moving with a rigid body, or moved by a
-velocity or displacement (times a curve).  ToolKeys and the shape keys of its kind."""
+Tool = extended(ToolKeys, "Tool", __name__, SHAPE_KEYS,
+                "A rigid tool (stages/tools.py, docs/scenes.md [[tool]]): penalty contact with the shell's mid-surface at "
+                "half its thickness, Coulomb friction; fixed, moving with a rigid body, or moved by a velocity or "
+                "displacement (times a curve).  ToolKeys and the shape keys of the kinds (tool_kinds/).")
 
 
 def read_tool(r: Reader, path: str, data: Any, solve: Solve | None, curves: dict[str, Curve]) -> Tool | None:

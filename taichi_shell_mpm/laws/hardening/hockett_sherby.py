@@ -4,6 +4,7 @@ used for sheet metal at large strains): sigma_y = s_sat - (s_sat - sigma_y0) exp
 from __future__ import annotations
 
 from ...keys import Key, keys, positive
+from .rules import above_yield_stress
 
 NAME = "hockett_sherby"
 DOC = ("`hockett_sherby` σ_sat − (σ_sat − σ_y0) e^(−m (ε̄ᵖ)^p) + H ε̄ᵖ (`yield_stress`, `saturation_stress`, "
@@ -23,9 +24,7 @@ BLOCK = ("saturation_stress", "saturation_rate", "saturation_exponent")
 
 def rules(r, path: str, data: dict, values: dict) -> None:
     """The saturation stress above the initial yield stress (a falling flow stress is not supported)."""
-    sat, sy = values.get("saturation_stress"), values.get("yield_stress")
-    if "saturation_stress" in data and "yield_stress" in data and sat is not None and sy is not None and sat <= sy:
-        r.error(f"{path}.saturation_stress", f"expected a number above yield_stress = {sy:g}, got {sat:g}")
+    above_yield_stress(r, path, data, values, "saturation_stress")
 
 
 def block(spec, curve_start: int) -> list[float]:

@@ -3,6 +3,7 @@ capped at max_stress (``hardening_law = "ludwik"``)."""
 from __future__ import annotations
 
 from ...keys import Key, keys, non_negative, positive
+from .rules import above_yield_stress
 
 NAME = "ludwik"
 DOC = ("`ludwik` σ_y0 + B (ε̄ᵖ)ⁿ + H ε̄ᵖ, Johnson–Cook's strain term, capped at `max_stress` when given "
@@ -19,9 +20,7 @@ BLOCK = ("B", "n", "max_stress")
 
 def rules(r, path: str, data: dict, values: dict) -> None:
     """The cap above the initial yield stress."""
-    cap, sy = values.get("max_stress"), values.get("yield_stress")
-    if "max_stress" in data and "yield_stress" in data and cap is not None and sy is not None and cap <= sy:
-        r.error(f"{path}.max_stress", f"expected a number above yield_stress = {sy:g}, got {cap:g}")
+    above_yield_stress(r, path, data, values, "max_stress")
 
 
 def block(spec, curve_start: int) -> list[float]:
