@@ -61,7 +61,7 @@ import taichi as ti
 from .model.assembly import added_mass_geometry
 from .model.bodies import node_point_masses
 from .curves import COLUMNS as CURVE_COLUMNS
-from .model.materials import row_width
+from .model.materials import FAILURE_COLUMNS, row_width
 from .scene import MAX_BODIES, MAX_CURVES, MAX_MOTIONS
 from .model.tools import MAX_TOOLS
 
@@ -303,8 +303,8 @@ class State:
         g.table("ply_axis", ti.Vector.field(2, f64), (MAX_SECTIONS, nk),       # cos, sin of its ply angle
                 used=fx.oriented)
         g.table("material_kind", ti.field(i32), (MAX_MATERIALS,))              # index into Features.materials
-        g.table("material", ti.field(f64), (MAX_MATERIALS, row_width(fx.materials)))   # parameters (materials.py)
-        g.table("failure", ti.Vector.field(3, f64), (MAX_MATERIALS,),          # erosion (materials.failure_row)
+        g.table("material", ti.field(f64), (MAX_MATERIALS, row_width(fx.materials)))   # parameters (model/materials.py)
+        g.table("failure", ti.Vector.field(len(FAILURE_COLUMNS), f64), (MAX_MATERIALS,),   # erosion (failure_row)
                 used=fx.erosion)
         # tabulated hardening curves, all materials' one after the other (a row holds its first
         # point and count): plastic strain and yield stress of each point
@@ -482,7 +482,7 @@ class State:
         # each node's force from each tool, and their sum (this step's)
         g.entity("node_force", ti.Vector.field(3, f64), n, (MAX_TOOLS,), persistent=False, used=on, host=False)
         g.entity("total_force", ti.Vector.field(3, f64), n, persistent=False, used=on, host=False)
-        # surface meshes (tools.ToolTable): triangles in the tool's frame, their normals, buckets
+        # surface meshes (model/tools.ToolTable): triangles in the tool's frame, their normals, buckets
         meshes = "mesh" in fx.tool_kinds
         ntri = len(tt.triangles) if meshes else 0
         g.table("tri_first", ti.field(i32), (MAX_TOOLS,), nt, persistent=False, used=meshes)
@@ -664,7 +664,7 @@ class State:
         w(sec.material_kind, np.concatenate([mats.kind, np.zeros(MAX_MATERIALS - nm, np.int32)]))
         w(sec.material, np.concatenate([mats.rows, np.zeros((MAX_MATERIALS - nm, mats.rows.shape[1]))]))
         if self.features.erosion:
-            w(sec.failure, np.concatenate([mats.failure, np.zeros((MAX_MATERIALS - nm, 3))]))
+            w(sec.failure, np.concatenate([mats.failure, np.zeros((MAX_MATERIALS - nm, len(FAILURE_COLUMNS)))]))
         if "tabulated" in self.features.hardening:
             w(sec.curve_strain, mats.curve_strain)
             w(sec.curve_stress, mats.curve_stress)

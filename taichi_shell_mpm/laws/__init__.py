@@ -5,7 +5,7 @@ A model file declares, for a ``[material].model`` value NAME:
 * ``KEYS``: its own scene keys (taichi_shell_mpm.keys declarations; given with another model
   they are an error), documented and in the JSON Schema with the rest of ``[material]``;
 * ``BLOCK``: the names of its parameter block, columns from ``BLOCK_OFFSET`` of the material
-  table (materials.py: the table is as wide as the widest block among the models a scene
+  table (model/materials.py: the table is as wide as the widest block among the models a scene
   uses), and ``block(spec)``: their values for a scene material;
 * ``kernel(base)``: its ``ti.data_oriented`` point update, built on the J2 model ``base``
   (stages/material.PlaneStressJ2: the hardening, rate and failure laws, and the return's

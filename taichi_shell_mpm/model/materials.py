@@ -25,8 +25,9 @@ plane-stress stiffness in its own axes c11 = Q11, c22 = Q22, c12 = Q12, c33 = Q6
 the transverse shear moduli shear_13 = G13, shear_23 = G23.
 
 Erosion (issue 18) has a small table of its own (:func:`failure_row`, state.sections.failure,
-read only when a scene erodes): the failure strain (0: none), the number of
-through-thickness points that must reach it, and the element's failure step (0: none).
+read only when a scene erodes): the failure criteria's columns (laws/failure/: the failure
+strain (0: none), the number of through-thickness points that must reach it, and the
+element's failure step (0: none)).
 """
 from __future__ import annotations
 
@@ -35,6 +36,8 @@ import math
 import numpy as np
 
 from .. import laws
+from ..laws.failure import COLUMNS as FAILURE_TABLE
+from ..laws.failure import CRITERIA as FAILURE
 from ..laws.hardening import BLOCK_WIDTH as HARDENING_BLOCK
 from ..laws.hardening import LAWS as HARDENING
 from ..laws.rate import BLOCK_WIDTH as RATE_BLOCK
@@ -128,10 +131,10 @@ def parameter_row(spec, width: int, hardening: tuple[str, ...] | None = None, ra
 
 def erodes(spec) -> bool:
     """Whether elements of the material can fail (Features.erosion)."""
-    return getattr(spec, "failure_strain", 0.0) > 0.0 or getattr(spec, "failure_min_dt", 0.0) > 0.0
+    return any(criterion.active(spec) for criterion in FAILURE.values())
 
 
-FAILURE_COLUMNS = ("failure_strain", "failure_points", "failure_min_dt")
+FAILURE_COLUMNS = FAILURE_TABLE         # laws/failure/: every criterion's columns
 
 
 def failure_row(spec) -> np.ndarray:

@@ -8,7 +8,6 @@ from typing import Any, Literal, Union
 from ..keys import (
     choice,
     extended,
-    integer,
     key,
     key_path,
     keys_of,
@@ -17,6 +16,7 @@ from ..keys import (
     positive,
 )
 from ..laws import MODELS as LAWS
+from ..laws.failure import CRITERIA as FAILURE
 from ..laws.hardening import LAWS as HARDENING
 from ..laws.rate import LAWS as RATE
 from ..laws.rate import OPTIONAL as RATE_OPTIONAL
@@ -35,7 +35,8 @@ RATE_KEYS = {"none": ((), ()), **{name: (law.REQUIRED, RATE_OPTIONAL) for name, 
 @dataclass(frozen=True)
 class MaterialKeys:
     """The keys of [material] that every elastic or plastic material has; Material adds those
-    of the hardening and rate laws, declared in their files (laws/hardening/, laws/rate/)."""
+    of the hardening and rate laws and the failure criteria, declared in their files
+    (laws/hardening/, laws/rate/, laws/failure/)."""
     E: float = key(positive, "Young's modulus", unit="stress")
     nu: float = key(number(-1, 0.5, lo_open=True, hi_open=True), "Poisson's ratio")
     density: float = key(positive, unit="mass/length³",
@@ -69,15 +70,6 @@ class MaterialKeys:
             "e^(−Δt/τ) (the filtered rate is kept per through-thickness point)")
     rate_cutoff_frequency: float = key(positive, default=0.0, unit="1/time", default_text="none",
         doc="the filter given by its cutoff frequency f_c (1/time): τ = 1/(2π f_c); not with `rate_filter_time`")
-    failure_strain: float = key(positive, default=0.0, default_text="none (no failure)",
-        doc="erosion (`model = \"j2\"`, dynamic solves; LS-DYNA FAIL): an element fails in the step in which "
-            "`failure_points` of its through-thickness points reach this equivalent plastic strain")
-    failure_points: int = key(
-        integer(1, 10), default=1, allowed="1 .. the points of every section the material is used with; only with `failure_strain`",
-        doc="how many through-thickness points must reach `failure_strain` (LS-DYNA NUMFIP)")
-    failure_min_dt: float = key(positive, default=0.0, unit="time", default_text="none",
-        doc="erosion (any model, dynamic solves; LS-DYNA TDEL): an element also fails once its stable time step "
-            "(after mass scaling) falls below this")
     model_parameters: tuple[tuple[str, float], ...] = ()
     """A plug-in model's own keys (laws/<model>.py KEYS) with their values, defaults filled in."""
 
@@ -87,9 +79,10 @@ class MaterialKeys:
 
 
 Material = extended(MaterialKeys, "Material", __name__,
-                    {n: k for law in (*HARDENING.values(), *RATE.values()) for n, k in law.KEYS.items()},
+                    {n: k for law in (*HARDENING.values(), *RATE.values(), *FAILURE.values())
+                     for n, k in law.KEYS.items()},
                     "A material of [material] / [materials.NAME]: MaterialKeys and the keys of the hardening and "
-                    "rate laws, each declared in its law's file (laws/).")
+                    "rate laws and the failure criteria, each declared in its file (laws/).")
 
 
 @dataclass(frozen=True)
@@ -151,11 +144,9 @@ def read_material(r: Reader, path: str, data: Any) -> AnyMaterial | None:
         if "rate_filter_time" in data and "rate_cutoff_frequency" in data:
             r.error(f"{path}.rate_cutoff_frequency", "give the rate filter either as rate_filter_time or "
                                                         "as rate_cutoff_frequency, not both")
-    if "failure_strain" in data and values.get("model") == "elastic":
-        r.error(f"{path}.failure_strain", "only for model = \"j2\" (the equivalent plastic strain); "
-                                             "failure_min_dt erodes elements of any model")
-    if "failure_points" in data and "failure_strain" not in data:
-        r.error(f"{path}.failure_points", "only with failure_strain")
+    for criterion in FAILURE.values():            # the failure criteria's rules (laws/failure/)
+        if hasattr(criterion, "rules"):
+            criterion.rules(r, path, data, values)
     return r.build(mark, Material, values)
 
 

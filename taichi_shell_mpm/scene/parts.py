@@ -70,7 +70,7 @@ def lone_layered_section(data: Any) -> bool:
 
 def read_parts(r: Reader, mesh):
     """[material]/[section] (one part), or [materials.NAME], [sections.NAME], [elementsets.NAME]
-    and [[part]]; an LS-DYNA deck may supply all of them (assembly.py)."""
+    and [[part]]; an LS-DYNA deck may supply all of them (model/parts.py)."""
     raw = r.raw
     deck = isinstance(mesh, FileMesh) and mesh.path.suffix.lower() in DECK_SUFFIXES
     legacy = [k for k in ("material", "section") if k in raw]
@@ -103,7 +103,7 @@ def read_parts(r: Reader, mesh):
         r.error("[[part]]", "missing: with several [materials.NAME] or [sections.NAME], [[part]] entries "
                                "say which elements get which")
     defined = list(raw["materials"]) if isinstance(raw.get("materials"), dict) else []   # valid or not
-    for name, sec in sections.items():        # the plies' materials (a deck's are checked in assembly.py)
+    for name, sec in sections.items():        # the plies' materials (a deck's are checked in model/parts.py)
         for i, ply in enumerate(sec.plies):
             if ply.material not in defined and not deck:
                 r.error(f"[sections.{key_path(name)}].plies[{i}].material", f"no [materials.{ply.material}]"

@@ -25,7 +25,7 @@ from .curves import Curve
 from .reader import Reader
 from .solve import Solve
 
-TOOL_KINDS = tuple(KINDS)       # tools.TOOL_KINDS
+TOOL_KINDS = tuple(KINDS)       # model/tools.TOOL_KINDS
 TOOL_KEYS = {name: (kind.REQUIRED, kind.OPTIONAL) for name, kind in KINDS.items()}
 """The shape keys of each kind: (required, optional); a key of another kind is an error."""
 SHAPE_KEYS = {name: k for kind in KINDS.values() for name, k in kind.KEYS.items()}

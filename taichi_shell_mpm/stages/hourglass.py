@@ -35,7 +35,7 @@ HOURGLASS_SIGN = (1.0, -1.0, 1.0, -1.0)
 @ti.data_oriented
 class Hourglass:
     """The element's coefficients are per element (state.sections: r E t / 8, r E t^3 / 192,
-    r kappa G t^3 / 12 from its part's section and material, assembly.py)."""
+    r kappa G t^3 / 12 from its part's section and material, model/parts.py)."""
 
     def __init__(self, state, kirchhoff_w: bool):
         self.s = state

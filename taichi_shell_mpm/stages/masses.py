@@ -31,7 +31,7 @@ limit are not changed: mass scaling acts on the element rule only.
 Nodal masses are recomputed every step from the elements' shares and the node's
 [[point_mass]] entries M_c (state.nodes.point_mass; rotary J^pm_c likewise),
 m_c = sum_e f_e alive_e m_ea + M_c, in element order, then the point masses (the order of
-assembly.py's sums, so an unchanged node keeps its mass to the bit), through the CSR node ->
+model/assembly.py's sums, so an unchanged node keeps its mass to the bit), through the CSR node ->
 element slots (state.elements.node_slots).  A point mass never erodes and takes no added
 mass: a node whose elements have all eroded keeps it and moves on as a free point mass
 (issue 28: the rebuild took element shares only, so a point mass was lost after the first

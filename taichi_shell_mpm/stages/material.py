@@ -3,7 +3,7 @@
 A material model is a small class with a ``ti.func`` ``update(row, axes, stress,
 plastic_strain, strain_rate, strain_increment, shear_increment, dt)`` that reads its
 parameters from ``row``, the point's material's row of the material table
-(state.sections.material, columns in materials.py); ``axes`` = (cos, sin) of the angle from
+(state.sections.material, columns in model/materials.py); ``axes`` = (cos, sin) of the angle from
 the element's e1 to the point's material 1-axis, which only the orthotropic model reads
 (docs/laminates.md).  :class:`ConstitutiveUpdate` dispatches each point to its material's
 model with a ``ti.static`` loop over the models the scene uses (Features.materials), so only

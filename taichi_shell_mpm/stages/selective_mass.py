@@ -9,7 +9,7 @@ energy
 
     T_add^e = beta_e / 2 (sum_a m_a |d_a|^2 + sum_a j_a |P_e (omega_a - Omega_e)|^2),  beta_e = f_e - 1,
 
-m_a the element's CPDI2 shares of its mass (assembly.py), j_a = m_a rho_e^2 with
+m_a the element's CPDI2 shares of its mass (model/assembly.py), j_a = m_a rho_e^2 with
 rho_e^2 = sum_a m_a |r_a|^2 / (2 m_e) (its mean moment of inertia per unit mass about an
 axis in its plane), r_a = x_a - xbar_e the corners about their mass centre at the start of
 the step.  The element's rigid motion is fitted to its corners' velocities v_a in the mass

@@ -13,6 +13,8 @@ through-thickness stress update (:meth:`ShellElement.section_response`).
 
 import taichi as ti
 
+from ..laws.failure import COLUMNS as FAILURE_COLUMNS
+from ..laws.failure import CRITERIA as FAILURE
 from ..state import STATUS_INVERTED, STATUS_OK, STATUS_RETURN_FAILED, State
 from . import warping
 from .accumulate import Accumulator, CornerLoads
@@ -140,6 +142,8 @@ class ShellElement:
     def __init__(self, state: State, cfg, energy):
         self.s = state
         self.cfg = cfg                  # config.Features
+        columns = {name: i for i, name in enumerate(FAILURE_COLUMNS)}
+        self.failure = tuple(c.kernel(state, cfg, columns) for c in FAILURE.values()) if cfg.erosion else ()
         self.material = ConstitutiveUpdate(state, cfg.materials)
         self.energy = energy            # energy.EnergyLedger
         self.hourglass = Hourglass(state, cfg.kirchhoff_w_hourglass)
@@ -312,20 +316,15 @@ class ShellElement:
 
     @ti.func
     def fails(self, e, limit):
-        """Whether element e fails now (erosion, stages/masses.py): failure_points of its points
-        have reached their material's failure strain (a run-time loop: a layered section's
-        points each with their ply's material), or its stable step `limit` is below the
-        failure step; failure_points and the failure step are those of its first point's
-        material (state.sections.failure)."""
+        """Whether element e fails now (erosion, stages/masses.py): any failure criterion of
+        laws/failure/ (its plastic strain at failure_points of its points, its stable step
+        `limit` below the failure step; state.sections.failure)."""
         section = self.s.sections.section[e]
-        failed = 0
-        if ti.static(self.cfg.plastic):
-            for k in range(self.s.sections.point_count[section]):
-                strain = self.s.sections.failure[self.s.sections.point_material[section, k]][0]
-                if strain > 0.0 and self.s.points.plastic_strain[e, k] >= strain:
-                    failed += 1
-        first = self.s.sections.failure[self.s.sections.point_material[section, 0]]
-        return (failed > 0 and failed >= ti.cast(first[1], ti.i32)) or limit < first[2]
+        failed = False
+        for criterion in ti.static(self.failure):
+            if criterion.fails(e, section, limit):
+                failed = True
+        return failed
 
     @ti.func
     def update(self, e):

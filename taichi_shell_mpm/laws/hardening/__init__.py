@@ -7,7 +7,7 @@ A law file declares, for a ``[material].hardening_law`` value NAME:
   ``REQUIRED`` and ``OPTIONAL``: the keys, own or shared, that it takes (another law's key is
   an error); ``rules(reader, path, data, values)``: its rules across keys, if any;
 * ``BLOCK``: the names of its parameters, in the material row from COL["hardening_0"]
-  (materials.py; at most BLOCK_WIDTH), and ``block(spec, curve_start)``: their values;
+  (model/materials.py; at most BLOCK_WIDTH), and ``block(spec, curve_start)``: their values;
 * ``kernel(offset)``: a ``ti.data_oriented`` class with ``law = NAME`` and the ``ti.func``
   ``flow_stress(row, ebar) -> (sigma_y, d sigma_y / d ebar)``; its ``__init__`` takes the
   state (the tabulated law reads its curve table there).  Built on first use (reading a
