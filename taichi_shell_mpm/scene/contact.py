@@ -41,5 +41,5 @@ def check_penalty_damping(r: Reader, path: str, stiffness: float, damping: float
     """A penalty law's damping within penalty_damping_limit(stiffness)."""
     if damping > penalty_damping_limit(stiffness) * (1.0 + 1e-12):
         r.error(f"{path}.damping", f"{damping:g} with stiffness = {stiffness:g}: stiffness + 2 damping "
-                   f"sqrt(stiffness) must be <= 2, else a node bounces back faster than it came; at most "
-                   f"{penalty_damping_limit(stiffness):.3g} at this stiffness (docs/contact.md)")
+                f"sqrt(stiffness) must be <= 2, else a node bounces back faster than it came; at most "
+                f"{penalty_damping_limit(stiffness):.3g} at this stiffness (docs/contact.md)")

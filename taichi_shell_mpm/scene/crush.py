@@ -83,5 +83,5 @@ def read_crush(r: Reader, data: Any, solve: Solve | None) -> Crush | None:
     mesh = r.raw.get("mesh")
     if named and not (isinstance(mesh, dict) and mesh.get("kind") == "tube"):
         r.error("[crush].mean_force_reference", f"{named[0]!r} is a formula for a tube: it needs "
-                   "[mesh].kind = \"tube\" (its width and depth give the size C); give a number instead")
+                "[mesh].kind = \"tube\" (its width and depth give the size C); give a number instead")
     return r.build(mark, Crush, v)

@@ -242,7 +242,7 @@ def read_scene(r: Reader) -> Scene:
         for path, spec in named:
             if spec is not None and getattr(spec, "rate_law", "none") != "none":
                 r.error(f"{path}.rate_law", "a static solve has no physical time: a rate law needs "
-                                               "[solve].kind = \"dynamic\"")
+                                            "[solve].kind = \"dynamic\"")
             for key in ("failure_strain", "failure_min_dt"):
                 if spec is not None and getattr(spec, key, 0.0) > 0.0:
                     r.error(f"{path}.{key}", "erosion needs [solve].kind = \"dynamic\"")

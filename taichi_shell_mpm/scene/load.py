@@ -42,7 +42,7 @@ def read_load(r: Reader, path: str, data: Any) -> Load | None:
     line = [k for k in ("force_per_length", "moment_per_length") if k in data]
     if total and line:
         r.error(path, f"give either force/moment (totals) or force_per_length/moment_per_length "
-                         f"(a line load), got {', '.join(total + line)}")
+                      f"(a line load), got {', '.join(total + line)}")
     elif line:
         if data.get("distribute", "length") != "length":
             r.error(f"{path}.distribute", f'a line load is distributed by length, got {show(data["distribute"])}')

@@ -113,7 +113,7 @@ def read_material(r: Reader, path: str, data: Any) -> AnyMaterial | None:
         material = r.table_object(path, data, OrthotropicMaterial)
         if material is not None and material.nu12 ** 2 >= material.E1 / material.E2:
             r.error(f"{path}.nu12", f"expected |nu12| < sqrt(E1/E2) = {math.sqrt(material.E1 / material.E2):g} "
-                                       f"(a positive definite plane-stress stiffness), got {material.nu12:g}")
+                                    f"(a positive definite plane-stress stiffness), got {material.nu12:g}")
             return None
         return material
     mark = len(r.messages)
@@ -143,7 +143,7 @@ def read_material(r: Reader, path: str, data: Any) -> AnyMaterial | None:
             law.rules(r, path, data, values)
         if "rate_filter_time" in data and "rate_cutoff_frequency" in data:
             r.error(f"{path}.rate_cutoff_frequency", "give the rate filter either as rate_filter_time or "
-                                                        "as rate_cutoff_frequency, not both")
+                                                     "as rate_cutoff_frequency, not both")
     for criterion in FAILURE.values():            # the failure criteria's rules (laws/failure/)
         if hasattr(criterion, "rules"):
             criterion.rules(r, path, data, values)
@@ -157,10 +157,10 @@ def check_law_keys(r: Reader, path: str, data: dict, key: str, law: str, table: 
     for name in data:
         if any(name in group for keys in table.values() for group in keys) and name not in own:
             r.error(f"{path}.{key_path(name)}", f"not used by {key} = \"{law}\""
-                       + (f" (its keys: {', '.join(own)})" if own else ""))
+                    + (f" (its keys: {', '.join(own)})" if own else ""))
     for name in required:
         if name not in data:
             r.error(f"{path}.{name}", "missing required key for model = \"j2\"" if key not in data else
-                       f"missing required key for {key} = \"{law}\"")
+                    f"missing required key for {key} = \"{law}\"")
 
 

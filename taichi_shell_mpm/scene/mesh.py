@@ -173,13 +173,13 @@ def read_mesh(r: Reader, data: Any) -> MeshSpec | None:
         product = {"plate": "nx x ny", "hemisphere": "n_around x n_meridian",
                 "tube": "4 (n_flat + n_corner) x n_length"}[kind]
         r.error(f"[mesh].{max(GENERATED_COUNT_KEYS[kind], key=v.get)}",
-                   f"expected at most {MAX_GENERATED_ELEMENTS:,} elements ({product}), got {count:,}")
+                f"expected at most {MAX_GENERATED_ELEMENTS:,} elements ({product}), got {count:,}")
     if kind == "tube":
         if {"width", "depth", "corner_radius"} <= v.keys():
             limit = min(v["width"], v["depth"]) / 2
             if v["corner_radius"] >= limit:
                 r.error("[mesh].corner_radius", "expected a number < min(width, depth)/2 = "
-                                                   f"{limit:g}, got {v['corner_radius']:g}")
+                                                f"{limit:g}, got {v['corner_radius']:g}")
         if v.get("corner_radius", 0) > 0 and v.get("n_corner") == 0:
             r.error("[mesh].n_corner", "expected an integer >= 1 when corner_radius > 0, got 0")
     return r.build(mark, cls, v)

@@ -80,7 +80,7 @@ def read_method(r: Reader, data: Any) -> Method | None:
         missing = "grid_max" if "grid_min" in data else "grid_min"
         r.error(f"[method].{missing}", "missing required key (grid_min and grid_max come together)")
     r.check_order("[method]", v.get("grid_min"), v.get("grid_max"), ("grid_min", "grid_max"),
-                     strict=True)
+                  strict=True)
     if v.get("field_contact") == "grid" and v.get("fields") != "multi":
         r.error("[method].field_contact", '"grid" acts between the fields of a multi-field grid: set fields = "multi"')
     if "field_friction" in data and v.get("field_contact") != "grid":

@@ -61,10 +61,10 @@ def read_motion(r: Reader, path: str, data: Any, solve: Solve | None, curves: di
                   if isinstance(b, dict) and isinstance(b.get("name"), str)}
         if v.get("body") is not None and v["body"] not in bodies:
             r.error(f"{path}.body", f"no [[rigid_body]] named {v['body']!r}"
-                       + hint(v["body"], list(bodies), "defined"))
+                    + hint(v["body"], list(bodies), "defined"))
         elif v.get("body") is not None and "direction" in bodies[v["body"]]:
             r.error(f"{path}.body", f"the [[rigid_body]] {v['body']!r} translates along its direction only: "
-                                       "a body with a prescribed motion has six DOFs (leave out direction)")
+                                    "a body with a prescribed motion has six DOFs (leave out direction)")
         if solve is not None and solve.kind == "static":
             r.error(f"{path}.body", "a body's motion is prescribed in dynamic runs only")
     chosen, value, kind, curve = v.get("dofs"), v.get("value"), v.get("kind"), v.get("curve")
@@ -79,11 +79,11 @@ def read_motion(r: Reader, path: str, data: Any, solve: Solve | None, curves: di
         elif solve.kind == "dynamic" and kind == "displacement":
             if "curve" not in data:
                 r.error(f"{path}.curve", "missing: a displacement in a dynamic run needs a curve "
-                                            "(a constant displacement would jump at t = 0)")
+                                         "(a constant displacement would jump at t = 0)")
             elif curve in curves and not r.messages:     # an invalid curve (start >= end, ...) is reported already
                 from ..curves import evaluate
                 start = evaluate(curves[curve], 0.0)
                 if start != 0.0:
                     r.error(f"{path}.curve", f"the displacement curve {curve!r} is {start:g} at t = 0, not 0 "
-                                                "(the nodes would jump at t = 0)")
+                                             "(the nodes would jump at t = 0)")
     return r.build(mark, Motion, v)

@@ -76,7 +76,7 @@ def read_nodeset(r: Reader, name: str, data: Any) -> NodeSet | None:
     given = [key for key in SELECTORS if key in data]
     if len(given) != 1:
         r.error(path, f"expected exactly one selector ({', '.join(SELECTORS)}), "
-                         f"got {', '.join(given) or 'none'}")
+                      f"got {', '.join(given) or 'none'}")
         return None
     kind = given[0]
     if "tol" in data and kind != "box":

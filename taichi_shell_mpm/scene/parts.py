@@ -79,7 +79,7 @@ def read_parts(r: Reader, mesh):
     section = read_section(r, raw["section"]) if "section" in raw else None
     if section is not None and section.layered:
         r.error("[section].plies", "a layered section is a [sections.NAME] table: its plies name "
-                                      "[materials.NAME] tables")
+                                   "[materials.NAME] tables")
     materials = r.named("materials", lambda path, data: read_material(r, path, data))
     sections = r.named("sections", lambda path, data: read_section(r, data, path))
     elementsets = [read_elementset(r, name, value) for name, value in
@@ -89,7 +89,7 @@ def read_parts(r: Reader, mesh):
     parts = r.array("part", lambda path, data: read_part(r, path, data))
     if legacy and named:
         r.error(f"[{legacy[0]}]", f"a scene has either [material] and [section] (one part) or "
-                   f"[materials.NAME], [sections.NAME] and [[part]], not both (found [{named[0]}])")
+                f"[materials.NAME], [sections.NAME] and [[part]], not both (found [{named[0]}])")
     elif not legacy and not named and not deck:
         for key in ("material", "section"):
             r.error(f"[{key}]", f"missing required table (or [{key}s.NAME] tables with [[part]])")
@@ -101,13 +101,13 @@ def read_parts(r: Reader, mesh):
             and (len(raw.get("materials", {})) != 1 or len(raw.get("sections", {})) != 1) \
             and not lone_layered_section(raw.get("sections")):
         r.error("[[part]]", "missing: with several [materials.NAME] or [sections.NAME], [[part]] entries "
-                               "say which elements get which")
+                            "say which elements get which")
     defined = list(raw["materials"]) if isinstance(raw.get("materials"), dict) else []   # valid or not
     for name, sec in sections.items():        # the plies' materials (a deck's are checked in model/parts.py)
         for i, ply in enumerate(sec.plies):
             if ply.material not in defined and not deck:
                 r.error(f"[sections.{key_path(name)}].plies[{i}].material", f"no [materials.{ply.material}]"
-                           + hint(ply.material, defined, "defined"))
+                        + hint(ply.material, defined, "defined"))
     if "part" in raw:
         names = [p.name for p in parts if p is not None]
         for i, name in enumerate(names):
@@ -130,15 +130,15 @@ def read_parts(r: Reader, mesh):
             section_of = sections.get(part.section)
             if section_of is not None and section_of.layered and part.material is not None:
                 r.error(f"[[part]][{i}].material", f"section {part.section!r} is layered (its plies name "
-                                                      "their materials): leave material out")
+                                                   "their materials): leave material out")
             elif section_of is not None and not section_of.layered and part.material is None:
                 r.error(f"[[part]][{i}].material", f"missing required key (section {part.section!r} "
-                                                      "is not layered)")
+                                                   "is not layered)")
             if part.elements in set_names or part.elements == "all":
                 continue
             if not isinstance(mesh, FileMesh):
                 r.error(f"[[part]][{i}].elements", f"no [elementsets.{part.elements}]"
-                           + hint(part.elements, set_names + ["all"], "defined"))
+                        + hint(part.elements, set_names + ["all"], "defined"))
     return material, section, materials, sections, [s for s in elementsets if s is not None], parts
 
 

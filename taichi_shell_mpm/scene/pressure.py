@@ -28,5 +28,5 @@ def read_pressure(r: Reader, path: str, data: Any, mesh, elementsets) -> Pressur
     names = [s.name for s in elementsets]
     if "elements" in v and v["elements"] != "all" and v["elements"] not in names and not isinstance(mesh, FileMesh):
         r.error(f"{path}.elements", f"no [elementsets.{v['elements']}]"
-                   + hint(v["elements"], names + ["all"], "defined"))
+                + hint(v["elements"], names + ["all"], "defined"))
     return r.build(mark, Pressure, v)

@@ -64,7 +64,7 @@ def read_rigid_body(r: Reader, path: str, data: Any) -> RigidBody | None:
         for key in ("fixed", "spin", "inertia"):
             if key in data:
                 r.error(f"{path}.{key}", "a body with a direction translates along it only (its rotations "
-                                            "are held): leave out direction for a 6-DOF body")
+                                         "are held): leave out direction for a 6-DOF body")
     if v.get("mass_from_nodes") is False and "mass" in v and not v["mass"] > 0.0:
         r.error(f"{path}.mass", "must be > 0 with mass_from_nodes = false (it is the body's whole mass)")
     return r.build(mark, RigidBody, v)

@@ -103,7 +103,7 @@ def read_section(r: Reader, data: Any, path: str = "[section]") -> Section | Non
     for key in SINGLE_ONLY:
         if key in data:
             r.error(f"{path}.{key}", "a layered section takes it from its plies (thickness: their sum; "
-                                        "points: points_per_ply Gauss points in each): leave it out")
+                                     "points: points_per_ply Gauss points in each): leave it out")
     plies = read_plies(r, f"{path}.plies", data["plies"])
     if plies is None:
         return None
@@ -116,7 +116,7 @@ def read_plies(r: Reader, path: str, value: Any) -> tuple[Ply, ...] | None:
     """The `plies` array of a layered section: tables {material, thickness, angle}, bottom to top."""
     if not (isinstance(value, list) and 0 < len(value) <= MAX_PLIES):
         r.error(path, f"expected an array of 1 to {MAX_PLIES} ply tables "
-                         f"{{material = \"NAME\", thickness = t, angle = degrees}}, got {show(value)}")
+                      f"{{material = \"NAME\", thickness = t, angle = degrees}}, got {show(value)}")
         return None
     plies = [r.table_object(f"{path}[{i}]", item, Ply) for i, item in enumerate(value)]
     return tuple(plies) if all(p is not None for p in plies) else None

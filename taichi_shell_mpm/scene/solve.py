@@ -152,10 +152,10 @@ def check_newton(r: Reader, v: dict, data: dict) -> None:
             r.error("[solve].solver", '"newton" solves static scenes (kind = "static")')
         if isinstance(method, dict) and method.get("kind", "mpm") == "mpm":
             r.error("[solve].solver", '"newton" runs in fem mode: set [method].kind = "fem" (mpm statics keep '
-                       '"relaxation"; why: docs/newton.md)')
+                    '"relaxation"; why: docs/newton.md)')
         if isinstance(element, dict) and element.get("drilling") == "projection":
             r.error("[solve].solver", '"newton" needs the drilling spring ([element].drilling = "penalty"): the '
-                       "projection leaves the drilling rotation without stiffness")
+                    "projection leaves the drilling rotation without stiffness")
         for key in ("rigid_body", "wall", "tool", "contact", "motion", "pressure", "gravity"):
             if key in raw:       # loads and constraints the element pass of the tangent does not see
                 r.error("[solve].solver", f'"newton" does not handle [{key}] (use "relaxation")')
@@ -163,7 +163,7 @@ def check_newton(r: Reader, v: dict, data: dict) -> None:
         for k, load in enumerate(loads if isinstance(loads, list) else []):
             if isinstance(load, dict) and (load.get("curve") or load.get("follower")):
                 r.error(f"[[load]] {k + 1}", '"newton" takes dead loads proportional to the load factor: no '
-                           'curve or follower (use "relaxation")')
+                        'curve or follower (use "relaxation")')
     else:
         for key in ("control", "control_nodes", "control_displacement", "arc_length", "max_load_factor",
                     "target_iterations", "max_iterations", "max_cutbacks", "increment_tolerance",
@@ -174,13 +174,13 @@ def check_newton(r: Reader, v: dict, data: dict) -> None:
     if control == "displacement":
         if "control_nodes" not in data:
             r.error("[solve].control_nodes", 'missing required key for control = "displacement" (the node '
-                                                "set whose control_dof is prescribed)")
+                                             "set whose control_dof is prescribed)")
         if "control_displacement" not in data:
             r.error("[solve].control_displacement", 'missing required key for control = "displacement" '
-                                                       "(the final mean value of control_dof)")
+                                                    "(the final mean value of control_dof)")
         elif data["control_displacement"] == 0:
             r.error("[solve].control_displacement", 'expected a non-zero number for control = '
-                                                       '"displacement", got 0')
+                                                    '"displacement", got 0')
     elif data.get("control_displacement") and not data.get("control_nodes"):
         r.error("[solve].control_nodes", "missing: control_displacement needs the node set it applies to")
 
@@ -199,14 +199,14 @@ def read_solve(r: Reader, data: Any) -> Solve | None:
     scaling = data.get("mass_scaling") if isinstance(data, dict) else None
     if v.get("kind") == "dynamic" and scaling == "uniform_dt":
         r.error("[solve].mass_scaling", 'expected "auto", "selective", "conventional" or "none" for a dynamic '
-                   'solve, got "uniform_dt" (fictitious masses change the dynamics; they are for static solves)')
+                'solve, got "uniform_dt" (fictitious masses change the dynamics; they are for static solves)')
     if v.get("kind") == "static" and scaling in ("selective", "conventional"):
         r.error("[solve].mass_scaling", f'expected "auto", "uniform_dt" or "none" for a static solve, got '
-                   f'"{scaling}" (mass scaling to a target step is for dynamic solves)')
+                f'"{scaling}" (mass scaling to a target step is for dynamic solves)')
     method = r.raw.get("method", {})
     if scaling == "selective" and isinstance(method, dict) and method.get("kind", "mpm") == "mpm":
         r.error("[solve].mass_scaling", '"selective" needs [method].kind = "fem" (in mpm the grid solves '
-                   'with lumped masses: use "conventional"; docs/mass_scaling.md)')
+                'with lumped masses: use "conventional"; docs/mass_scaling.md)')
     if scaling in ("selective", "conventional") and "target_dt" not in data:
         r.error("[solve].target_dt", f'missing required key for mass_scaling = "{scaling}"')
     if isinstance(data, dict):

@@ -84,7 +84,7 @@ def read_tool(r: Reader, path: str, data: Any, solve: Solve | None, curves: dict
     moving = [key for key in ("moves_with", "velocity", "displacement") if key in data]
     if len(moving) > 1:
         r.error(f"{path}.{moving[1]}", f"a tool moves one way: give one of moves_with, velocity, "
-                                          f"displacement, got {', '.join(moving)}")
+                                       f"displacement, got {', '.join(moving)}")
     if "curve" in data and not ({"velocity", "displacement"} & set(data)):
         r.error(f"{path}.curve", "only with velocity or displacement (the curve scales them)")
     if v.get("moves_with") is not None:
@@ -93,20 +93,20 @@ def read_tool(r: Reader, path: str, data: Any, solve: Solve | None, curves: dict
                   if isinstance(b, dict) and isinstance(b.get("name"), str)]
         if v["moves_with"] not in bodies:
             r.error(f"{path}.moves_with", f"no [[rigid_body]] named {v['moves_with']!r}"
-                       + hint(v["moves_with"], bodies, "defined"))
+                    + hint(v["moves_with"], bodies, "defined"))
     if solve is not None and solve.kind == "static" and ({"velocity", "displacement"} & set(data)):
         r.error(f"{path}.{'velocity' if 'velocity' in data else 'displacement'}",
-                   'a tool moved by a curve needs [solve].kind = "dynamic"')
+                'a tool moved by a curve needs [solve].kind = "dynamic"')
     if "displacement" in data and len(r.messages) == mark:
         if "curve" not in data:
             r.error(f"{path}.curve", "missing: a displacement needs a curve (a constant displacement "
-                                        "would jump at t = 0)")
+                                     "would jump at t = 0)")
         elif v.get("curve") in curves:
             from ..curves import evaluate
             start = evaluate(curves[v["curve"]], 0.0)
             if start != 0.0:
                 r.error(f"{path}.curve", f"the displacement curve {v['curve']!r} is {start:g} at t = 0, "
-                                            "not 0 (the tool would jump at t = 0)")
+                                         "not 0 (the tool would jump at t = 0)")
     if kind in KINDS and hasattr(KINDS[kind], "rules"):     # the kind's own rules (clean: nothing else wrong)
         KINDS[kind].rules(r, path, data, v, len(r.messages) == mark)
     return r.build(mark, Tool, v)

@@ -28,5 +28,5 @@ def read_wall(r: Reader, path: str, data: Any) -> Wall | None:
               if isinstance(b, dict) and isinstance(b.get("name"), str)]
     if v.get("moves_with") is not None and v["moves_with"] not in bodies:
         r.error(f"{path}.moves_with", f"no [[rigid_body]] named {v['moves_with']!r}"
-                   + hint(v["moves_with"], bodies, "defined"))
+                + hint(v["moves_with"], bodies, "defined"))
     return r.build(mark, Wall, v)
