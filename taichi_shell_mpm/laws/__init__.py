@@ -1,27 +1,31 @@
-"""Material models that plug into the solver, one file each (laws/hill48.py).
+"""Material models, hardening laws, rate laws and failure criteria: one file each.
 
-A model file declares, for a ``[material].model`` value NAME:
+A material model's file (elastic.py, j2.py, orthotropic.py, hill48.py) declares, for a
+``[material].model`` value NAME:
 
-* ``KEYS``: its own scene keys (taichi_shell_mpm.keys declarations; given with another model
-  they are an error), documented and in the JSON Schema with the rest of ``[material]``;
-* ``BLOCK``: the names of its parameter block, columns from ``BLOCK_OFFSET`` of the material
-  table (model/materials.py: the table is as wide as the widest block among the models a scene
-  uses), and ``block(spec)``: their values for a scene material;
-* ``kernel(base)``: its ``ti.data_oriented`` point update, built on the J2 model ``base``
-  (stages/material.PlaneStressJ2: the hardening, rate and failure laws, and the return's
-  bracketed Newton iteration), so that a model is one yield function and its return.
+* ``DOC`` (its line in the docs of ``model``), ``KEYS`` (its own keys in [material];
+  given with another model they are an error) or ``TABLE`` (a scene table of its own that
+  replaces [material]'s keys: orthotropic's, with ``check(reader, path, material)``);
+* ``PLASTIC`` and ``ORIENTED`` (it needs the section's material axes);
+* the host side, numpy: ``values(spec, context)`` its columns of the material row
+  (model/materials.COLUMNS; context: the scene's compiled hardening and rate laws and the
+  material's curve start), ``BLOCK`` and ``block(spec)`` its own columns from BLOCK_OFFSET
+  (the table is as wide as the widest block among the models a scene uses), and
+  ``stiffness``, ``transverse_shear``, ``wave_speed``, ``dilatational_speed`` (sections,
+  laminates, the time step);
+* ``kernel(context)``: its ``ti.data_oriented`` point update (stages/material.py builds them
+  in the registry's order; context.models holds those built before it, so j2 extends elastic
+  and hill48 j2).  Built on first use: reading a scene imports this package but not Taichi.
 
-Reading a scene imports this package but not Taichi (``kernel`` imports it when the solver
-asks).  The plug-in models are plastic and oriented (their axes are the section's material
-axes) like J2 with anisotropy; the built-in elastic, j2 and orthotropic models stay in
-stages/material.py.
+Hardening laws, rate laws and failure criteria: hardening/, rate/, failure/ (their own
+``__init__`` says what a file declares).
 """
 from __future__ import annotations
 
-from . import hill48
+from . import elastic, hill48, j2, orthotropic
 
-MODELS = {module.NAME: module for module in (hill48,)}
-"""NAME -> its module, in the registry's order (materials.KINDS after the built-in models)."""
+MODELS = {module.NAME: module for module in (elastic, j2, orthotropic, hill48)}
+"""NAME -> its module, in the registry's order (model/materials.KINDS)."""
 
 
 def block_width(kinds) -> int:

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import elastic, j2
 from ..keys import Key, keys, positive
 
 NAME = "hill48"
@@ -44,6 +45,12 @@ KEYS = keys(
     Key("r45", positive, "Lankford coefficient at 45° to the rolling direction", default=1.0, example=1.6),
     Key("r90", positive, "Lankford coefficient across the rolling direction", default=1.0, example=2.7))
 """`hill48`'s keys in [material] (r0 = r45 = r90 = 1: von Mises)."""
+TABLE = None
+PLASTIC = True
+ORIENTED = True                   # the rolling direction: the section's material axes
+stiffness, transverse_shear = elastic.stiffness, elastic.transverse_shear          # its elastic part
+wave_speed, dilatational_speed = elastic.wave_speed, elastic.dilatational_speed
+values = j2.values                # the J2 return's columns; its block below
 BLOCK = (*(f"T{i}{j}" for i in range(3) for j in range(3)), *(f"B{i}{j}" for i in range(3) for j in range(3)),
          "lambda0", "lambda1", "lambda2", "lambda_min")
 """Its parameter block: T = Q^T C^(-1/2), B = C^(1/2) Q (row by row), the eigenvalues of
@@ -72,9 +79,10 @@ def yield_matrix(r0: float, r45: float, r90: float) -> np.ndarray:
     return np.array([[G + H, -H, 0.0], [-H, F + H, 0.0], [0.0, 0.0, 2.0 * N]])
 
 
-def block(E: float, nu: float, parameters: dict[str, float]) -> np.ndarray:
+def block(spec) -> np.ndarray:
     """The parameter block (BLOCK) of a material of Young's modulus E, Poisson's ratio nu and
-    the Lankford coefficients `parameters` (r0, r45, r90)."""
+    the Lankford coefficients of its model_parameters (r0, r45, r90)."""
+    E, nu, parameters = spec.E, spec.nu, spec.parameters
     c11 = E / (1.0 - nu * nu)
     C = np.array([[c11, nu * c11, 0.0], [nu * c11, c11, 0.0], [0.0, 0.0, E / (2.0 * (1.0 + nu))]])
     P = 2.0 / 3.0 * yield_matrix(parameters["r0"], parameters["r45"], parameters["r90"])
@@ -85,11 +93,12 @@ def block(E: float, nu: float, parameters: dict[str, float]) -> np.ndarray:
     return np.concatenate([(Q.T @ inverse_root).ravel(), (root @ Q).ravel(), lam, [lam.min()]])
 
 
-def kernel(base, offset: int):
-    """The point update (a ti.data_oriented class) on the J2 model `base`; the block's columns
-    start at `offset` of the material row.  Built on first use: reading a scene does not
-    import Taichi."""
+def kernel(context):
+    """The point update (a ti.data_oriented class) on the J2 model (context.models["j2"]); the
+    block's columns start at context.block_offset of the material row.  Built on first use:
+    reading a scene does not import Taichi."""
     import taichi as ti
+    base, offset = context.models["j2"], context.block_offset
     T, B, L = offset, offset + 9, offset + 18
 
     @ti.data_oriented

@@ -31,7 +31,7 @@ element's failure step (0: none)).
 """
 from __future__ import annotations
 
-import math
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -50,10 +50,9 @@ COLUMNS = ("E", "nu", "density", "c11", "c12", "c33", "yield_stress", "hardening
            "rate_filter_time", "c22", "shear_13", "shear_23")
 COL = {name: i for i, name in enumerate(COLUMNS)}
 MATERIAL_PARAMETERS = 32             # width of a row (state.sections.material; the kernels unroll it)
-KINDS = ("elastic", "j2", "orthotropic", *laws.MODELS)   # every kind the solver has (stages/material.MODELS)
-PLASTIC = {"elastic": False, "j2": True, "orthotropic": False, **{k: True for k in laws.MODELS}}
-ORIENTED = {"elastic": False, "j2": False, "orthotropic": True,  # needs material axes (docs/laminates.md)
-            **{k: True for k in laws.MODELS}}
+KINDS = tuple(laws.MODELS)              # every model the solver has (laws/; stages/material.MODELS)
+PLASTIC = {k: m.PLASTIC for k, m in laws.MODELS.items()}
+ORIENTED = {k: m.ORIENTED for k, m in laws.MODELS.items()}    # needs material axes (docs/laminates.md)
 BLOCK_OFFSET = MATERIAL_PARAMETERS
 """A plug-in model's parameter block (laws/) starts here in the row."""
 
@@ -62,6 +61,8 @@ def row_width(kinds) -> int:
     """Columns of the material table of a scene whose models are `kinds`: the common row and
     the widest block of its plug-in models (32 without one)."""
     return MATERIAL_PARAMETERS + laws.block_width(kinds)
+
+
 HARDENING_LAWS = tuple(HARDENING)       # laws/hardening/ (stages/material.HARDENING in this order)
 RATE_LAWS = tuple(RATE)                 # laws/rate/
 
@@ -86,45 +87,26 @@ def rate_laws(specs) -> tuple[str, ...]:
 
 
 def rate_filter_time(spec) -> float:
-    """The time constant tau of the material's rate filter (0: unfiltered): rate_filter_time,
-    or 1 / (2 pi f_c) of rate_cutoff_frequency."""
-    if spec.rate_cutoff_frequency > 0.0:
-        return 1.0 / (2.0 * math.pi * spec.rate_cutoff_frequency)
-    return spec.rate_filter_time
+    """The time constant tau of the material's rate filter (0: unfiltered; laws/j2.py)."""
+    return laws.j2.rate_filter_time(spec)
 
 
 def parameter_row(spec, width: int, hardening: tuple[str, ...] | None = None, rates: tuple[str, ...] | None = None,
                   curve_start: int = 0) -> np.ndarray:
-    """The material table row of a scene material (scene.Material, scene.OrthotropicMaterial).
-    `hardening` and `rates` are the J2 laws the scene compiles (Features.hardening,
-    Features.rate_laws; default: this material's own); `curve_start`: the first point of its
-    tabulated curve in the curve table."""
+    """The material table row of a scene material (scene.Material, scene.OrthotropicMaterial):
+    its model's columns and block (laws/<model>.py).  `hardening` and `rates` are the laws
+    the scene compiles (Features.hardening, Features.rate_laws; default: this material's
+    own); `curve_start`: the first point of its tabulated curve in the curve table."""
     row = np.zeros(width)
-    if spec.model == "orthotropic":
-        q = plane_stress_stiffness(spec)
-        values = {"E": spec.E1, "nu": spec.nu12, "density": spec.density, "c11": q[0, 0], "c22": q[1, 1],
-                  "c12": q[0, 1], "c33": q[2, 2], "shear_13": spec.G13, "shear_23": spec.G23}
-    else:
-        E, nu = spec.E, spec.nu
-        G = E / (2.0 * (1.0 + nu))
-        c11 = E / (1.0 - nu * nu)
-        values = {"E": E, "nu": nu, "density": spec.density, "c11": c11, "c12": nu * c11, "c33": G}
-        if PLASTIC[spec.model]:
-            hardening = hardening_laws([spec]) if hardening is None else hardening
-            rates = rate_laws([spec]) if rates is None else rates
-            lam1, lam2 = E / (3.0 * (1.0 - nu)), 2.0 * G
-            values.update(yield_stress=spec.yield_stress, hardening=spec.hardening, lambda1=lam1, lambda2=lam2,
-                          lambda_min=min(lam1, lam2), hardening_law=hardening.index(spec.hardening_law),
-                          rate_law=rates.index(spec.rate_law) if spec.rate_law in rates else -1,
-                          rate_plastic=float(spec.rate_measure == "plastic"), rate_filter_time=rate_filter_time(spec))
-            values.update({f"hardening_{i}": x for i, x in
-                           enumerate(HARDENING[spec.hardening_law].block(spec, curve_start))})
-            if spec.rate_law in RATE:
-                values.update({f"rate_{i}": x for i, x in enumerate(RATE[spec.rate_law].block(spec))})
-    for name, value in values.items():
+    model = laws.MODELS[spec.model]
+    if model.PLASTIC:
+        hardening = hardening_laws([spec]) if hardening is None else hardening
+        rates = rate_laws([spec]) if rates is None else rates
+    context = SimpleNamespace(hardening=hardening, rates=rates, curve_start=curve_start)
+    for name, value in model.values(spec, context).items():
         row[COL[name]] = value
-    if spec.model in laws.MODELS:
-        block = laws.MODELS[spec.model].block(spec.E, spec.nu, spec.parameters)
+    if model.BLOCK:
+        block = model.block(spec)
         row[BLOCK_OFFSET:BLOCK_OFFSET + len(block)] = block
     return row
 
@@ -143,54 +125,20 @@ def failure_row(spec) -> np.ndarray:
 
 
 def plane_stress_stiffness(spec) -> np.ndarray:
-    """Q (3x3, Voigt xx, yy, xy with engineering shear) in the material's own axes: isotropic
-    E/(1 - nu^2) [[1, nu, 0], [nu, 1, 0], [0, 0, (1 - nu)/2]]; orthotropic
-    Q11 = E1/(1 - nu12 nu21), Q22 = E2/(1 - nu12 nu21), Q12 = nu12 Q22, Q66 = G12, nu21 = nu12 E2/E1."""
-    if spec.model == "orthotropic":
-        d = 1.0 - spec.nu12 * spec.nu12 * spec.E2 / spec.E1
-        q11, q22 = spec.E1 / d, spec.E2 / d
-        return np.array([[q11, spec.nu12 * q22, 0.0], [spec.nu12 * q22, q22, 0.0], [0.0, 0.0, spec.G12]])
-    c11 = spec.E / (1.0 - spec.nu ** 2)
-    return np.array([[c11, spec.nu * c11, 0.0], [spec.nu * c11, c11, 0.0], [0.0, 0.0, shear_modulus(spec)]])
+    """Q (3x3, Voigt xx, yy, xy with engineering shear) in the material's own axes (its model's)."""
+    return laws.MODELS[spec.model].stiffness(spec)
 
 
 def transverse_shear_moduli(spec) -> tuple[float, float]:
     """(G13, G23): the transverse shear moduli in the material's axes (isotropic: G, G)."""
-    if spec.model == "orthotropic":
-        return spec.G13, spec.G23
-    G = shear_modulus(spec)
-    return G, G
-
-
-def shear_modulus(spec) -> float:
-    return spec.E / (2.0 * (1.0 + spec.nu))
+    return laws.MODELS[spec.model].transverse_shear(spec)
 
 
 def wave_speed(spec) -> float:
-    """Plane-stress wave speed sqrt(E / (rho (1 - nu^2))) (the BT element rule, method.md 5).
-    Orthotropic: the fastest in-plane wave, sqrt(max over directions n of the largest
-    eigenvalue of the acoustic tensor Q_ijkl n_j n_l / rho), sampled every 0.05 degrees
-    (Q11 / rho along the fibres for the usual fibre composites)."""
-    if spec.model != "orthotropic":
-        return math.sqrt(spec.E / (spec.density * (1.0 - spec.nu ** 2)))
-    q = plane_stress_stiffness(spec)
-    phi = np.linspace(0.0, np.pi, 3601)
-    c, s = np.cos(phi), np.sin(phi)
-    g11 = q[0, 0] * c * c + q[2, 2] * s * s
-    g22 = q[2, 2] * c * c + q[1, 1] * s * s
-    g12 = (q[0, 1] + q[2, 2]) * c * s
-    largest = 0.5 * (g11 + g22) + np.sqrt(0.25 * (g11 - g22) ** 2 + g12 * g12)
-    return math.sqrt(float(largest.max()) / spec.density)
+    """The fastest plane-stress wave (the BT element rule, method.md 5; its model's)."""
+    return laws.MODELS[spec.model].wave_speed(spec)
 
 
 def dilatational_speed(spec) -> float:
-    """sqrt((K + 4G/3) / rho) of the paper's grid rule (eq 38-40).  Orthotropic [choice]:
-    1.2 x its in-plane wave speed, the isotropic ratio (1 - nu)/sqrt(1 - 2 nu) = 1.18 at
-    nu = 0.3 rounded up.  The scene gives no E3, nu23; with E3 = E2, nu13 = nu12, nu23 = 0.45
-    the 3-D P-wave modulus of the CFRP of docs/laminates.md along its fibres is 1.018 Q11,
-    so the factor is conservative there."""
-    if spec.model == "orthotropic":
-        return 1.2 * wave_speed(spec)
-    G = shear_modulus(spec)
-    K = spec.E / (3.0 * (1.0 - 2.0 * spec.nu))
-    return math.sqrt((K + 4.0 * G / 3.0) / spec.density)
+    """The wave speed of the paper's grid rule (eq 38-40; its model's)."""
+    return laws.MODELS[spec.model].dilatational_speed(spec)

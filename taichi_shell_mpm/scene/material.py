@@ -1,7 +1,7 @@
-"""[material] and [materials.NAME]: elastic, j2 (with its hardening, rate and failure laws) and orthotropic materials."""
+"""[material] and [materials.NAME]: the material models of laws/ (elastic, j2 with its hardening,
+rate and failure laws, orthotropic with its own table, hill48), their keys and rules."""
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any, Literal, Union
 
@@ -16,14 +16,15 @@ from ..keys import (
     positive,
 )
 from ..laws import MODELS as LAWS
+from ..laws.orthotropic import OrthotropicMaterial
 from ..laws.failure import CRITERIA as FAILURE
 from ..laws.hardening import LAWS as HARDENING
 from ..laws.rate import LAWS as RATE
 from ..laws.rate import OPTIONAL as RATE_OPTIONAL
 from .reader import Reader
 
-MATERIAL_MODELS = ("elastic", "j2", "orthotropic", *LAWS)
-"""The built-in models and the plug-in ones (laws/: their own keys below)."""
+MATERIAL_MODELS = tuple(LAWS)
+"""Every material model (laws/<model>.py; some with keys of their own below)."""
 LAW_KEYS = {name: law.KEYS for name, law in LAWS.items()}
 
 
@@ -43,11 +44,7 @@ class MaterialKeys:
         doc="mass density (per volume); fictitious in static solves, ρ = 1 is fine")
     model: str = key(
         choice(*MATERIAL_MODELS), default="elastic",
-        doc="`elastic`: linear, in the element's corotational frame; `j2`: von Mises plasticity in plane stress "
-            "with isotropic hardening, flow stress σ_f = σ_y(ε̄ᵖ) R(ε̇) of the hardening and rate laws below "
-            "(consistent plane-stress return map, method.md 3.4; a return that does not converge stops the run "
-            "naming the element); `orthotropic`: the keys of the orthotropic table below instead of `E`, `nu`; "
-            + "; ".join(law.DOC for law in LAWS.values()))
+        doc="; ".join(law.DOC for law in LAWS.values()))
     yield_stress: float = key(
         positive, default=0.0, unit="stress", default_text="required for `linear`, `ludwik`, `voce`",
         doc="initial yield stress σ_y0 (Ludwik's A; `swift`: instead of `eps0`, which is then (σ_y0/K)^(1/n))")
@@ -85,23 +82,6 @@ Material = extended(MaterialKeys, "Material", __name__,
                     "rate laws and the failure criteria, each declared in its file (laws/).")
 
 
-@dataclass(frozen=True)
-class OrthotropicMaterial:
-    """Linear elastic, orthotropic in plane stress with its own transverse shear moduli
-    (docs/laminates.md): 1 = the fibre direction, 2 = across it in the shell's plane,
-    3 = the shell normal.  Its axes are the section's material axes turned by the ply angle."""
-    E1: float = key(positive, "Young's modulus along the fibres (axis 1)", unit="stress")
-    E2: float = key(positive, "Young's modulus across the fibres in the shell plane (axis 2)", unit="stress")
-    G12: float = key(positive, "in-plane shear modulus", unit="stress")
-    G13: float = key(positive, "transverse shear modulus in the 1-3 plane (3 = the shell normal)", unit="stress")
-    G23: float = key(positive, "transverse shear modulus in the 2-3 plane", unit="stress")
-    nu12: float = key(number(), allowed="|nu12| < √(E1/E2)",
-        doc="major Poisson ratio: ε₂ = −ν₁₂ σ₁/E₁ (ν₂₁ = ν₁₂E₂/E₁); the bound keeps the plane-stress stiffness "
-            "positive definite")
-    density: float = key(positive, "mass density", unit="mass/length³")
-    model: Literal["orthotropic"] = key(choice(*MATERIAL_MODELS), "`orthotropic`: this table's keys", default="orthotropic")
-
-
 AnyMaterial = Union[Material, OrthotropicMaterial]
 
 
@@ -109,13 +89,10 @@ def read_material(r: Reader, path: str, data: Any) -> AnyMaterial | None:
     """[material] or [materials.NAME]: an orthotropic material, or its keys, then those of
     its hardening and rate laws (each law takes its own keys: a key of another law is an
     error)."""
-    if isinstance(data, dict) and data.get("model") == "orthotropic":
-        material = r.table_object(path, data, OrthotropicMaterial)
-        if material is not None and material.nu12 ** 2 >= material.E1 / material.E2:
-            r.error(f"{path}.nu12", f"expected |nu12| < sqrt(E1/E2) = {math.sqrt(material.E1 / material.E2):g} "
-                                    f"(a positive definite plane-stress stiffness), got {material.nu12:g}")
-            return None
-        return material
+    own = LAWS.get(data.get("model")) if isinstance(data, dict) and isinstance(data.get("model"), str) else None
+    if own is not None and own.TABLE is not None:       # a model with a table of its own (orthotropic)
+        material = r.table_object(path, data, own.TABLE)
+        return None if material is None else own.check(r, path, material)
     mark = len(r.messages)
     law_keys = {name: k for keys in LAW_KEYS.values() for name, k in keys.items()}
     values = r.read(path, data, {**keys_of(Material), **law_keys}, Material)

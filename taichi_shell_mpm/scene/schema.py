@@ -71,7 +71,7 @@ DOC_TABLES: dict[str, Any] = {
     **{f"mesh.{kind}": (lambda cls=cls: keys_of(cls)) for kind, cls in MESHES.items()},
     "material": lambda: _grouped(Material, {"hardening_law": HARDENING, "rate_law": RATE}),
     "material.orthotropic": lambda: {n: k for n, k in keys_of(OrthotropicMaterial).items() if n != "model"},
-    **{f"material.{name}": (lambda keys=keys: keys) for name, keys in LAW_KEYS.items()},
+    **{f"material.{name}": (lambda keys=keys: keys) for name, keys in LAW_KEYS.items() if keys},
     "section": lambda: keys_of(Section),
     "section.layered": _layered,
     "elementsets": lambda: ELEMENT_SET_KEYS,
