@@ -5,8 +5,8 @@ A material model (laws/<model>.py: elastic, j2, orthotropic, hill48) is a small 
 plastic_strain, strain_rate, strain_increment, shear_increment, dt)`` that reads its
 parameters from ``row``, the point's material's row of the material table
 (state.sections.material, columns in model/materials.py); ``axes`` = (cos, sin) of the angle from
-the element's e1 to the point's material 1-axis, which only the orthotropic model reads
-(docs/laminates.md).  :class:`ConstitutiveUpdate` dispatches each point to its material's
+the element's e1 to the point's material 1-axis, which the oriented models read (orthotropic,
+hill48; docs/laminates.md).  :class:`ConstitutiveUpdate` dispatches each point to its material's
 model with a ``ti.static`` loop over the models the scene uses (Features.materials), so only
 those are compiled [choice, issue 17, as Genesis's MPM solver dispatches its materials]; parameter
 values are run-time data (a changed E or yield stress loads the kernels from the cache).
