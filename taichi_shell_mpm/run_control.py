@@ -31,6 +31,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from .checkpoint import save_checkpoint
+from .energy import balance_ratio
 
 stop_hook: Callable[[Any], bool] | None = None
 """Tests and embedding code: called with the Simulation at every batch boundary; returning
@@ -102,7 +103,7 @@ class RunLoop:
             position = loop.resume or {...}
             ...                                              # the driver's steps
             loop.guard()                                     # the simulation's status checks
-            loop.progress("load step 3/10 ...", dt, 0.2)     # the live line, when due
+            loop.progress(lambda: (label, dt, fraction))    # the live line, when due
             loop.boundary(position)                          # checkpoint / clean stop
             loop.record(lam, frame=True)
             loop.note("load step 3/10 ...")                  # a progress line with the run time
@@ -140,11 +141,12 @@ class RunLoop:
         """The simulation's checks after a batch (a stopped status raises SimulationError)."""
         self.sim.check_status()
 
-    def progress(self, label: str, dt: float, fraction: float | None) -> None:
-        """The live progress line, when it is due: `label`, the step, dt, the energy balance."""
-        from .energy import balance_ratio
+    def progress(self, line: Callable[[], tuple[str, float, float | None]]) -> None:
+        """The live progress line, when it is due: line() gives its label, dt and how far the
+        run is (read only then), with the step and the energy balance."""
         reporter = self.sim.reporter
         if reporter.due():
+            label, dt, fraction = line()
             reporter.show(label, int(self.sim.state.step.step[None]), dt, balance_ratio(self.sim.energies()),
                           fraction)
 

@@ -27,7 +27,7 @@ from .gravity import Gravity
 from .info import SceneInfo
 from .initial import InitialVelocity
 from .load import Load
-from .material import LAW_KEYS, AnyMaterial, Material, OrthotropicMaterial
+from .material import MODEL_KEYS, AnyMaterial, Material, OrthotropicMaterial
 from .mesh import DECK_SUFFIXES, FileMesh, HemisphereMesh, MeshSpec, PlateMesh, TubeMesh
 from .method import Method
 from .motion import MAX_MOTIONS, MOTION_KINDS, Motion
@@ -58,8 +58,7 @@ def value_problem(table: str, key: str, value: Any) -> str | None:
     """What is wrong with `value` as the key `key` of [material] or [section] (`table`), or
     None: an LS-DYNA deck's values are checked by the scene's own declarations
     (model/deck.deck_specs), so a deck value is held to the same range as the scene key."""
-    declared = {"material": {**keys_of(Material), **{n: k for keys in LAW_KEYS.values() for n, k in keys.items()}},
-                "section": keys_of(Section)}[table]
+    declared = {"material": {**keys_of(Material), **MODEL_KEYS}, "section": keys_of(Section)}[table]
     try:
         declared[key].check(value)
     except Invalid as exc:

@@ -26,6 +26,8 @@ from .reader import Reader
 MATERIAL_MODELS = tuple(LAWS)
 """Every material model (laws/<model>.py; some with keys of their own below)."""
 LAW_KEYS = {name: law.KEYS for name, law in LAWS.items()}
+MODEL_KEYS = {name: k for keys in LAW_KEYS.values() for name, k in keys.items()}
+"""Every model's own keys (hill48's r-values), one dict: read with [material]'s."""
 
 
 HARDENING_KEYS = {name: (law.REQUIRED, law.OPTIONAL) for name, law in HARDENING.items()}
@@ -94,8 +96,7 @@ def read_material(r: Reader, path: str, data: Any) -> AnyMaterial | None:
         material = r.table_object(path, data, own.TABLE)
         return None if material is None else own.check(r, path, material)
     mark = len(r.messages)
-    law_keys = {name: k for keys in LAW_KEYS.values() for name, k in keys.items()}
-    values = r.read(path, data, {**keys_of(Material), **law_keys}, Material)
+    values = r.read(path, data, {**keys_of(Material), **MODEL_KEYS}, Material)
     if values is None:
         return None
     for name, declared in LAW_KEYS.items():      # a plug-in model's keys: with it only

@@ -26,7 +26,7 @@ from .gravity import Gravity
 from .info import SceneInfo
 from .initial import InitialVelocity
 from .load import Load
-from .material import HARDENING, LAW_KEYS, RATE, Material, OrthotropicMaterial
+from .material import HARDENING, LAW_KEYS, MODEL_KEYS, RATE, Material, OrthotropicMaterial
 from .mesh import MESH_KIND_KEYS, MESHES
 from .method import Method
 from .motion import Motion
@@ -196,8 +196,7 @@ def _named(schema: dict, what: str) -> dict:
 
 def scene_schema() -> dict:
     """The JSON Schema of a scene file: draft 7, which Taplo and the common editors read."""
-    law_keys = {name: k for keys in LAW_KEYS.values() for name, k in keys.items()}
-    material = {"anyOf": [table_schema({**keys_of(Material), **law_keys}),
+    material = {"anyOf": [table_schema({**keys_of(Material), **MODEL_KEYS}),
                           {**table_schema(keys_of(OrthotropicMaterial)),
                            "required": [*table_schema(keys_of(OrthotropicMaterial))["required"], "model"]}]}
     section = table_schema(keys_of(Section), required=False)

@@ -44,8 +44,8 @@ def run_dynamic(sim: Simulation, control: RunControl | None = None) -> dict:
                 loop.guard()
                 if every > 0:
                     loop.record(s.time[None], frame=True)
-                loop.progress(f"t {s.time[None]:.5g}/{end:g}", s.dt_stable[None],
-                              s.time[None] / end if end > 0 else None)
+                loop.progress(lambda: (f"t {s.time[None]:.5g}/{end:g}", s.dt_stable[None],
+                                       s.time[None] / end if end > 0 else None))
                 loop.boundary({"event": i, "started": True})
             if every == 0:
                 loop.record(s.time[None], frame=target in frame_times)

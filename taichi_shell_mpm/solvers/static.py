@@ -128,9 +128,9 @@ def run_static(sim: Simulation, control: RunControl | None = None) -> dict:
                             f"load step {j}/{n_levels} (load factor {lam:.4g}) did not converge in {budget} steps "
                             f"at {sim.where()} (residual {ratio:.2e} of the load; raise "
                             "[solve].max_steps_per_load_step or load_steps)")
-                    target = max(target_sq(sim), 1e-300)
-                    loop.progress(f"load step {j}/{n_levels} (residual/target "
-                                  f"{np.sqrt(s.residual_sq[None] / target):.1e})", s.dt[None], (j - 1) / n_levels)
+                    loop.progress(lambda: (f"load step {j}/{n_levels} (residual/target "
+                                           f"{np.sqrt(s.residual_sq[None] / max(target_sq(sim), 1e-300)):.1e})",
+                                           s.dt[None], (j - 1) / n_levels))
                     loop.boundary({"level": j, "steps": steps, "started": True})
                 loop.guard()                             # hourglass energy of the converged level
                 sim.total_steps += steps
