@@ -497,7 +497,7 @@ def number_text(value: float) -> str:
 
 def shown_default(value: Any) -> str:
     """The docs' default column for a declared default."""
-    if value is REQUIRED or value is MISSING:
+    if value is REQUIRED:
         return "required"
     if value is None:
         return "none"

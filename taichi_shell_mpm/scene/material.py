@@ -16,9 +16,9 @@ from ..keys import (
     positive,
 )
 from ..laws import MODELS as LAWS
-from ..laws.orthotropic import OrthotropicMaterial
 from ..laws.failure import CRITERIA as FAILURE
 from ..laws.hardening import LAWS as HARDENING
+from ..laws.orthotropic import OrthotropicMaterial
 from ..laws.rate import LAWS as RATE
 from ..laws.rate import OPTIONAL as RATE_OPTIONAL
 from .reader import Reader

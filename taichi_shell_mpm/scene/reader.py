@@ -15,6 +15,7 @@ from ..keys import (
     Invalid,
     Key,
     Vec3,
+    field_defaults,
     hint,
     key_path,
     keys_of,
@@ -82,7 +83,7 @@ class Reader:
             return None
         values = {}
         if cls is not None:
-            values = {f.name: f.default for f in fields(cls) if f.default is not MISSING}
+            values = field_defaults(cls)
             required = [f.name for f in fields(cls) if f.default is MISSING and f.name in spec]
         for key, value in data.items():
             if key in spec:

@@ -2,13 +2,14 @@
 from __future__ import annotations
 
 import math
-from dataclasses import MISSING, dataclass, fields
+from dataclasses import dataclass
 from typing import Any, Literal
 
 from ..keys import (
     Check,
     Vec3,
     choice,
+    field_defaults,
     fraction,
     integer,
     key,
@@ -99,7 +100,7 @@ def read_section(r: Reader, data: Any, path: str = "[section]") -> Section | Non
         return r.build(mark, Section, v)
     spec = {name: k for name, k in keys_of(Section).items() if name not in (*SINGLE_ONLY, "plies")}
     v = r.read(path, data, spec, extra=("plies", *SINGLE_ONLY))
-    defaults = {f.name: f.default for f in fields(Section) if f.default is not MISSING}
+    defaults = field_defaults(Section)
     for key in SINGLE_ONLY:
         if key in data:
             r.error(f"{path}.{key}", "a layered section takes it from its plies (thickness: their sum; "
