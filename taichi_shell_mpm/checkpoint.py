@@ -167,6 +167,8 @@ def event_times(scene) -> tuple[list[float], set[float]]:
     history records) and the frame times among them; its checkpoint position counts them."""
     out, end = scene.output, scene.solve.end_time
     frame_times = {t for t in out.times if 0.0 < t <= end} | {end}
+    if out.frame_interval > 0:
+        frame_times |= {float(t) for t in np.arange(out.frame_interval, end, out.frame_interval)}
     events = set(frame_times)
     if out.history_interval > 0:
         events |= {float(t) for t in np.arange(out.history_interval, end, out.history_interval)}

@@ -47,7 +47,11 @@ def _directory(text: str) -> Path:
 
 
 SCENE_HELP = ("scene file (TOML): mesh, material, section, method, node sets, boundary conditions, loads, "
-              "probes, reference data, solve and output settings; every key is documented in docs/scenes.md")
+              "probes, reference data, solve and output settings; every key is documented in docs/scenes.md; "
+              "or an LS-DYNA keyword deck (.k, .key, .dyn, .kw), read as the scene its keywords say "
+              "(docs/decks.md)")
+ACCEPT_UNREAD_HELP = ("an LS-DYNA deck: run even though some of its keywords that change the physics are not read "
+                      "(they are listed with their line numbers, as warnings)")
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -72,6 +76,7 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                      help="override a scene key by its dotted path, e.g. method.kind=fem")
     run.add_argument("--quiet", action="store_true", help="print only warnings, errors and the final summary")
+    run.add_argument("--accept-unread", action="store_true", help=ACCEPT_UNREAD_HELP)
     run.add_argument("--checkpoint-every", type=positive_int, default=0, metavar="N",
                      help="write OUTDIR/checkpoint.npz at the first batch boundary after every N steps")
     run.add_argument("--restart", type=_directory, default=None, metavar="DIR",
@@ -87,6 +92,7 @@ def _parser() -> argparse.ArgumentParser:
                          epilog="Scene keys: docs/scenes.md.")
     val.add_argument("scene", type=Path, help=SCENE_HELP)
     val.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
+    val.add_argument("--accept-unread", action="store_true", help=ACCEPT_UNREAD_HELP)
     sch = sub.add_parser("schema", help="print the JSON Schema of scene files (for TOML editors)",
                          epilog="docs/scenes.md, \"Editor support\".")
     sch.add_argument("--docs", type=Path, default=None, metavar="FILE",
@@ -224,7 +230,7 @@ def setup_warnings(scene, model) -> list[str]:
     with PolyPIC; docs/grid.md)."""
     from .loading import load_shares
     from .nodesets import select_nodes
-    lines = list(model.notes) + unused_key_warnings(scene) + thickness_warnings(scene, model)
+    lines = list(scene.notes) + list(model.notes) + unused_key_warnings(scene) + thickness_warnings(scene, model)
     fixed = (model.fix_mask & 0b111) == 0b111
     for i, ld in enumerate(scene.loads):
         if not any(ld.force) and not any(ld.force_per_length):
@@ -277,7 +283,7 @@ def reference_note(scene) -> str | None:
 def _validate(args) -> int:
     from .scene import SceneError
     try:
-        scene, mesh, model = prepare(args.scene, args.overrides)
+        scene, mesh, model = prepare(args.scene, args.overrides, args.accept_unread)
     except SceneError as exc:
         return _fail(EXIT_SCENE, exc.messages)
     note = reference_note(scene)
@@ -379,7 +385,7 @@ def _run(args) -> int:
     from .run_control import RunControl, exit_code, signal_name
     from .scene import SceneError
     try:
-        scene, mesh, model = prepare(args.scene, args.overrides)
+        scene, mesh, model = prepare(args.scene, args.overrides, args.accept_unread)
         ckpt = None
         if args.restart is not None:
             ckpt = load_checkpoint(args.restart)

@@ -79,12 +79,13 @@ def assembly_problems(scene, mesh) -> tuple[list[str], object]:
     return unique, (model if not unique else None)
 
 
-def prepare(path: Path, overrides) -> tuple:
-    """Scene, mesh and model of a scene file, or SceneError listing every problem found."""
+def prepare(path: Path, overrides, accept_unread: bool = False) -> tuple:
+    """Scene, mesh and model of a scene file (TOML or an LS-DYNA deck; `accept_unread`: run a
+    deck whose unread keywords change the physics), or SceneError listing every problem found."""
     from .mesh import build_mesh
     from .scene import SceneError, load_scene
     try:
-        scene = load_scene(path, overrides)
+        scene = load_scene(path, overrides, accept_unread)
     except SceneError as exc:         # the mesh is checked too when its own table is valid
         if exc.mesh is None:
             raise

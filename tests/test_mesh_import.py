@@ -379,9 +379,10 @@ def test_dyna_deck(tmp_path, variant):
     assert steel.title == "steel" and steel.values["sigy"] == 250.0 and steel.values["lcss"] == 7
     assert deck.curves == {7: ((0.0, 250.0), (0.1, 300.0))}       # SFO = 2
     assert steel.curve == ((0.0, 250.0), (0.1, 300.0))
-    assert m.warnings[0] == (f"{path}: skipped keywords this reader does not read: *BOUNDARY_SPC_SET (1), "
-                             "*CONTROL_TERMINATION (1)")
-    assert "removed 1 unused nodes" in m.warnings[1] and len(m.warnings) == 2
+    # the keywords beyond the mesh are kept for the scene reader (dyna/scene.py, tests/test_decks.py)
+    assert [(b.name, b.line.number) for b in deck.keywords] == [("CONTROL_TERMINATION", 37 if variant == "free" else 48),
+                                                                ("BOUNDARY_SPC_SET", 39 if variant == "free" else 50)]
+    assert "removed 1 unused nodes" in m.warnings[0] and len(m.warnings) == 1
     if variant == "free":
         np.testing.assert_array_equal(deck.element_thickness[0], [1.4] * 4)
         assert np.isnan(deck.element_thickness[1:]).all()
@@ -488,8 +489,7 @@ def test_dyna_duplicates_includes_and_options(tmp_path):
                                                        "     101           0.0d0          0.0e+0           1.0-3       1"))
     m = build_mesh(FileMesh(path=path))
     assert m.points[0].tolist() == [0.0, 0.0, 0.001]
-    assert f"{path}: 1 node has TC/RC constraint codes in *NODE, which are not read (fix them with " \
-           "[[boundary]])" in m.warnings
+    assert m.deck.node_constraints[0].tolist() == [1, 0]        # TC = 1: x held (dyna/scene.py's supports)
     assert f"{path}: part 2 (2 shells) has no *PART card" in m.warnings
     assert sets(m) == {"part:1": [0], "skin": [0], "part:2": [1, 2]}
 

@@ -9,6 +9,8 @@ from ..scene import Scene, SceneError
 
 def deck_specs(deck, source: str):
     """Scene materials and sections for an LS-DYNA deck's parts (dyna.Deck): *MAT_001 elastic;
+    *MAT_020 (rigid) elastic too, its E and PR held to the same checks (the part's shells give
+    its rigid body its mass and inertia, dyna/scene.py);
     *MAT_003 and *MAT_024 J2: a *MAT_024 stress-strain curve (LCSS or EPS/ES) is the tabulated
     hardening law, extrapolated beyond its last point as LS-DYNA does, else linear hardening
     H = E E_t / (E - E_t) from the tangent modulus; their Cowper-Symonds C and P (*MAT_003 SRC,
@@ -38,7 +40,7 @@ def deck_specs(deck, source: str):
         label = f"{card.where or source} (mid {mid})"
         check(f"mat_{mid}", label, (("RO", "material", "density", rho), ("E", "material", "E", E),
                                     ("PR", "material", "nu", nu)))
-        if card.kind != "elastic" and not card.curve:
+        if card.kind not in ("elastic", "rigid") and not card.curve:
             etan = v.get("etan", 0.0)
             check(f"mat_{mid}", label, (("SIGY", "material", "yield_stress", v.get("sigy", 0.0)),))
             if card.kind == "transversely_anisotropic":
@@ -47,7 +49,7 @@ def deck_specs(deck, source: str):
                 problems.setdefault(f"mat_{mid}", []).append(
                     f"{label}: ETAN = {etan:g}: expected 0 <= ETAN < E = {E:g} (the tangent modulus of the "
                     "plastic range; ETAN >= E has no hardening modulus H = E ETAN/(E - ETAN) >= 0)")
-        if card.kind == "elastic":
+        if card.kind in ("elastic", "rigid"):     # a rigid part's shells carry its mass (dyna/scene.py: its body)
             materials[f"mat_{mid}"] = Material(E=E, nu=nu, density=rho)
             continue
         keyword = {"piecewise_linear": "*MAT_024", "plastic_kinematic": "*MAT_003",

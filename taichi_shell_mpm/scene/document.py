@@ -4,7 +4,7 @@ from __future__ import annotations
 import copy
 import tomllib
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -83,6 +83,9 @@ class Scene:
     motions: tuple[Motion, ...] = ()
     pressures: tuple[Pressure, ...] = ()
     gravity: Gravity | None = None
+    notes: tuple[str, ...] = ()
+    """What reading the scene noted beyond its tables: an LS-DYNA deck's keywords that were not
+    read, and values read with a stated difference of meaning (dyna/scene.py); warnings."""
 
     def nodeset(self, name: str) -> NodeSet:
         for s in self.nodesets:
@@ -93,16 +96,53 @@ class Scene:
         raise KeyError(name)
 
 
-def load_scene(path: str | Path, overrides: Sequence[str] = ()) -> Scene:
-    """Read the TOML scene at `path`, apply ``--set`` `overrides`, validate, return the Scene.
+def load_scene(path: str | Path, overrides: Sequence[str] = (), accept_unread: bool = False) -> Scene:
+    """Read the scene at `path` (a TOML file, or an LS-DYNA deck: its keywords as the
+    tables they mean, dyna/scene.py), apply ``--set`` `overrides`, validate, return the Scene.
 
-    Raises :class:`SceneError` with one line per problem: a single line for an unreadable
-    file or a TOML syntax error, otherwise every problem found in the scene.
+    A TOML scene whose ``[mesh]`` is a deck takes the deck's keywords for what it does not
+    say itself (:func:`merge_deck`).  A deck keyword that would change the physics and is not
+    read is an error unless `accept_unread`.  Raises :class:`SceneError` with one line per
+    problem: a single line for an unreadable file or a TOML syntax error, otherwise every
+    problem found in the scene (a deck's values named by their file, line and keyword).
     """
+    from ..dyna.scene import deck_document
+    from .mesh import DECK_SUFFIXES
     path = Path(path)
+    deck = None
+    if path.suffix.lower() in DECK_SUFFIXES:
+        if not path.is_file():
+            raise SceneError(f"{path}: file not found" if not path.exists() else f"{path}: not a file")
+        deck = deck_document(path)
+        raw = copy.deepcopy(deck.raw)
+    else:
+        raw = _read_toml(path)
+        mesh = raw.get("mesh")
+        named = mesh.get("path") if isinstance(mesh, dict) and mesh.get("kind") == "file" else None
+        if isinstance(named, str) and Path(named).suffix.lower() in DECK_SUFFIXES and (path.parent / named).is_file():
+            deck = deck_document(path.parent / named)
+            raw = merge_deck(raw, deck, path.name)
+    try:
+        raw = apply_overrides(raw, overrides)
+    except SceneError as exc:
+        raise SceneError([f"{path.name}: {m}" for m in exc.messages]) from None
+    if deck is None:
+        return parse_scene(raw, path)
+    problems = deck.problems(accept_unread)
+    try:
+        scene = parse_scene(raw, path)
+    except SceneError as exc:
+        raise SceneError(problems + [_from_deck(m, path.name, deck.origins) for m in exc.messages],
+                         mesh=exc.mesh) from None
+    if problems:
+        raise SceneError(problems, mesh=scene.mesh)
+    return replace(scene, notes=tuple(deck.warnings(accept_unread)))
+
+
+def _read_toml(path: Path) -> dict:
     try:
         with path.open("rb") as f:
-            raw = tomllib.load(f)
+            return tomllib.load(f)
     except FileNotFoundError:
         raise SceneError(f"{path}: file not found") from None
     except OSError as exc:
@@ -111,11 +151,49 @@ def load_scene(path: str | Path, overrides: Sequence[str] = ()) -> Scene:
         raise SceneError(f"{path.name}: not a UTF-8 text file") from None
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{path.name}: TOML syntax error: {one_line(exc)}") from None
-    try:
-        raw = apply_overrides(raw, overrides)
-    except SceneError as exc:
-        raise SceneError([f"{path.name}: {m}" for m in exc.messages]) from None
-    return parse_scene(raw, path)
+
+
+def merge_deck(raw: dict, deck, file_name: str) -> dict:
+    """The TOML document `raw` over the deck's (`deck`: dyna.scene.DeckDocument): a key the
+    TOML gives wins, a table it does not give comes from the deck (named tables, such as
+    [nodesets.NAME] and [curves.NAME], merged by name), and an array of tables ([[boundary]])
+    holds the TOML's entries, then the deck's; `deck.origins` follows the deck's entries."""
+    merged = copy.deepcopy(deck.raw)
+    mesh = raw.get("mesh", {})
+    keyworded = set(merged) - {"scene", "mesh"}
+    if isinstance(mesh, dict) and keyworded:
+        if mesh.get("merge_nodes") is True:
+            raise SceneError(f"{file_name}: [mesh].merge_nodes: the deck's keywords name its nodes by id "
+                             f"({', '.join(sorted(keyworded))}): merging nodes would renumber them")
+        scale = mesh.get("scale", 1.0)
+        if scale != 1.0:
+            raise SceneError(f"{file_name}: [mesh].scale = {scale!r}: the deck's keywords give lengths and velocities "
+                             f"in its own units ({', '.join(sorted(keyworded))}): scale the deck itself")
+    merged.pop("mesh", None)
+    for name, value in raw.items():
+        have = merged.get(name)
+        if isinstance(value, list) and isinstance(have, list):
+            head = f"[[{name}]]["
+            deck.origins = {(f"{head}{int(k[len(head):-1]) + len(value)}]" if k.startswith(head) else k): v
+                            for k, v in deck.origins.items()}
+            merged[name] = value + have
+        elif isinstance(value, dict) and isinstance(have, dict):
+            merged[name] = {**have, **value}
+        else:
+            merged[name] = value
+    return merged
+
+
+def _from_deck(message: str, file_name: str, origins: dict) -> str:
+    """A scene message about a table the deck wrote, with the deck line it came from."""
+    head = f"{file_name}: "
+    if not message.startswith(head):
+        return message
+    rest = message[len(head):]
+    for key in sorted(origins, key=len, reverse=True):
+        if rest.startswith(key):
+            return f"{origins[key]}: {rest}"
+    return message
 
 
 def apply_overrides(raw: dict, overrides: Sequence[str]) -> dict:

@@ -10,14 +10,17 @@ Read: ``*KEYWORD``, ``*TITLE``, ``*END`` (ends the file it is in), ``*INCLUDE`` 
 relative to the including file's folder, else the main deck's), ``*COMMENT``, comment lines
 (``$``), ``*NODE``, ``*ELEMENT_SHELL`` (also ``_THICKNESS``, ``_BETA``, ``_MCID`` and their
 ``_OFFSET`` forms), ``*PART`` (and ``*PART_CONTACT``), ``*SECTION_SHELL[_TITLE]``,
-``*MAT_ELASTIC`` / ``*MAT_001``, ``*MAT_PLASTIC_KINEMATIC`` / ``*MAT_003``,
+``*MAT_ELASTIC`` / ``*MAT_001``, ``*MAT_PLASTIC_KINEMATIC`` / ``*MAT_003``, ``*MAT_RIGID`` / ``*MAT_020``,
 ``*MAT_PIECEWISE_LINEAR_PLASTICITY`` / ``*MAT_024``,
 ``*MAT_TRANSVERSELY_ANISOTROPIC_ELASTIC_PLASTIC`` / ``*MAT_037`` (each also ``_TITLE``) and
 ``*DEFINE_CURVE[_TITLE]``.  Cards are fixed format (10-character fields; ``*NODE`` 8, 16,
 16, 16, 8, 8; ``*ELEMENT_SHELL`` 8 each; curve points 20 each) or free format (a line with
 a comma is split at the commas); a blank field takes the keyword's default.  The long
 (``+``, ``LONG=``) and 10-digit-id (``%``, ``I10=``) formats are not read (an error says so).
-Every other keyword is skipped, with one warning listing them.
+``*PARAMETER`` and ``*PARAMETER_EXPRESSION`` (dyna/parameters.py: a field ``&name`` or
+``-&name`` takes the parameter's value).  Every other keyword is kept, with its cards, in
+:attr:`Deck.keywords` for the scene reader (dyna/scene.py), which reads the supports, loads,
+controls, contacts, rigid bodies and outputs and lists what it does not read.
 
 Node and element ids are the deck's own: positions in ``points`` and ``elements`` follow the
 order read, and :attr:`Deck.node_ids` / :attr:`Deck.element_ids` map positions back to ids.
@@ -35,8 +38,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .scene import DECK_SUFFIXES as DYNA_SUFFIXES  # noqa: F401 (re-exported: file endings read as decks, any case)
-from .scene import SceneError
+from ..scene import DECK_SUFFIXES as DYNA_SUFFIXES  # noqa: F401 (re-exported: file endings read as decks, any case)
+from ..scene import SceneError
+from .parameters import PARAMETER_KEYWORDS, read_parameters, substitute, using
 
 MAX_INCLUDE_DEPTH = 20
 
@@ -49,6 +53,8 @@ class DeckPart:
     title: str
     secid: int
     mid: int
+    hgid: int = 0
+    """*HOURGLASS id (0: *CONTROL_HOURGLASS's, dyna/scene.py)."""
 
 
 @dataclass(frozen=True)
@@ -77,8 +83,9 @@ class DeckSection:
 @dataclass(frozen=True)
 class DeckMaterial:
     """A material card: ``kind`` is ``"elastic"`` (*MAT_001), ``"plastic_kinematic"``
-    (*MAT_003), ``"piecewise_linear"`` (*MAT_024) or ``"transversely_anisotropic"``
-    (*MAT_037); ``values`` holds its fields by their
+    (*MAT_003), ``"rigid"`` (*MAT_020: its part is a rigid body, dyna/scene.py),
+    ``"piecewise_linear"`` (*MAT_024) or ``"transversely_anisotropic"`` (*MAT_037);
+    ``values`` holds its fields by their
     lower-case LS-DYNA names (ro, e, pr, sigy, etan, ...; blanks as 0)."""
     mid: int
     kind: str
@@ -115,68 +122,79 @@ class Deck:
     card gives none, and for an element without it); None when no element has one."""
     title: str = ""
     """The ``*TITLE`` line."""
+    keywords: tuple = ()
+    """Every other keyword block (:class:`Block`: name, first line, data lines), in reading
+    order: the scene's keywords (dyna/scene.py reads them and lists what it does not)."""
+    parameters: dict = field(default_factory=dict)
+    """*PARAMETER name (upper case) -> value, for the cards read later (dyna/parameters.using)."""
+    used_nodes: np.ndarray | None = None
+    """(n,) bool: which nodes of ``node_ids`` some shell uses (mesh.py drops the others)."""
+    node_constraints: np.ndarray | None = None
+    """(n, 2) int: *NODE's TC and RC codes (0 free .. 7 x, y and z; dyna/scene.py's supports)."""
 
 
 # ---------------------------------------------------------------- card layouts
 # (name, width, type) with type "i" integer or "f" real; a blank field is 0
-def _layout(names: str, width: int, kind: str = "f") -> list[tuple[str, int, str]]:
+def columns(names: str, width: int, kind: str = "f") -> list[tuple[str, int, str]]:
     return [(n, width, kind) for n in names.split()]
 
 
 _NODE = [("nid", 8, "i"), ("x", 16, "f"), ("y", 16, "f"), ("z", 16, "f"), ("tc", 8, "f"), ("rc", 8, "f")]
-_SHELL = _layout("eid pid n1 n2 n3 n4 n5 n6 n7 n8", 8, "i")
-_SHELL_THICKNESS = _layout("thic1 thic2 thic3 thic4 beta", 16)
-_SHELL_OFFSET = _layout("offset", 16)
-_PART = _layout("pid secid mid eosid hgid grav adpopt tmid", 10, "i")
-_PART_CONTACT = _layout("fs fd dc vc optt sft ssf", 10)
+_SHELL = columns("eid pid n1 n2 n3 n4 n5 n6 n7 n8", 8, "i")
+_SHELL_THICKNESS = columns("thic1 thic2 thic3 thic4 beta", 16)
+_SHELL_OFFSET = columns("offset", 16)
+_PART = columns("pid secid mid eosid hgid grav adpopt tmid", 10, "i")
+_PART_CONTACT = columns("fs fd dc vc optt sft ssf", 10)
 _SECTION_1 = [("secid", 10, "i"), ("elform", 10, "i"), ("shrf", 10, "f"), ("nip", 10, "f"),
               ("propt", 10, "f"), ("qr", 10, "f"), ("icomp", 10, "i"), ("setyp", 10, "i")]
-_SECTION_2 = _layout("t1 t2 t3 t4 nloc marea idof edgset", 10)
-_ANGLES = _layout("b1 b2 b3 b4 b5 b6 b7 b8", 10)
+_SECTION_2 = columns("t1 t2 t3 t4 nloc marea idof edgset", 10)
+_ANGLES = columns("b1 b2 b3 b4 b5 b6 b7 b8", 10)
 _CURVE = [("lcid", 10, "i"), ("sidr", 10, "i"), ("sfa", 10, "f"), ("sfo", 10, "f"), ("offa", 10, "f"),
           ("offo", 10, "f"), ("dattyp", 10, "i"), ("lcint", 10, "i")]
-_POINT = _layout("a o", 20)
+_POINT = columns("a o", 20)
 _MATERIALS = {
     # kind: (names of the keyword, cards)
-    "elastic": (("MAT_ELASTIC", "MAT_001"), [[("mid", 10, "i"), *_layout("ro e pr da db k", 10)]]),
+    "elastic": (("MAT_ELASTIC", "MAT_001"), [[("mid", 10, "i"), *columns("ro e pr da db k", 10)]]),
     "plastic_kinematic": (("MAT_PLASTIC_KINEMATIC", "MAT_003"),
-                          [[("mid", 10, "i"), *_layout("ro e pr sigy etan beta", 10)],
-                           _layout("src srp fs vp", 10)]),
+                          [[("mid", 10, "i"), *columns("ro e pr sigy etan beta", 10)],
+                           columns("src srp fs vp", 10)]),
     "piecewise_linear": (("MAT_PIECEWISE_LINEAR_PLASTICITY", "MAT_024"),
-                         [[("mid", 10, "i"), *_layout("ro e pr sigy etan fail tdel", 10)],
-                          [*_layout("c p", 10), ("lcss", 10, "i"), ("lcsr", 10, "i"), *_layout("vp lcf", 10)],
-                          _layout("eps1 eps2 eps3 eps4 eps5 eps6 eps7 eps8", 10),
-                          _layout("es1 es2 es3 es4 es5 es6 es7 es8", 10)]),
+                         [[("mid", 10, "i"), *columns("ro e pr sigy etan fail tdel", 10)],
+                          [*columns("c p", 10), ("lcss", 10, "i"), ("lcsr", 10, "i"), *columns("vp lcf", 10)],
+                          columns("eps1 eps2 eps3 eps4 eps5 eps6 eps7 eps8", 10),
+                          columns("es1 es2 es3 es4 es5 es6 es7 es8", 10)]),
+    "rigid": (("MAT_RIGID", "MAT_020"), [[("mid", 10, "i"), *columns("ro e pr n couple m alias", 10)],
+                                         columns("cmo con1 con2", 10), columns("lco a2 a3 v1 v2 v3", 10)]),
     "transversely_anisotropic": (("MAT_TRANSVERSELY_ANISOTROPIC_ELASTIC_PLASTIC", "MAT_037"),
-                                 [[("mid", 10, "i"), *_layout("ro e pr sigy etan r", 10), ("hlcid", 10, "i")]]),
+                                 [[("mid", 10, "i"), *columns("ro e pr sigy etan r", 10), ("hlcid", 10, "i")]]),
 }
 _MATERIAL_NAMES = {name: kind for kind, (names, _) in _MATERIALS.items() for name in names}
 _SHELL_OPTIONS = {"": (), "THICKNESS": ("thickness",), "BETA": ("thickness",), "MCID": ("thickness",),
                   "OFFSET": ("offset",), "THICKNESS_OFFSET": ("thickness", "offset"),
                   "BETA_OFFSET": ("thickness", "offset"), "MCID_OFFSET": ("thickness", "offset")}
-_SKIPPED_QUIETLY = ("KEYWORD", "COMMENT")
+_SKIPPED_QUIETLY = ("KEYWORD", "COMMENT", *PARAMETER_KEYWORDS)
 
 
 # ---------------------------------------------------------------- lines and fields
 @dataclass(frozen=True)
-class _Line:
+class Line:
     text: str
     file: Path
     number: int
 
 
 @dataclass
-class _Block:
+class Block:
     """A keyword and its data lines (comments dropped)."""
     name: str
-    line: _Line
+    line: Line
     cards: list
 
 
 _FORTRAN_EXPONENT = re.compile(r"^([+-]?(?:\d+\.?\d*|\.\d+))([+-]\d+)$")
 
 
-def _where(line: _Line, keyword: str) -> str:
+def location(line: Line, keyword: str) -> str:
     return f"{line.file}:{line.number}: *{keyword}"
 
 
@@ -216,7 +234,7 @@ def _slices(layout) -> list[tuple[str, int, int, str]]:
     return _SLICES[key]
 
 
-def _fields(line: _Line, layout, keyword: str) -> dict:
+def read_card(line: Line, layout, keyword: str) -> dict:
     """The fields of one card, free format when the line holds a comma, else fixed."""
     text = line.text
     free = "," in text
@@ -228,11 +246,11 @@ def _fields(line: _Line, layout, keyword: str) -> dict:
     out = {}
     for k, (name, a, b, kind) in enumerate(_slices(layout)):
         try:
-            out[name] = _number(raw[k], kind)
+            out[name] = _number(substitute(raw[k], line, keyword), kind)
         except (ValueError, OverflowError):
             expected = "an integer" if kind == "i" else "a number"
             at = f"field {k + 1}" if free else f"columns {a + 1}-{b}"
-            raise SceneError(f"{_where(line, keyword)}: {name.upper()} ({at}): expected {expected}, "
+            raise SceneError(f"{location(line, keyword)}: {name.upper()} ({at}): expected {expected}, "
                              f"got {raw[k]!r}") from None
     return out
 
@@ -244,16 +262,16 @@ def _read_lines(path: Path, shown: Path) -> list[str]:
         raise SceneError(f"{shown}: cannot read LS-DYNA deck: {exc.strerror or exc}") from None
 
 
-def _blocks(path: Path, main_dir: Path, depth: int = 0, seen: tuple = ()) -> tuple[list[_Block], str]:
+def _blocks(path: Path, main_dir: Path, depth: int = 0, seen: tuple = ()) -> tuple[list[Block], str]:
     """The keyword blocks of ``path`` and its includes, in reading order; and the title."""
-    blocks: list[_Block] = []
+    blocks: list[Block] = []
     title = ""
     current = None
     lines = _read_lines(path, path)
     i = 0
     while i < len(lines):
         text = lines[i]
-        line = _Line(text, path, i + 1)
+        line = Line(text, path, i + 1)
         i += 1
         if text.startswith("$"):
             continue
@@ -270,29 +288,29 @@ def _blocks(path: Path, main_dir: Path, depth: int = 0, seen: tuple = ()) -> tup
             if name == "END":
                 current = None
                 break
-            current = _Block(name.rstrip("+%"), line, [])
+            current = Block(name.rstrip("+%"), line, [])
             blocks.append(current)
             continue
         if current is not None:
             current.cards.append(line)
-    result: list[_Block] = []
+    result: list[Block] = []
     for block in blocks:
         if block.name == "TITLE":
             title = next((c.text.strip() for c in block.cards), title)
         elif block.name == "INCLUDE":
             names = [c for c in block.cards if c.text.strip()]
             if not names:
-                raise SceneError(f"{_where(block.line, 'INCLUDE')}: no file name on the next line")
+                raise SceneError(f"{location(block.line, 'INCLUDE')}: no file name on the next line")
             for card in names:
                 name = card.text.strip()
                 target = _include_path(name, path, main_dir, card)
                 if depth >= MAX_INCLUDE_DEPTH or target.resolve() in seen + (path.resolve(),):
-                    raise SceneError(f"{_where(card, 'INCLUDE')}: {name} includes itself (directly or "
+                    raise SceneError(f"{location(card, 'INCLUDE')}: {name} includes itself (directly or "
                                      "through other files)")
                 sub, sub_title = _blocks(target, main_dir, depth + 1, seen + (path.resolve(),))
                 text = _read_lines(target, target)
                 if not any(t.startswith("*") for t in text) and any(t.strip() and not t.startswith("$") for t in text):
-                    raise SceneError(f"{_where(card, 'INCLUDE')}: {name} is not an LS-DYNA keyword file (no line "
+                    raise SceneError(f"{location(card, 'INCLUDE')}: {name} is not an LS-DYNA keyword file (no line "
                                      "starts with a '*' keyword)")
                 result += sub
                 title = title or sub_title
@@ -301,7 +319,7 @@ def _blocks(path: Path, main_dir: Path, depth: int = 0, seen: tuple = ()) -> tup
     return result, title
 
 
-def _include_path(name: str, including: Path, main_dir: Path, line: _Line) -> Path:
+def _include_path(name: str, including: Path, main_dir: Path, line: Line) -> Path:
     """The file an *INCLUDE names: relative to the including file's folder, else the main
     deck's (each folder named once in the message when it is in neither)."""
     candidates = [Path(name)] if Path(name).is_absolute() else [including.parent / name, main_dir / name]
@@ -311,13 +329,13 @@ def _include_path(name: str, including: Path, main_dir: Path, line: _Line) -> Pa
             return c
     folder = next((c for c in candidates if c.is_dir()), None)
     if folder is not None:
-        raise SceneError(f"{_where(line, 'INCLUDE')}: {name} is a folder ({folder.resolve()}), not a file: "
+        raise SceneError(f"{location(line, 'INCLUDE')}: {name} is a folder ({folder.resolve()}), not a file: "
                          "name the deck file to include")
-    raise SceneError(f"{_where(line, 'INCLUDE')}: included file {name} not found (looked in "
+    raise SceneError(f"{location(line, 'INCLUDE')}: included file {name} not found (looked in "
                      f"{', '.join(str(c.parent) for c in candidates)})")
 
 
-def _cards(block: _Block) -> list[_Line]:
+def data_cards(block: Block) -> list[Line]:
     """The data lines of a block, trailing blank lines dropped."""
     cards = list(block.cards)
     while cards and not cards[-1].text.strip():
@@ -325,15 +343,15 @@ def _cards(block: _Block) -> list[_Line]:
     return cards
 
 
-def _groups(block: _Block, size: int) -> list[list[_Line]]:
+def card_groups(block: Block, size: int) -> list[list[Line]]:
     """Cards in groups of ``size`` (a keyword that repeats its cards); trailing blank lines
     are cards (all fields default) as far as a group needs them, else spacing."""
-    cards = _cards(block)
+    cards = data_cards(block)
     while len(cards) % size and len(cards) < len(block.cards):
         cards.append(block.cards[len(cards)])
     if len(cards) % size:
-        cards = _cards(block)
-        raise SceneError(f"{_where(cards[-1] if cards else block.line, block.name)}: incomplete card group "
+        cards = data_cards(block)
+        raise SceneError(f"{location(cards[-1] if cards else block.line, block.name)}: incomplete card group "
                          f"({len(cards) % size} of {size} cards after the last complete one)")
     return [cards[k:k + size] for k in range(0, len(cards), size)]
 
@@ -346,7 +364,7 @@ def _material_kind(name: str) -> str | None:
     if name in _MATERIAL_NAMES:
         return _MATERIAL_NAMES[name]
     m = re.fullmatch(r"MAT_0*(\d+)", name)
-    return {1: "elastic", 3: "plastic_kinematic", 24: "piecewise_linear",
+    return {1: "elastic", 3: "plastic_kinematic", 20: "rigid", 24: "piecewise_linear",
             37: "transversely_anisotropic"}.get(int(m.group(1))) if m else None
 
 
@@ -357,92 +375,96 @@ def read_deck(path: Path) -> tuple[np.ndarray, np.ndarray, dict, Deck, tuple[str
     warnings).  Raises SceneError (one line) for what cannot be read."""
     path = Path(path)
     blocks, title = _blocks(path, path.parent)
-    node_ids, coords, node_lines, constrained = [], [], [], 0
+    parameters = read_parameters(blocks)
+    with using(parameters):
+        return _read_blocks(path, blocks, title, parameters)
+
+
+def _read_blocks(path: Path, blocks: list, title: str, parameters: dict):
+    node_ids, coords, node_lines, codes = [], [], [], []
     shells, shell_lines, thick_rows = [], [], {}
     parts, sections, materials, curves, material_lines = {}, {}, {}, {}, {}
-    skipped: dict[str, int] = {}
+    keywords: list[Block] = []
     offsets = higher = 0
     for block in blocks:
         name = block.name
         base, titled = _split_title(name)
         if name == "NODE":
-            for card in _cards(block):
+            for card in data_cards(block):
                 if not card.text.strip():
                     continue
-                v = _fields(card, _NODE, name)
+                v = read_card(card, _NODE, name)
                 node_ids.append(v["nid"])
                 coords.append((v["x"], v["y"], v["z"]))
                 node_lines.append(card)
-                constrained += v["tc"] != 0 or v["rc"] != 0
+                codes.append((v["tc"], v["rc"]))
         elif name.startswith("ELEMENT_SHELL"):
             option = name[len("ELEMENT_SHELL"):].lstrip("_")
             if option not in _SHELL_OPTIONS:
-                raise SceneError(f"{_where(block.line, name)}: this option of *ELEMENT_SHELL is not read "
+                raise SceneError(f"{location(block.line, name)}: this option of *ELEMENT_SHELL is not read "
                                  f"(read: {', '.join('*ELEMENT_SHELL' + ('_' + o if o else '') for o in _SHELL_OPTIONS)})")
             extra = _SHELL_OPTIONS[option]
-            cards = [c for c in _cards(block) if c.text.strip() or extra]
-            for group in _groups(_Block(name, block.line, cards), 1 + len(extra)):
-                v = _fields(group[0], _SHELL, name)
+            cards = [c for c in data_cards(block) if c.text.strip() or extra]
+            for group in card_groups(Block(name, block.line, cards), 1 + len(extra)):
+                v = read_card(group[0], _SHELL, name)
                 shells.append((v["eid"], v["pid"], v["n1"], v["n2"], v["n3"], v["n4"]))
                 shell_lines.append(group[0])
                 higher += any(v[f"n{k}"] for k in range(5, 9))
                 for card, what in zip(group[1:], extra):
                     if what == "thickness":
-                        t = _fields(card, _SHELL_THICKNESS, name)
+                        t = read_card(card, _SHELL_THICKNESS, name)
                         row = [t[f"thic{k}"] for k in range(1, 5)]
                         if min(row) < 0.0:       # 0 (blank) is the section's thickness; < 0 is no thickness
                             k = int(np.argmin(row))
-                            raise SceneError(f"{_where(card, name)}: element {v['eid']}: THIC{k + 1} = {row[k]:g}: "
+                            raise SceneError(f"{location(card, name)}: element {v['eid']}: THIC{k + 1} = {row[k]:g}: "
                                              "expected a thickness > 0 (or 0/blank: the section's T1)")
                         if any(row):
                             thick_rows[len(shells) - 1] = [x if x > 0 else np.nan for x in row]
                     else:
-                        offsets += _fields(card, _SHELL_OFFSET, name)["offset"] != 0
+                        offsets += read_card(card, _SHELL_OFFSET, name)["offset"] != 0
         elif name in ("PART", "PART_CONTACT"):
-            for group in _groups(block, 2 if name == "PART" else 3):
+            for group in card_groups(block, 2 if name == "PART" else 3):
                 heading = group[0].text.strip()
-                v = _fields(group[1], _PART, name)
-                _unique(parts, v["pid"], DeckPart(v["pid"], heading, v["secid"], v["mid"]), group[1], name, "part")
+                v = read_card(group[1], _PART, name)
+                _unique(parts, v["pid"], DeckPart(v["pid"], heading, v["secid"], v["mid"], v["hgid"]), group[1], name, "part")
         elif base == "SECTION_SHELL":
             _read_sections(block, titled, sections)
         elif _material_kind(base) is not None:
             kind = _material_kind(base)
             layout = _MATERIALS[kind][1]
-            for group in _groups(block, len(layout) + titled):
+            for group in card_groups(block, len(layout) + titled):
                 heading = group[0].text.strip() if titled else ""
                 values = {}
                 for card, cl in zip(group[titled:], layout):
-                    values.update(_fields(card, cl, name))
+                    values.update(read_card(card, cl, name))
                 mid = values.pop("mid")
                 values = {k: float(x) for k, x in values.items()}
-                _unique(materials, mid, DeckMaterial(mid, kind, heading, values, where=_where(group[titled], name)),
+                _unique(materials, mid, DeckMaterial(mid, kind, heading, values, where=location(group[titled], name)),
                         group[titled], name, "material")
                 material_lines[mid] = (group[titled], name)
         elif base == "DEFINE_CURVE":
-            cards = _cards(block)
+            cards = data_cards(block)
             cards = cards[1:] if titled else cards
             if not cards:
-                raise SceneError(f"{_where(block.line, name)}: no curve card")
-            v = _fields(cards[0], _CURVE, name)
+                raise SceneError(f"{location(block.line, name)}: no curve card")
+            v = read_card(cards[0], _CURVE, name)
             sfa, sfo = v["sfa"] or 1.0, v["sfo"] or 1.0
-            pts = [_fields(c, _POINT, name) for c in cards[1:] if c.text.strip()]
+            pts = [read_card(c, _POINT, name) for c in cards[1:] if c.text.strip()]
             curve = tuple((sfa * (p["a"] + v["offa"]), sfo * (p["o"] + v["offo"])) for p in pts)
             _unique(curves, v["lcid"], curve, cards[0], name, "curve")
         elif name in _SKIPPED_QUIETLY:
             continue
         else:
-            skipped[name] = skipped.get(name, 0) + 1
+            keywords.append(block)
 
     warnings = []
-    if skipped:
-        listed = ", ".join(f"*{k} ({n})" for k, n in sorted(skipped.items()))
-        warnings.append(f"{path}: skipped keywords this reader does not read: {listed}")
     if not shells:
         raise SceneError(f"{path}: deck has no *ELEMENT_SHELL cards")
-    if constrained:
-        which = "1 node has" if constrained == 1 else f"{constrained} nodes have"
-        warnings.append(f"{path}: {which} TC/RC constraint codes in *NODE, which are not read "
-                        "(fix them with [[boundary]])")
+    constraints = np.array(codes, dtype=np.float64).reshape(-1, 2)
+    bad = np.nonzero(~np.isin(constraints, np.arange(8)).all(axis=1))[0]
+    if len(bad):
+        raise SceneError(f"{location(node_lines[bad[0]], 'NODE')}: TC, RC = {constraints[bad[0], 0]:g}, "
+                         f"{constraints[bad[0], 1]:g}: expected constraint codes 0..7")
     if offsets:
         warnings.append(f"{path}: the OFFSET of {offsets} *ELEMENT_SHELL_..._OFFSET elements is not read: "
                         "they lie on their nodes")
@@ -457,19 +479,19 @@ def read_deck(path: Path) -> tuple[np.ndarray, np.ndarray, dict, Deck, tuple[str
                                       (table[:, 1], shell_lines, "ELEMENT_SHELL", "PID")):
         bad = np.nonzero(ids <= 0)[0]
         if len(bad):
-            raise SceneError(f"{_where(lines[bad[0]], keyword)}: {what} must be > 0, got {ids[bad[0]]}")
+            raise SceneError(f"{location(lines[bad[0]], keyword)}: {what} must be > 0, got {ids[bad[0]]}")
     order = np.argsort(nids, kind="stable")
     dup = np.nonzero(nids[order][1:] == nids[order][:-1])[0]
     if len(dup):
         a, b = sorted((order[dup[0]], order[dup[0] + 1]))
-        raise SceneError(f"{_where(node_lines[b], 'NODE')}: node {nids[b]} is defined twice (also on "
+        raise SceneError(f"{location(node_lines[b], 'NODE')}: node {nids[b]} is defined twice (also on "
                          f"{node_lines[a].file}:{node_lines[a].number})")
     eids, pids, corners = table[:, 0], table[:, 1], table[:, 2:]
     eorder = np.argsort(eids, kind="stable")
     dup = np.nonzero(eids[eorder][1:] == eids[eorder][:-1])[0]
     if len(dup):
         a, b = sorted((eorder[dup[0]], eorder[dup[0] + 1]))
-        raise SceneError(f"{_where(shell_lines[b], 'ELEMENT_SHELL')}: element {eids[b]} is defined twice "
+        raise SceneError(f"{location(shell_lines[b], 'ELEMENT_SHELL')}: element {eids[b]} is defined twice "
                          f"(also on {shell_lines[a].file}:{shell_lines[a].number})")
     sorted_ids = nids[order]
     pos = np.minimum(np.searchsorted(sorted_ids, corners), len(sorted_ids) - 1)
@@ -479,7 +501,7 @@ def read_deck(path: Path) -> tuple[np.ndarray, np.ndarray, dict, Deck, tuple[str
         e = bad[0]
         nid = corners[e][~found[e]][0]
         more = f" ({len(bad)} elements reference undefined nodes)" if len(bad) > 1 else ""
-        raise SceneError(f"{_where(shell_lines[e], 'ELEMENT_SHELL')}: element {eids[e]} references node {nid}, "
+        raise SceneError(f"{location(shell_lines[e], 'ELEMENT_SHELL')}: element {eids[e]} references node {nid}, "
                          f"which no *NODE defines{more}")
     elements = order[pos].astype(np.int64)
     # n3 = n4: a triangle
@@ -510,7 +532,7 @@ def read_deck(path: Path) -> tuple[np.ndarray, np.ndarray, dict, Deck, tuple[str
             if hlcid in curves:
                 materials[mid] = _replace_curve(mat, curves[hlcid])
             else:
-                warnings.append(f"{_where(*material_lines[mid])}: material {mid}: HLCID {hlcid} is not a "
+                warnings.append(f"{location(*material_lines[mid])}: material {mid}: HLCID {hlcid} is not a "
                                 "*DEFINE_CURVE of this deck: no stress-strain curve")
         if mat.kind != "piecewise_linear":
             continue
@@ -519,7 +541,7 @@ def read_deck(path: Path) -> tuple[np.ndarray, np.ndarray, dict, Deck, tuple[str
             if lcss in curves:
                 materials[mid] = _replace_curve(mat, curves[lcss])
             else:
-                warnings.append(f"{_where(*material_lines[mid])}: material {mid}: LCSS {lcss} is not a "
+                warnings.append(f"{location(*material_lines[mid])}: material {mid}: LCSS {lcss} is not a "
                                 "*DEFINE_CURVE of this deck (a *DEFINE_TABLE is not read): no stress-strain curve")
         else:
             pts = [(mat.values[f"eps{k}"], mat.values[f"es{k}"]) for k in range(1, 9)]
@@ -542,14 +564,16 @@ def read_deck(path: Path) -> tuple[np.ndarray, np.ndarray, dict, Deck, tuple[str
                             "*SECTION_SHELL of this deck")
         if part.mid not in materials:
             problems.append(f"{path}: part {pid} ({part.title or 'no heading'}): material {part.mid} is not one "
-                            "this reader reads (*MAT_001, *MAT_003, *MAT_024, *MAT_037)")
+                            "this reader reads (*MAT_001, *MAT_003, *MAT_020, *MAT_024, *MAT_037)")
     if len(problems) > 10:
         problems = problems[:10] + [f"{path}: ... and {len(problems) - 10} more"]
     warnings += problems
 
     deck = Deck(parts=parts, sections=sections, materials=materials, curves=curves,
                 element_ids=eids.copy(), node_ids=nids.copy(), element_parts=pids.copy(),
-                element_thickness=thickness, title=title)
+                element_thickness=thickness, title=title, keywords=tuple(keywords), parameters=parameters,
+                used_nodes=np.isin(np.arange(len(nids)), elements[elements >= 0]),
+                node_constraints=constraints.astype(np.int64))
     return points, elements, sets, deck, tuple(warnings)
 
 
@@ -558,15 +582,15 @@ def _replace_curve(mat: DeckMaterial, curve) -> DeckMaterial:
                         where=mat.where)
 
 
-def _unique(table: dict, key: int, value, line: _Line, keyword: str, what: str) -> None:
+def _unique(table: dict, key: int, value, line: Line, keyword: str, what: str) -> None:
     if key in table:
-        raise SceneError(f"{_where(line, keyword)}: {what} {key} is defined twice")
+        raise SceneError(f"{location(line, keyword)}: {what} {key} is defined twice")
     table[key] = value
 
 
-def _read_sections(block: _Block, titled: bool, sections: dict) -> None:
+def _read_sections(block: Block, titled: bool, sections: dict) -> None:
     """Every section of one *SECTION_SHELL keyword (title, 2 cards, angle cards if ICOMP = 1)."""
-    cards = _cards(block)
+    cards = data_cards(block)
     k = 0
     name = block.name
     while k < len(cards):
@@ -575,25 +599,25 @@ def _read_sections(block: _Block, titled: bool, sections: dict) -> None:
             heading = cards[k].text.strip()
             k += 1
         if k + 2 > len(cards):
-            raise SceneError(f"{_where(cards[-1], name)}: incomplete section (2 cards expected after "
+            raise SceneError(f"{location(cards[-1], name)}: incomplete section (2 cards expected after "
                              f"{'the title' if titled else 'the keyword'})")
-        one, two = _fields(cards[k], _SECTION_1, name), _fields(cards[k + 1], _SECTION_2, name)
+        one, two = read_card(cards[k], _SECTION_1, name), read_card(cards[k + 1], _SECTION_2, name)
         line = cards[k]
         k += 2
         elform = one["elform"] or 2
         if 101 <= elform <= 105:
-            raise SceneError(f"{_where(line, name)}: section {one['secid']}: user-defined element ELFORM "
+            raise SceneError(f"{location(line, name)}: section {one['secid']}: user-defined element ELFORM "
                              f"{elform} is not read")
         nip = int(one["nip"]) or 2
         if one["icomp"] == 1:
             k += math.ceil(nip / 8)             # material angles B1..B8 per card: not read
             if k > len(cards):
-                raise SceneError(f"{_where(cards[-1], name)}: section {one['secid']}: ICOMP = 1 needs "
+                raise SceneError(f"{location(cards[-1], name)}: section {one['secid']}: ICOMP = 1 needs "
                                  f"{math.ceil(nip / 8)} card(s) of angles")
         t1 = two["t1"]
         ts = (t1, *(t if t > 0 else t1 for t in (two["t2"], two["t3"], two["t4"])))
         values = {k: float(x) for k, x in {**one, **two}.items() if k != "secid"}
         _unique(sections, one["secid"], DeckSection(
             secid=one["secid"], elform=elform, shear_factor=one["shrf"] or 1.0, nip=nip, thickness=t1,
-            thicknesses=ts, quadrature=int(one["qr"]), title=heading, values=values, where=_where(line, name)),
+            thicknesses=ts, quadrature=int(one["qr"]), title=heading, values=values, where=location(line, name)),
         line, name, "section")
