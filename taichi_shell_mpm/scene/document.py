@@ -128,6 +128,7 @@ def load_scene(path: str | Path, overrides: Sequence[str] = (), accept_unread: b
         raise SceneError([f"{path.name}: {m}" for m in exc.messages]) from None
     if deck is None:
         return parse_scene(raw, path)
+    check_deck_mesh(raw, deck, path.name)
     problems = deck.problems(accept_unread)
     try:
         scene = parse_scene(raw, path)
@@ -159,16 +160,6 @@ def merge_deck(raw: dict, deck, file_name: str) -> dict:
     [nodesets.NAME] and [curves.NAME], merged by name), and an array of tables ([[boundary]])
     holds the TOML's entries, then the deck's; `deck.origins` follows the deck's entries."""
     merged = copy.deepcopy(deck.raw)
-    mesh = raw.get("mesh", {})
-    keyworded = set(merged) - {"scene", "mesh"}
-    if isinstance(mesh, dict) and keyworded:
-        if mesh.get("merge_nodes") is True:
-            raise SceneError(f"{file_name}: [mesh].merge_nodes: the deck's keywords name its nodes by id "
-                             f"({', '.join(sorted(keyworded))}): merging nodes would renumber them")
-        scale = mesh.get("scale", 1.0)
-        if scale != 1.0:
-            raise SceneError(f"{file_name}: [mesh].scale = {scale!r}: the deck's keywords give lengths and velocities "
-                             f"in its own units ({', '.join(sorted(keyworded))}): scale the deck itself")
     merged.pop("mesh", None)
     for name, value in raw.items():
         have = merged.get(name)
@@ -182,6 +173,22 @@ def merge_deck(raw: dict, deck, file_name: str) -> dict:
         else:
             merged[name] = value
     return merged
+
+
+def check_deck_mesh(raw: dict, deck, file_name: str) -> None:
+    """A deck's keywords name its nodes by id and give lengths in its units: its mesh may be
+    neither merged nor scaled (after --set)."""
+    mesh = raw.get("mesh", {})
+    keyworded = sorted(set(deck.raw) - {"scene", "mesh"})
+    if not isinstance(mesh, dict) or not keyworded:
+        return
+    if mesh.get("merge_nodes") is True:
+        raise SceneError(f"{file_name}: [mesh].merge_nodes: the deck's keywords name its nodes by id "
+                         f"({', '.join(keyworded)}): merging nodes would renumber them")
+    scale = mesh.get("scale", 1.0)
+    if scale != 1.0:
+        raise SceneError(f"{file_name}: [mesh].scale = {scale!r}: the deck's keywords give lengths and velocities "
+                         f"in its own units ({', '.join(keyworded)}): scale the deck itself")
 
 
 def _from_deck(message: str, file_name: str, origins: dict) -> str:
