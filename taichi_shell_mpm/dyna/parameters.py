@@ -22,7 +22,7 @@ import operator
 from contextlib import contextmanager
 from contextvars import ContextVar
 
-from ..scene import SceneError
+from ..problems import SceneError
 
 PARAMETER_KEYWORDS = ("PARAMETER", "PARAMETER_LOCAL", "PARAMETER_EXPRESSION", "PARAMETER_EXPRESSION_LOCAL")
 """The keywords read here (their blocks are not kept for the scene reader)."""

@@ -38,8 +38,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..scene import DECK_SUFFIXES as DYNA_SUFFIXES  # noqa: F401 (re-exported: file endings read as decks, any case)
-from ..scene import SceneError
+DYNA_SUFFIXES = (".k", ".key", ".dyn", ".kw")
+"""File endings read as LS-DYNA keyword decks (any case)."""
+from ..problems import SceneError
 from .parameters import PARAMETER_KEYWORDS, read_parameters, substitute, using
 
 MAX_INCLUDE_DEPTH = 20

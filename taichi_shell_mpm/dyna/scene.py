@@ -49,7 +49,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..scene import SceneError
+from ..problems import SceneError
 from .reader import Block, Deck, Line, columns, data_cards, location, read_card, read_deck
 from .parameters import using
 

@@ -1,5 +1,5 @@
 """An LS-DYNA deck's materials and sections as scene materials and sections, each value
-checked as strictly as the same scene key (numpy; the deck itself is read by dyna.py)."""
+checked as strictly as the same scene key (numpy; the deck itself is read by dyna/reader.py)."""
 from __future__ import annotations
 
 import numpy as np

@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from ..keys import Invalid, hint, key_path, one_line, show
+from ..problems import SceneError
 from .boundary import Boundary, read_boundary
 from .contact import Contact, check_penalty_damping
 from .crush import Crush, read_crush
@@ -35,17 +36,6 @@ from .section import Section
 from .solve import Solve, read_solve
 from .tool import Tool, read_tool
 from .wall import Wall, read_wall
-
-
-class SceneError(Exception):
-    """A user mistake in a scene file or a mesh (one line per problem)."""
-
-    def __init__(self, messages: list[str] | str, mesh: "MeshSpec | None" = None):
-        self.messages = [messages] if isinstance(messages, str) else list(messages)
-        self.mesh = mesh
-        """The scene's valid [mesh] table when other tables had problems (so that the mesh can
-        be checked as well and every problem reported at once), else None."""
-        super().__init__("\n".join(self.messages))
 
 
 @dataclass(frozen=True)

@@ -24,6 +24,7 @@ from ..keys import (
     show,
     vec3,
 )
+from ..dyna.reader import DYNA_SUFFIXES as DECK_SUFFIXES  # noqa: F401 (the file endings read as decks)
 from .reader import Reader
 
 MAX_GENERATED_ELEMENTS = 10_000_000     # a generated mesh larger than this is a typo, not a model
@@ -147,7 +148,6 @@ class FileMesh:
 MeshSpec = Union[PlateMesh, HemisphereMesh, TubeMesh, FileMesh]
 
 
-DECK_SUFFIXES = (".k", ".key", ".dyn", ".kw")      # file endings read as LS-DYNA keyword decks (dyna.py)
 
 
 MESHES = {"plate": PlateMesh, "hemisphere": HemisphereMesh, "tube": TubeMesh, "file": FileMesh}
