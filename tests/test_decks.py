@@ -391,3 +391,20 @@ def test_a_deck_restarts_bit_for_bit(tmp_path, monkeypatch):
     stopped, periodic = restart_roundtrip(tmp_path, monkeypatch, [str(deck), "--set", "method.kind=fem"],
                                           stop_step=70, every=40, batch_element_steps=180)
     assert stopped["event"] > 0
+
+
+def test_a_deck_in_a_sweep(tmp_path):
+    """`sweep model.k` checks each case's scene from the deck (and --accept-unread passes on
+    to the cases' runs); --list plans without a cluster."""
+    from taichi_shell_mpm.sweep.task import run_case
+    from taichi_shell_mpm.cli import main
+    deck = write(tmp_path, "full.k", mesh_deck() + KEYWORDS.replace("*END\n", "*CONTROL_DYNAMIC_RELAXATION\n0\n*END\n"))
+    args = ("sweep", str(deck), "--param", "solve.dt_safety=0.5,0.7", "--set", "method.kind=fem", "--list")
+    r = cli_run(*args)
+    assert r.code == 2 and "*CONTROL_DYNAMIC_RELAXATION: not read" in r.err, r.err
+    r = cli_run(*args, "--accept-unread")
+    assert r.code == 0, r.err
+    assert len(r.out.strip().splitlines()) == 2
+    case = run_case(main, str(deck), ("method.kind=fem", "solve.end_time=2e-5"), str(tmp_path / "case"),
+                    flags=("--accept-unread",))
+    assert case["exit_code"] == 0 and case["summary"]["steps"] > 5, case

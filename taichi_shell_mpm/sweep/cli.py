@@ -25,7 +25,7 @@ EXIT_SCENE, EXIT_FAILED = 2, 3      # interrupted: 128 + the signal (run_control
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("scene", type=Path, help="scene file (TOML, docs/scenes.md)")
+    p.add_argument("scene", type=Path, help="scene file (TOML, docs/scenes.md; or an LS-DYNA deck, docs/decks.md)")
     p.add_argument("--param", action="append", default=[], metavar="KEY=V1,V2,...",
                    help="a scene key (as --set addresses it) and its values; several --param make a "
                         "cartesian product, e.g. --param section.thickness=0.8,1.0,1.2")
@@ -50,6 +50,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="skip the cases that already have an ok row in OUT/sweep.csv")
     p.add_argument("--list", action="store_true", help="list the cases and exit")
     p.add_argument("--arch", choices=["cpu", "cuda", "vulkan"], default="cpu")
+    p.add_argument("--accept-unread", action="store_true",
+                   help="an LS-DYNA deck: run its cases although some keywords that change the physics are not read")
 
 
 def command_line(args: argparse.Namespace) -> str:
@@ -68,6 +70,8 @@ def command_line(args: argparse.Namespace) -> str:
             words += ["--" + flag, str(getattr(args, flag))]
     if args.arch != "cpu":
         words += ["--arch", args.arch]
+    if args.accept_unread:
+        words += ["--accept-unread"]
     return shlex.join(words)
 
 
@@ -78,11 +82,11 @@ def _fail(code: int, lines) -> int:
     return code
 
 
-def _check(scene_file: Path, overrides: list[str]):
+def _check(scene_file: Path, overrides: list[str], accept_unread: bool = False):
     """The scene with `overrides`, or the SceneError's lines."""
     from ..scene import SceneError, load_scene
     try:
-        return load_scene(scene_file, overrides), None
+        return load_scene(scene_file, overrides, accept_unread), None
     except SceneError as exc:
         return None, exc.messages
 
@@ -126,7 +130,7 @@ def main(args: argparse.Namespace, run) -> int:
         return _fail(EXIT_SCENE, exc.messages)
     except ValueError as exc:
         return _fail(EXIT_SCENE, [str(exc)])
-    scene, problems = _check(args.scene, args.overrides)
+    scene, problems = _check(args.scene, args.overrides, args.accept_unread)
     if problems:
         return _fail(EXIT_SCENE, problems)
     metrics = metrics or default_metrics(scene)
@@ -152,7 +156,7 @@ def main(args: argparse.Namespace, run) -> int:
     for case in cases:
         if case.name in study.table:
             continue
-        _, lines = _check(args.scene, [*args.overrides, *case.overrides])
+        _, lines = _check(args.scene, [*args.overrides, *case.overrides], args.accept_unread)
         if lines:
             failed_before.append((case, lines))
         else:
@@ -204,7 +208,8 @@ def _execute(study: _Study, todo, metrics: list[str], args: argparse.Namespace, 
             study.where = ex.describe()
             print(f"sweep: {study.where}", flush=True)
             ex.run([Task(c.name, run_case, (run, scene_file, (*args.overrides, *c.overrides),
-                                            str((study.out / "cases" / c.name).resolve()), args.arch, ex.case_threads))
+                                            str((study.out / "cases" / c.name).resolve()), args.arch, ex.case_threads,
+                                            ("--accept-unread",) if args.accept_unread else ()))
                     for c in todo], on_done)
     except KeyboardInterrupt as exc:      # Ctrl-C, SIGTERM, SIGHUP: the cluster is closed, its cases stop
         study.record(final=True)

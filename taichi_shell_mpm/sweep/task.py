@@ -60,15 +60,17 @@ def last_error(log: Path) -> str:
 
 
 def run_case(run, scene: str, overrides: tuple[str, ...], out_dir: str, arch: str = "cpu",
-             threads: int | None = None) -> dict:
-    """Run one case; returns exit_code, message (the error, else ""), wall_s, the run's
-    summary (None without summary.json), the worker (host:pid) and the log's path."""
+             threads: int | None = None, flags: tuple[str, ...] = ()) -> dict:
+    """Run one case (`flags`: more options of ``run``, e.g. --accept-unread); returns exit_code,
+    message (the error, else ""), wall_s, the run's summary (None without summary.json), the
+    worker (host:pid) and the log's path."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     log = out / "run.log"
     argv = ["run", scene, "--quiet", "--overwrite", "--out", str(out)]
     if arch != "cpu":
         argv += ["--arch", arch]
+    argv += list(flags)
     for o in overrides:
         argv += ["--set", o]
     if threads is not None:
