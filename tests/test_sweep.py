@@ -39,8 +39,11 @@ CASES = ["nx=4__hourglass=0.05", "nx=4__hourglass=0.1", "nx=8__hourglass=0.05", 
 
 
 def env() -> dict:
-    """The environment of a child process: this checkout's package first."""
-    return dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(CHECKOUT), os.environ.get("PYTHONPATH")])))
+    """The environment of a child process: this checkout's package first, no Taichi banner (the
+    tests read the sweep's first lines; a run with --quiet in this process turned it off for the
+    children, so whether it showed depended on the order of the tests)."""
+    return dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(CHECKOUT), os.environ.get("PYTHONPATH")])),
+                ENABLE_TAICHI_HEADER_PRINT="false")
 
 
 def sweep(*args: str, cwd: Path, timeout: float = 900) -> subprocess.CompletedProcess:
