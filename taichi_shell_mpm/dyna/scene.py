@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -161,16 +162,11 @@ LISTED_WHY = {
 
 # ---------------------------------------------------------------- the translator
 class _Translator:
-    def __init__(self, path: Path, deck: Deck):
+    def __init__(self, path: Path, deck: Deck, elements: np.ndarray):
         self.path = path
         self.deck = deck
+        self.elements = elements
         self.doc = DeckDocument(raw={})
-        ids = deck.node_ids
-        used = deck.used_nodes if deck.used_nodes is not None else np.ones(len(ids), dtype=bool)
-        position = np.cumsum(used) - 1
-        self.node_index = {int(n): int(p) for n, p, u in zip(ids, position, used) if u}
-        self.unused_nodes = {int(n) for n, u in zip(ids, used) if not u}
-        self.element_index = {int(e): k for k, e in enumerate(deck.element_ids)}
         self.node_sets: dict[int, tuple[list[int], str]] = {}
         self.shell_sets: dict[int, tuple[list[int], str]] = {}
         self.part_sets: dict[int, tuple[list[int], str]] = {}
@@ -180,6 +176,32 @@ class _Translator:
         self.windows: list[tuple] = []
         """(where, BIRTH, DEATH) of each prescribed motion, checked against the end time."""
         self.npltc = None
+
+    # -- ids -> mesh positions (built when a keyword first needs them: a deck of mesh cards only
+    #    parses in the time of its reading)
+    @cached_property
+    def position(self) -> np.ndarray:
+        """(n,) mesh position of each node read (-1: no shell uses it, the mesh drops it)."""
+        deck = self.deck
+        used = deck.used_nodes if deck.used_nodes is not None else np.ones(len(deck.node_ids), dtype=bool)
+        return np.where(used, np.cumsum(used) - 1, -1)
+
+    @cached_property
+    def node_index(self) -> dict[int, int]:
+        return {int(n): int(p) for n, p in zip(self.deck.node_ids, self.position) if p >= 0}
+
+    @cached_property
+    def unused_nodes(self) -> set[int]:
+        return {int(n) for n, p in zip(self.deck.node_ids, self.position) if p < 0}
+
+    @cached_property
+    def element_index(self) -> dict[int, int]:
+        return {int(e): k for k, e in enumerate(self.deck.element_ids)}
+
+    @cached_property
+    def corners(self) -> np.ndarray:
+        """(m, 4) mesh positions of each shell's corners (-1: a triangle's fourth)."""
+        return np.where(self.elements >= 0, self.position[np.maximum(self.elements, 0)], -1)
 
     # -- helpers
     def origin(self, key: str, where: str) -> None:
@@ -281,7 +303,6 @@ class _Translator:
     # -- the deck
     def run(self) -> DeckDocument:
         deck, doc = self.deck, self.doc
-        self.corners = self._corners()
         blocks = list(deck.keywords)
         # sets first: cards anywhere in the deck may name them
         rest = []
@@ -308,14 +329,6 @@ class _Translator:
             self.append("rigid_body", body, where)
         self.finish()
         return doc
-
-    def _corners(self) -> np.ndarray:
-        """(m, 4) mesh positions of each shell's corners (-1: a triangle's fourth)."""
-        deck = self.deck
-        used = deck.used_nodes if deck.used_nodes is not None else np.ones(len(deck.node_ids), dtype=bool)
-        position = np.where(used, np.cumsum(used) - 1, -1)
-        elements = self._elements
-        return np.where(elements >= 0, position[np.maximum(elements, 0)], -1)
 
     def _handler(self, name: str):
         base = name
@@ -518,7 +531,7 @@ class _Translator:
         if codes is None or not codes.any():
             return
         where = f"{self.path}: *NODE"
-        positions = np.array([self.node_index.get(int(n), -1) for n in self.deck.node_ids])
+        positions = self.position
         for tc, rc in sorted({(int(a), int(b)) for a, b in codes if a or b}):
             rows = (codes[:, 0] == tc) & (codes[:, 1] == rc) & (positions >= 0)
             if not rows.any():
@@ -1022,8 +1035,7 @@ def deck_document(path: Path) -> DeckDocument:
     that cannot be read or names what the deck does not define."""
     path = Path(path)
     points, elements, sets, deck, warnings = read_deck(path)
-    translator = _Translator(path, deck)
-    translator._elements = elements
+    translator = _Translator(path, deck, elements)
     with using(deck.parameters):
         doc = translator.run()
     return doc
