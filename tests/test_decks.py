@@ -408,3 +408,24 @@ def test_a_deck_in_a_sweep(tmp_path):
     case = run_case(main, str(deck), ("method.kind=fem", "solve.end_time=2e-5"), str(tmp_path / "case"),
                     flags=("--accept-unread",))
     assert case["exit_code"] == 0 and case["summary"]["steps"] > 5, case
+
+
+def test_rigid_part_extra_nodes_and_part_hourglass(tmp_path):
+    """*CONSTRAINED_EXTRA_NODES joins nodes to a *MAT_RIGID part's body; a part's HGID takes
+    its *HOURGLASS QM (a rigid part's does not count), and deformable parts that disagree are
+    listed as physics not read (one coefficient per scene)."""
+    text = mesh_deck().replace("*PART\nplate\n1,1,1\n", "*PART\nplate\n1,1,1,0,3\n")
+    deck = write(tmp_path, "extra.k", text + "*HOURGLASS\n3,4,0.07\n*CONSTRAINED_EXTRA_NODES_NODE\n2,115\n"
+                                             "*CONTROL_HOURGLASS\n1,0.1\n*CONTROL_TERMINATION\n1.0e-4\n*END\n")
+    scene = load_scene(deck)
+    body = scene.rigid_bodies[0]
+    assert (body.name, body.fixed) == ("part_2", ("ux", "uy", "rx", "ry", "rz"))
+    assert scene.nodeset(body.nodes).ids == (14, 15, 16, 17, 18)
+    assert scene.element.hourglass == 0.07
+    assert not any("hourglass" in n for n in scene.notes), scene.notes
+    text = mesh_deck(rigid=False).replace("*PART\nplate\n1,1,1\n", "*PART\nplate\n1,1,1,0,3\n")
+    differ = write(tmp_path, "differ.k", text + "*CONTROL_HOURGLASS\n1,0.1\n*HOURGLASS\n3,4,0.07\n"
+                                                "*CONTROL_TERMINATION\n1.0e-4\n*END\n")
+    with pytest.raises(SceneError) as e:
+        load_scene(differ)
+    assert "hourglass coefficients differ between parts (0.07, 0.1): one per scene, 0.07" in e.value.messages[0]

@@ -993,7 +993,7 @@ class _Translator:
         deck = self.deck
         default = getattr(self, "hourglass_default", None)
         cards = getattr(self, "hourglass_cards", {})
-        used_parts = [int(p) for p in np.unique(deck.element_parts)]
+        used_parts = [int(p) for p in np.unique(deck.element_parts) if int(p) not in self.rigid_parts]
         values = {}
         for pid in used_parts:
             part = deck.parts.get(pid)
