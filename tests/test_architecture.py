@@ -162,8 +162,9 @@ def test_the_graph_sees_function_level_imports():
     graph = import_graph()
     assert f"{PACKAGE}.cli" in graph and f"{PACKAGE}.simulation" in graph
     assert f"{PACKAGE}.bench" in graph[f"{PACKAGE}.cli"]             # `from .bench import ...` in _parser()
-    assert f"{PACKAGE}.solvers.static" in graph[f"{PACKAGE}.cli"]    # inside _run()
-    assert f"{PACKAGE}.solvers" in graph[f"{PACKAGE}.cli"]           # the package above it runs first
+    assert f"{PACKAGE}.api" in graph[f"{PACKAGE}.cli"]               # inside _run()
+    assert f"{PACKAGE}.solvers.static" in graph[f"{PACKAGE}.api"]    # inside _execute()
+    assert f"{PACKAGE}.solvers" in graph[f"{PACKAGE}.api"]           # the package above it runs first
     assert f"{PACKAGE}.bench.cases" in graph[f"{PACKAGE}.bench"]     # __init__ re-exports its submodules ...
     assert f"{PACKAGE}.bench" not in graph[f"{PACKAGE}.bench.report"]  # ... which import one another,
     assert f"{PACKAGE}.bench.cases" in graph[f"{PACKAGE}.bench.report"]  # not it
