@@ -1,4 +1,5 @@
-"""Shared helpers: scene texts, scenes and simulations built in-process, the element harness."""
+"""Shared helpers: scene texts, scenes and simulations built in-process, runs through the
+Python API (:func:`run_scene`), the element harness."""
 from __future__ import annotations
 
 import os
@@ -32,6 +33,30 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "repeatable"))
 # half-written cached kernel of the other, at the price of compiling a feature set both meet twice.
 if os.environ.get("PYTEST_XDIST_WORKER"):
     os.environ["TAICHI_SHELL_MPM_CACHE"] = str(kernel_cache_base() / os.environ["PYTEST_XDIST_WORKER"])
+
+def run_scene(scene, out, *overrides: str):
+    """`run SCENE --out OUT --set ...` in this process through the Python API (api.run): for
+    tests whose subject is the physics, not the command line (no interpreter start, no
+    import per run; the CLI's own behaviour is tested through it elsewhere).  Returns
+    `returncode` (the CLI's exit code), `stderr` (its error lines) and `summary` (or None)."""
+    import json
+    from types import SimpleNamespace
+
+    from taichi_shell_mpm.api import RunFailed, RunInterrupted, run
+    from taichi_shell_mpm.checkpoint import CheckpointError
+    from taichi_shell_mpm.scene import SceneError
+    code, lines = 0, []
+    try:
+        run(load_scene(Path(scene), list(overrides)), out=out, progress=False)
+    except (SceneError, CheckpointError) as exc:
+        code, lines = 2, exc.messages
+    except (RunFailed, RunInterrupted) as exc:
+        code, lines = exc.code, exc.messages
+    summary_file = Path(out) / "summary.json"
+    summary = json.loads(summary_file.read_text()) if summary_file.is_file() else None
+    return SimpleNamespace(returncode=code, stderr="".join(f"error: {' '.join(str(m).split())}\n" for m in lines),
+                           stdout="", summary=summary)
+
 
 PLATE = """
 [scene]

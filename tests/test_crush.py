@@ -7,13 +7,11 @@ with contact is bit-for-bit."""
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 
-from .conftest import ROOT, plate_scene, simulation
+from .conftest import ROOT, plate_scene, run_scene, simulation
 
 SHORT = ["mesh.length=80", "mesh.n_length=16", "nodesets.rear.plane.point=[0,0,80]", "wall.1.point=[0,0,80]",
          "method.grid_max=[50,50,90]", "solve.end_time=2.5", "output.times=[1.0,2.0]",
@@ -29,13 +27,9 @@ REDUCED_HALF_WAVELENGTH = 12.5    # mm (the fold counter reads extrema on 5 mm e
 
 
 def test_reduced_crush(tmp_path):
-    args = [sys.executable, "-m", "taichi_shell_mpm", "run", str(ROOT / "scenes" / "square_tube.toml"),
-            "--out", str(tmp_path), "--quiet"]
-    for item in SHORT:
-        args += ["--set", item]
-    proc = subprocess.run(args, capture_output=True, text=True, timeout=900)
+    proc = run_scene(ROOT / "scenes" / "square_tube.toml", tmp_path, *SHORT)   # in this process, the Python API
     assert proc.returncode == 0, proc.stderr[-2000:]
-    summary = json.loads((tmp_path / "summary.json").read_text())
+    summary = proc.summary
     c = summary["crush"]
     print(f"\ncrush {c['crush_distance']:.1f} mm, peak {c['peak_support_force']:.1f} kN, mean "
           f"{c['mean_crush_force']:.3f} kN over {c['mean_force_window']}, lobes {c['lobes']}, H {c['half_wavelength']}, "

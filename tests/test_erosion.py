@@ -14,8 +14,6 @@ from __future__ import annotations
 
 import json
 import math
-import subprocess
-import sys
 
 import meshio
 import numpy as np
@@ -24,7 +22,7 @@ import taichi as ti
 
 from taichi_shell_mpm.scene import load_scene
 
-from .conftest import simulation, write_scene
+from .conftest import run_scene, simulation, write_scene
 
 STRIP = """
 [scene]
@@ -126,10 +124,8 @@ def strip_scene(tmp_path, **values):
 
 
 def run_cli(scene, out, *sets):
-    args = [sys.executable, "-m", "taichi_shell_mpm", "run", str(scene), "--out", str(out), "--quiet"]
-    for item in sets:
-        args += ["--set", item]
-    return subprocess.run(args, capture_output=True, text=True, timeout=900)
+    """The run, in this process through the Python API (conftest.run_scene)."""
+    return run_scene(scene, out, *sets)
 
 
 def table(path):

@@ -12,6 +12,8 @@ from taichi_shell_mpm.scene import Material
 from taichi_shell_mpm.runtime import init_taichi
 from taichi_shell_mpm.stages.material import MODELS
 
+from .conftest import run_scene
+
 E, NU, SY0, H = 2.1e5, 0.3, 180.0, 1500.0
 R = {"r0": 2.1, "r45": 1.6, "r90": 2.7}               # a deep-drawing steel's Lankford coefficients
 C = E / (1 - NU ** 2) * np.array([[1, NU, 0], [NU, 1, 0], [0, 0, (1 - NU) / 2]])
@@ -216,18 +218,12 @@ times = [0.02]
 
 
 def run_cli(tmp_path, name, text=SHEET, overrides=()):
-    import json
-    import subprocess
-    import sys
     scene = tmp_path / f"{name}.toml"
     scene.write_text(text)
     out = tmp_path / name
-    cmd = [sys.executable, "-m", "taichi_shell_mpm", "run", str(scene), "--out", str(out), "--quiet"]
-    for item in overrides:
-        cmd += ["--set", item]
-    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=900)
+    proc = run_scene(scene, out, *overrides)     # in this process, through the Python API
     assert proc.returncode == 0, proc.stderr[-3000:]
-    return json.loads((out / "summary.json").read_text())["energies"]
+    return proc.summary["energies"]
 
 
 def test_cli_sheet_isotropic_hill_is_j2_and_anisotropy_changes_the_flow(tmp_path):

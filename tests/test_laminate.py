@@ -17,7 +17,7 @@ from taichi_shell_mpm.mesh import build_mesh
 from taichi_shell_mpm.model.assembly import assemble
 from taichi_shell_mpm.scene import load_scene
 
-from .conftest import element_stage, simulation, unwarmed_simulation, write_scene
+from .conftest import element_stage, run_scene, simulation, unwarmed_simulation, write_scene
 
 # ply materials (mm-N-s-t: MPa, t/mm^3)
 CFRP = dict(E1=135e3, E2=10e3, G12=5e3, G13=5e3, G23=3.5e3, nu12=0.3, density=1.6e-9)
@@ -364,8 +364,7 @@ def test_laminated_strip_tip_deflection(tmp_path, method):
                         reference="[1.0, 0.0, 0.0]")
     path = write_scene(tmp_path, text)
     out = tmp_path / "out"
-    proc = subprocess.run([sys.executable, "-m", "taichi_shell_mpm", "run", str(path), "--out", str(out), "--quiet"],
-                          capture_output=True, text=True, timeout=900)
+    proc = run_scene(path, out)                   # in this process, through the Python API
     assert proc.returncode == 0, proc.stderr[-2000:]
     rows = (out / "probes.csv").read_text().splitlines()
     tip = float(rows[-1].split(",")[1])

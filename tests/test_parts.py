@@ -3,9 +3,6 @@ from a Gmsh file's physical groups and from an LS-DYNA deck's *PART cards; per-p
 Accuracy against closed forms, through the CLI."""
 from __future__ import annotations
 
-import json
-import subprocess
-import sys
 from pathlib import Path
 
 import meshio
@@ -15,6 +12,7 @@ import pytest
 from taichi_shell_mpm.mesh import build_mesh
 from taichi_shell_mpm.scene import PlateMesh
 
+from .conftest import run_scene
 from .test_reliability import assert_clean_output, cli_run
 
 # --------------------------------------------------------------------------- stepped cantilever
@@ -157,10 +155,11 @@ def stepped_scene(tmp_path: Path, source: str, method: str) -> Path:
 
 
 def run(scene: Path, out: Path, *extra: str) -> dict:
-    proc = subprocess.run([sys.executable, "-m", "taichi_shell_mpm", "run", str(scene), "--out", str(out), "--quiet",
-                           *extra], capture_output=True, text=True, timeout=600)
+    sets = [item for flag, item in zip(extra[::2], extra[1::2]) if flag == "--set"]
+    assert len(sets) * 2 == len(extra), extra
+    proc = run_scene(scene, out, *sets)          # in this process, through the Python API
     assert proc.returncode == 0, proc.stderr[-3000:]
-    return json.loads((out / "summary.json").read_text())
+    return proc.summary
 
 
 def last_frame(out: Path) -> meshio.Mesh:
