@@ -149,7 +149,7 @@ def test_a_thin_plate_rests_on_a_thick_one_at_half_the_sum_of_their_thicknesses(
     height = expected + GAP + float(p["topuz"][late].mean())
     error = abs(height - expected)
     print(f"\n{case}: rests at {height:.6f}, expected {expected}: error {error:.3e} ({error / expected:.2e} relative)")
-    assert error < 1e-2 * expected          # measured
+    assert error < 3.2e-4       # measured 2.118e-4 in each case: the penalty's static depth, whatever the thickness
     if case.startswith("interface"):
         f = table(out / "force.csv")
         weight = 0.1 * 4.0 * 1.0
@@ -164,9 +164,10 @@ def test_a_thin_plate_rests_on_a_thick_one_at_half_the_sum_of_their_thicknesses(
 def test_the_energy_balance_closes_on_an_impact_of_two_plates_of_different_thickness(tmp_path, method):
     """The free 0.1 plate meets the free 0.3 plate at a closing speed of 1 (both fall under
     g = 1) through a symmetric interface with friction; contact energy in energy.csv's
-    `contact` column.  The balance error stays within 1e-3 of the energy involved (the
-    upper plate's initial kinetic energy plus the work of gravity); the interface's impulse
-    on the slave side is the upper plate's change of momentum less its weight's impulse."""
+    `contact` column (0.10 of the 1.07 involved is dissipated by the contact damping and
+    friction).  The balance error stays within 2.5e-7 of the energy involved (the upper
+    plate's initial kinetic energy plus the work of gravity; measured 1.53e-7 fem, 1.27e-7
+    mpm; the brief asked for 1e-3)."""
     extra = INTERFACE.format(damping=0.1, keys="friction = 0.3") + \
         '[[initial]]\nnodes = "top"\nvelocity = [0.3, 0.0, -1.0]\n'
     scene = write(tmp_path, extra, method=method, end=0.5)
@@ -177,7 +178,7 @@ def test_the_energy_balance_closes_on_an_impact_of_two_plates_of_different_thick
     print(f"\n{method}: contact energy {e['contact'][-1]:.4e}, balance error max {worst:.3e} of {involved:.4e} "
           f"involved ({worst / involved:.2e})")
     assert e["contact"][-1] > 0.0
-    assert worst < 1e-3 * involved
+    assert worst < 2.5e-7 * involved
 
 
 def test_a_restart_with_an_interface_is_bit_for_bit(tmp_path, monkeypatch):
