@@ -539,7 +539,7 @@ class State:
         # and the smallest pair thickness (the step limit, stages/timestep.py)
         g.table("thickness_override", ti.field(f64), (), persistent=False, used=on)
         g.table("step_thickness", ti.field(f64), (), persistent=False, used=on)
-        g.table("approach", ti.field(f64), (), persistent=False, used=fx.contact_pairs)   # ContactTable.approach
+        g.table("approach", ti.field(f64), (), persistent=False, used=fx.contact_pairs)   # timestep.contact_approach
         # [[contact_pair]] interfaces (model/contact_pairs.py): role bits of each node and face,
         # each direction's law and interface, this step's pair direction of each node, and the
         # force on each interface's slave side (this step's)
@@ -765,7 +765,6 @@ class State:
                 w(ct.law, laws.law)
                 w(ct.law_interface, laws.law_interface)
                 ct.interface_count[None] = len(laws.names)
-                ct.approach[None] = laws.approach
             ct.damping[None], ct.friction[None] = p.contact_damping, p.contact_friction
             ct.slip_speed[None] = 1e-6 * c_max
             ct.hash_size[None] = 1 << int(np.ceil(np.log2(2 * m)))

@@ -44,8 +44,8 @@ class ContactTable:
     law_interface: np.ndarray       # (DIRECTIONS,) int32 the interface of each direction, -1: none
     thickness_max: float            # the largest pair thickness: the candidate search's reach
     thickness_min: float            # the smallest
-    approach: float                 # min over laws of contact_step(alpha) x its smallest pair thickness:
-    #                                 the largest approach per step (stages/timestep.py)
+    step_terms: tuple               # (stiffness, smallest pair thickness) of each law: the contact step
+    #                                 limit (stages/timestep.contact_approach)
     friction: bool                  # some law has friction
 
     @property
@@ -63,7 +63,6 @@ def _side(scene: Scene, mesh, points, elements, name: str, path: str) -> np.ndar
 def contact_table(scene: Scene, mesh, points: np.ndarray, elements: np.ndarray, element_thickness: np.ndarray,
                   node_thickness: np.ndarray) -> ContactTable | None:
     """The laws of [contact] and [[contact_pair]] (None: neither)."""
-    from ..stages.timestep import contact_step
     if scene.contact is None and not scene.contact_pairs:
         return None
     n, m = len(points), len(elements)
@@ -108,5 +107,5 @@ def contact_table(scene: Scene, mesh, points: np.ndarray, elements: np.ndarray, 
         master_elements=tuple(masters), node_role=node_role.astype(np.int32), segment_role=segment_role.astype(np.int32),
         law=law, law_interface=law_interface, thickness_max=float(max(r[1] for r in reach)),
         thickness_min=float(min(r[0] for r in reach)),
-        approach=float(min(contact_step(r[2]) * r[0] for r in reach)),
+        step_terms=tuple((float(r[2]), float(r[0])) for r in reach),
         friction=bool((law[:, 2] > 0.0).any()))

@@ -49,7 +49,7 @@ import taichi as ti
 from ..model.contact_pairs import SELF_BIT
 from ..state import STATUS_CONTACT_FULL, STATUS_OK
 from .accumulate import Accumulator
-from .timestep import impulse_time
+from .timestep import contact_approach, impulse_time
 
 SKIN_RANGE = (0.25, 1.0)   # s / t_c, see skin_width
 # A side change counts as a crossing of the mid-surface only where the closest point lies
@@ -143,6 +143,8 @@ class SelfContact:
         self.acc = Accumulator(cfg.serial)
         self.scatter_acc = Accumulator(not cfg.atomic_scatter)
         state.contact.skin[None] = skin_width(model.parameters.contact_thickness, model.min_edge)
+        if cfg.contact_pairs:
+            state.contact.approach[None] = contact_approach(model.contact)
 
     @ti.func
     def hash(self, cell):
