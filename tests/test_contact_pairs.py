@@ -285,3 +285,33 @@ damping = 0.6
     assert r.code == 2
     assert "plate.toml: [[contact_pair]][0].master: no [elementsets.nowhere]" in r.err
     assert "plate.toml: [[contact_pair]][0].damping: 0.6 with stiffness = 1" in r.err
+
+
+def test_what_each_scene_compiles(tmp_path):
+    """A scene whose pairs all touch at one thickness (one section, or [contact].thickness)
+    compiles the single-thickness code of before (Features.pair_thickness off: the tube's
+    energy.csv, force.csv and probes.csv were cmp-identical to the tree before the change,
+    docs/contact.md); two sections switch the per-pair rule on, an interface its masks too."""
+    from taichi_shell_mpm.config import Features
+    from taichi_shell_mpm.mesh import build_mesh
+    from taichi_shell_mpm.model.assembly import assemble
+    from taichi_shell_mpm.scene import load_scene
+
+    from .conftest import ROOT
+
+    def features(path, *overrides):
+        scene = load_scene(path, overrides)
+        model = assemble(scene, build_mesh(scene.mesh))
+        f = Features.from_scene(scene, model)
+        return f.contact, f.pair_thickness, f.contact_pairs, model.parameters.contact_thickness, \
+            model.parameters.contact_step_thickness
+
+    assert features(ROOT / "scenes" / "square_tube.toml") == (True, False, False, 1.0, 1.0)
+    plates = write(tmp_path, BASE + "[contact]\n")
+    assert features(plates) == (True, True, False, 0.3, 0.1)         # (0.3 + 0.3) / 2, (0.1 + 0.1) / 2
+    assert features(plates, "contact.thickness=0.25") == (True, False, False, 0.25, 0.25)
+    plates = write(tmp_path, BASE + INTERFACE.format(damping=0.1, keys="master_thickness = 0.5"))
+    # largest: upper node 0.1 (its thickest element) on an 0.5 master face; smallest: a lower node
+    # (0.5) on an upper face (0.1); both (0.1 + 0.5) / 2
+    assert features(plates) == (True, True, True, 0.3, 0.3)
+    assert features(ROOT / "scenes" / "cantilever.toml")[:3] == (False, False, False)
