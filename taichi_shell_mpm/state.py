@@ -535,9 +535,7 @@ class State:
         g.entity("hash_elements", ti.field(i32), m, persistent=False, used=on)
         g.entity("element_slot", ti.field(i32), m, persistent=False, used=on)
         g.entity("element_radius", ti.field(f64), m, persistent=False, used=on)
-        # pair thickness (model/contact_pairs.py): [contact].thickness (0: each pair's (t_n + t_e)/2),
-        # and the smallest pair thickness (the step limit, stages/timestep.py)
-        g.table("thickness_override", ti.field(f64), (), persistent=False, used=on)
+        # the smallest pair thickness (model/contact_pairs.py; the step limit, stages/timestep.py)
         g.table("step_thickness", ti.field(f64), (), persistent=False, used=on)
         g.table("approach", ti.field(f64), (), persistent=False, used=fx.contact_pairs)   # timestep.contact_approach
         # [[contact_pair]] interfaces (model/contact_pairs.py): role bits of each node and face,
@@ -756,7 +754,6 @@ class State:
             w(ct.last_element, np.full(n, -1, np.int32))
             ct.rebuild[None] = 1
             ct.thickness[None], ct.stiffness[None] = p.contact_thickness, p.contact_stiffness
-            ct.thickness_override[None] = p.contact_thickness_override
             ct.step_thickness[None] = p.contact_step_thickness
             if self.features.contact_pairs:
                 laws = model.contact

@@ -69,7 +69,7 @@ elements = "upper"
 [nodesets.base]
 box = {{ min = [-1, -1, -0.01], max = [4.01, 5, 0.01] }}
 [nodesets.top]
-box = {{ min = [{top}, -1, -1], max = [10, 5, 1] }}
+box = {{ min = [{top}], max = [10, 5, 1] }}
 [gravity]
 acceleration = [{g}]
 [[probe]]
@@ -112,7 +112,7 @@ def write(tmp_path: Path, extra: str, *, method="fem", g=(0.0, 0.0, -1.0), end=2
     path = tmp_path / "plates.toml"
     cell = "cell_size = 0.1" if method == "mpm" else ""     # cells finer than the gap: the grid does not join the plates
     path.write_text(SCENE.format(t_lower=T_LOWER, t_upper=T_UPPER, g=", ".join(map(str, g)), extra=extra,
-                                 method=method, end=end, cell=cell, top=x_upper - 0.01 if x_upper > 4.0 else -1))
+                                 method=method, end=end, cell=cell, top=f"{x_upper - 0.01}, -1, -1" if x_upper > 4.0 else "-1, -1, 0.1"))
     return path
 
 

@@ -63,7 +63,6 @@ class StepParameters:
     flip_blend: float
     contact_thickness: float = 0.0      # t_c, the largest pair thickness (no contact: 0; model/contact_pairs.py)
     contact_step_thickness: float = 0.0  # the smallest pair thickness (the contact step limit, stages/timestep.py)
-    contact_thickness_override: float = 0.0  # [contact].thickness (0: each pair's own, stages/contact.py)
     contact_stiffness: float = 0.0      # alpha_c
     contact_damping: float = 0.0
     contact_friction: float = 0.0
@@ -442,8 +441,7 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
         dt_safety=scene.solve.dt_safety, flip_blend=scene.method.flip_blend,
         **({"contact_thickness": laws.thickness_max, "contact_step_thickness": laws.thickness_min}
            if laws is not None else {}),
-        **({"contact_thickness_override": contact.thickness or 0.0,
-            "contact_stiffness": contact.stiffness, "contact_damping": contact.damping,
+        **({"contact_stiffness": contact.stiffness, "contact_damping": contact.damping,
             "contact_friction": contact.friction} if contact is not None else {}),
         **({"field_gap": (contact.thickness if contact is not None and contact.thickness else
                           float(element.thickness.max())),

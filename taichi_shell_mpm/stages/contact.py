@@ -324,7 +324,7 @@ class SelfContact:
     def law_of(self, c, e, t_node):
         """The direction d (model/contact_pairs.py) of node c against face e (-1: none) and the
         pair thickness (t_node' + t_e') / 2, each side's override where it has one; without
-        interfaces d = SELF_BIT and the override is [contact].thickness.  Adding the two
+        interfaces d = SELF_BIT.  Adding the two
         halves, a single-section scene's pairs touch at exactly its t; such a scene compiles
         none of this (Features.pair_thickness: every pair at t_c, the code as before)."""
         t_face = self.s.sections.thickness[e]
@@ -338,11 +338,8 @@ class SelfContact:
                 d = lowest_bit(common)
                 law = self.s.contact.law[d]
                 t = 0.5 * ((law[3] if law[3] > 0.0 else t_node) + (law[4] if law[4] > 0.0 else t_face))
-        else:
+        else:     # [contact].thickness makes every pair's t_c: no per-pair code then
             t = 0.5 * (t_node + t_face)
-            override = self.s.contact.thickness_override[None]
-            if override > 0.0:
-                t = override
         return d, t
 
     @ti.func
