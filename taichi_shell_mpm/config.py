@@ -38,7 +38,7 @@ class Features:
     bodies: bool                # rigid bodies (stages/bodies.py)
     walls: bool                 # rigid walls
     moving_walls: bool          # a wall moving with a rigid body
-    contact: bool               # penalty self-contact (stages/contact.py)
+    contact: bool               # penalty contact, [contact] or [[contact_pair]] (stages/contact.py)
     friction: bool              # contact friction
     erosion: bool = False       # some material's elements fail (issue 18; stages/masses.py)
     mass_scaling: bool = False  # mass scaling to [solve].target_dt, either kind: the density factors (stages/masses.py)
@@ -54,6 +54,10 @@ class Features:
     #                             update and the slaves' placement x = x_c + R (X - X_c); a
     #                             translation-only ram compiles the translation alone
     tool_kinds: tuple[str, ...] = ()   # rigid tool kinds the scene uses (tools.TOOL_KINDS order; stages/tools.py)
+    contact_pairs: bool = False  # [[contact_pair]] interfaces: the role masks and per-direction laws
+    #                             (model/contact_pairs.py); without, the single-surface law's scalars
+    pair_thickness: bool = False  # contact pairs touch at different thicknesses (several sections without
+    #                             [contact].thickness, or interfaces): stages/contact.law_of; else at t_c
     finite_increment: bool = False  # the step is one large increment (Newton's trial,
     #                             solvers/tangent.py): mid-step shape from the end shapes
     #                             (stages/shell.mid_geometry)
@@ -136,8 +140,11 @@ class Features:
             grid_planes=model.grid is not None and bool(model.grid.planes),
             bodies=bool(model.rigid_bodies), walls=bool(model.walls),
             moving_walls=any(w.body >= 0 for w in model.walls),
-            contact=scene.contact is not None,
-            friction=scene.contact is not None and scene.contact.friction > 0.0,
+            contact=model.contact is not None,
+            friction=model.contact is not None and model.contact.friction,
+            contact_pairs=model.contact is not None and model.contact.pairs,
+            pair_thickness=model.contact is not None and (model.contact.pairs or model.contact.thickness_min
+                                                          != model.contact.thickness_max),
             tool_kinds=tuple(k for k in TOOL_KINDS if model.tools is not None and k in model.tools.kinds),
             erosion=model.materials.erosion,
             mass_scaling=scene.solve.kind == "dynamic" and scene.solve.mass_scaling in ("selective", "conventional"),

@@ -274,7 +274,8 @@ class Simulation:
         st = self.state.step
         self.history.force_rows.append([key] + st.reaction[None].to_numpy().tolist()
                                        + st.reaction_impulse[None].to_numpy().tolist()
-                                       + self.body_values() + self.motion_values() + self.tool_values())
+                                       + self.body_values() + self.motion_values() + self.tool_values()
+                                       + self.interface_values())
         if frame:
             self.write_frame(key)
 
@@ -375,6 +376,20 @@ class Simulation:
         work = self.state.read(self.state.tools.work, k)
         return [float(x) for i in range(k) for x in (*force[i], energy_[i], work[i])]
 
+    def interface_values(self) -> list[float]:
+        """force.csv's [[contact_pair]] columns (:meth:`interface_columns`): the contact force on
+        each interface's slave side, this step's (the step that ends at the row's time), as
+        LS-DYNA's RCFORC."""
+        laws = self.model.contact
+        if laws is None or not laws.pairs:
+            return []
+        force = self.state.read(self.state.contact.interface_force, len(laws.names))
+        return [float(x) for row in force for x in row]
+
+    def interface_columns(self) -> list[str]:
+        laws = self.model.contact
+        return [] if laws is None else [f"{name}.{c}" for name in laws.names for c in ("force_x", "force_y", "force_z")]
+
     def tool_columns(self) -> list[str]:
         tt = self.model.tools
         return [] if tt is None else [f"{name}.{c}" for name in tt.names
@@ -415,6 +430,7 @@ class Simulation:
         self.body_values()
         self.motion_values()
         self.tool_values()
+        self.interface_values()
         self.where()
         ti.sync()
 
@@ -597,7 +613,7 @@ class Simulation:
     def force_header(self) -> list[str]:
         return ([self.history.probe_header[0], "support_x", "support_y", "support_z", "support_impulse_x",
                  "support_impulse_y", "support_impulse_z"] + self.body_columns() + self.motion_columns()
-                + self.tool_columns())
+                + self.tool_columns() + self.interface_columns())
 
     def part_added_mass(self) -> np.ndarray:
         """The mass selective mass scaling has added to each part so far (0 for rigid bodies and point masses)."""
@@ -736,6 +752,14 @@ class Simulation:
         if self.state.contact is not None:
             summary["contact"] = {"max_penetration_over_thickness": float(self.state.contact.max_penetration[None]),
                                   "pairs_last_step": int(self.state.contact.pairs[None])}
+            laws = self.model.contact
+            if laws.pairs:
+                force = self.interface_values()
+                summary["contact_pairs"] = [
+                    {"name": name, "slave": p.slave, "master": p.master, "symmetric": p.symmetric,
+                     "slave_elements": laws.slave_elements[k], "master_elements": laws.master_elements[k],
+                     "force": force[3 * k:3 * k + 3]}
+                    for k, (name, p) in enumerate(zip(laws.names, self.scene.contact_pairs))]
         stopped = bool(extra and extra.get("error"))
         try:
             if self.scene.crush is not None and self.history.force_rows:

@@ -60,6 +60,8 @@ import taichi as ti
 
 from .model.assembly import added_mass_geometry
 from .model.bodies import node_point_masses
+from .model.contact_pairs import DIRECTIONS, LAW_COLUMNS
+from .scene.contact_pair import MAX_CONTACT_PAIRS
 from .curves import COLUMNS as CURVE_COLUMNS
 from .model.materials import FAILURE_COLUMNS, row_width
 from .scene import MAX_BODIES, MAX_CURVES, MAX_MOTIONS
@@ -533,6 +535,20 @@ class State:
         g.entity("hash_elements", ti.field(i32), m, persistent=False, used=on)
         g.entity("element_slot", ti.field(i32), m, persistent=False, used=on)
         g.entity("element_radius", ti.field(f64), m, persistent=False, used=on)
+        # the smallest pair thickness (model/contact_pairs.py; the step limit, stages/timestep.py)
+        g.table("step_thickness", ti.field(f64), (), persistent=False, used=on)
+        g.table("approach", ti.field(f64), (), persistent=False, used=fx.contact_pairs)   # timestep.contact_approach
+        # [[contact_pair]] interfaces (model/contact_pairs.py): role bits of each node and face,
+        # each direction's law and interface, this step's pair direction of each node, and the
+        # force on each interface's slave side (this step's)
+        pairs = fx.contact_pairs
+        g.entity("node_role", ti.field(i32), n, persistent=False, used=pairs)
+        g.entity("segment_role", ti.field(i32), m, persistent=False, used=pairs)
+        g.table("law", ti.Vector.field(len(LAW_COLUMNS), f64), (DIRECTIONS,), persistent=False, used=pairs)
+        g.table("law_interface", ti.field(i32), (DIRECTIONS,), persistent=False, used=pairs)
+        g.table("interface_count", ti.field(i32), (), persistent=False, used=pairs)
+        g.table("interface_force", ti.Vector.field(3, f64), (MAX_CONTACT_PAIRS,), used=pairs)
+        g.entity("pair_direction", ti.field(i32), n, persistent=False, used=pairs)
 
         # --- through-thickness point state (stages/material.py); after every group whose shape does
         # not depend on the features, so that only its own SNodes change with the points' count
@@ -738,6 +754,14 @@ class State:
             w(ct.last_element, np.full(n, -1, np.int32))
             ct.rebuild[None] = 1
             ct.thickness[None], ct.stiffness[None] = p.contact_thickness, p.contact_stiffness
+            ct.step_thickness[None] = p.contact_step_thickness
+            if self.features.contact_pairs:
+                laws = model.contact
+                w(ct.node_role, laws.node_role)
+                w(ct.segment_role, laws.segment_role)
+                w(ct.law, laws.law)
+                w(ct.law_interface, laws.law_interface)
+                ct.interface_count[None] = len(laws.names)
             ct.damping[None], ct.friction[None] = p.contact_damping, p.contact_friction
             ct.slip_speed[None] = 1e-6 * c_max
             ct.hash_size[None] = 1 << int(np.ceil(np.log2(2 * m)))

@@ -17,6 +17,7 @@ from ..loading import Loading, assemble_loading
 from ..mesh import Mesh
 from ..nodesets import select_nodes
 from ..scene import DOFS, Scene, SceneError
+from .contact_pairs import ContactTable, contact_table
 from .bodies import PointMassSpec, RigidBodySpec, WallSpec, body_step, body_step_notes, node_point_masses, rigid_body
 from .parts import ElementData, MaterialTable, PartSpec, SectionTable, element_selection, part_data, tables
 from .tools import ToolTable, build_tools
@@ -60,7 +61,8 @@ class StepParameters:
     """Run-time values of the step that are not per entity (state.step, state.contact)."""
     dt_safety: float
     flip_blend: float
-    contact_thickness: float = 0.0      # t_c (no contact: 0)
+    contact_thickness: float = 0.0      # t_c, the largest pair thickness (no contact: 0; model/contact_pairs.py)
+    contact_step_thickness: float = 0.0  # the smallest pair thickness (the contact step limit, stages/timestep.py)
     contact_stiffness: float = 0.0      # alpha_c
     contact_damping: float = 0.0
     contact_friction: float = 0.0
@@ -109,6 +111,7 @@ class Model:
     neighbor_start: np.ndarray | None = None   # CSR: nodes sharing an element with node c (incl. c)
     neighbor_nodes: np.ndarray | None = None
     loading: Loading | None = None        # curve and follower loads, pressure, gravity, prescribed motion
+    contact: ContactTable | None = None   # [contact] and [[contact_pair]] laws (model/contact_pairs.py)
 
 
 def element_frames(points: np.ndarray, elements: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -433,10 +436,12 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
     grid = _grid_geometry(scene, points, min_edge, planes_xyz, free) if scene.method.kind == "mpm" else None
     _check_arc_length(scene, points)
     contact = scene.contact
+    laws = contact_table(scene, mesh, points, elements, element.thickness, node_thickness)
     parameters = StepParameters(
         dt_safety=scene.solve.dt_safety, flip_blend=scene.method.flip_blend,
-        **({"contact_thickness": contact.thickness or float(element.thickness.max()),
-            "contact_stiffness": contact.stiffness, "contact_damping": contact.damping,
+        **({"contact_thickness": laws.thickness_max, "contact_step_thickness": laws.thickness_min}
+           if laws is not None else {}),
+        **({"contact_stiffness": contact.stiffness, "contact_damping": contact.damping,
             "contact_friction": contact.friction} if contact is not None else {}),
         **({"field_gap": (contact.thickness if contact is not None and contact.thickness else
                           float(element.thickness.max())),
@@ -460,8 +465,8 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
                  grid=grid, probes=probes, min_edge=min_edge, mean_edge=float(edges.mean()),
                  max_edge=float(edges.max()), rigid_bodies=tuple(bodies), point_masses=tuple(point_masses),
                  walls=walls, tools=tools, node_body=node_body,
-                 loading=loading,
-                 **(node_neighbors(elements, n) if scene.contact else {}))
+                 loading=loading, contact=laws,
+                 **(node_neighbors(elements, n) if laws is not None else {}))
 
 
 MAX_ARC_SIZES = 10.0

@@ -114,7 +114,8 @@ def _check_supported(scene, model) -> None:
         problems.append("the scene has several parts ([[part]]): only one [material] and [section] are mapped")
     elif scene.material.model != "elastic":
         problems.append(f"[material].model is '{scene.material.model}', only 'elastic' is mapped")
-    if scene.rigid_bodies or scene.point_masses or scene.walls or scene.tools or scene.contact is not None:
+    if scene.rigid_bodies or scene.point_masses or scene.walls or scene.tools or scene.contact is not None \
+            or scene.contact_pairs:
         problems.append("rigid bodies, point masses, walls, tools and contact are not mapped")
     if np.any(model.load_moment):
         problems.append("nodal moments are not mapped")

@@ -24,8 +24,10 @@ def penalty_damping_limit(stiffness: float) -> float:
 class Contact:
     """Penalty node-to-segment self-contact (method.md 7.3); present table = enabled."""
     thickness: float | None = key(
-        positive, default=None, unit="length", default_text="the section's thickness (with parts: the thickest)",
-        doc="contact thickness t_c (contact begins at this distance between mid-surfaces)")
+        positive, default=None, unit="length",
+        default_text="each pair's (t_node + t_element) / 2 (one section: its thickness)",
+        doc="contact thickness t_c of every pair, overriding the per-pair rule (contact begins at this distance "
+            "between mid-surfaces)")
     stiffness: float = key(number(0, 1, lo_open=True), default=0.1,
         doc="α_c of the penalty k = α_c m*/Δt² (m*: the node and segment's reduced mass)")
     friction: float = key(non_negative, default=0.0,

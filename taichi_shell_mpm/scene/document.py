@@ -12,6 +12,7 @@ from ..keys import Invalid, hint, key_path, one_line, show
 from ..problems import SceneError
 from .boundary import Boundary, read_boundary
 from .contact import Contact, check_penalty_damping
+from .contact_pair import MAX_CONTACT_PAIRS, ContactPair, read_contact_pair
 from .crush import Crush, read_crush
 from .curves import MAX_CURVES, Curve, read_curve
 from .element import ElementOptions
@@ -61,6 +62,8 @@ class Scene:
     walls: tuple[Wall, ...] = ()
     tools: tuple[Tool, ...] = ()
     contact: Contact | None = None
+    contact_pairs: tuple[ContactPair, ...] = ()
+    """[[contact_pair]] interfaces (scene/contact_pair.py)."""
     crush: Crush | None = None
     materials: dict[str, AnyMaterial] = field(default_factory=dict)
     """Named materials ([materials.NAME]); with [[part]]."""
@@ -311,6 +314,8 @@ def read_scene(r: Reader) -> Scene:
     contact = r.table_object("[contact]", r.raw["contact"], Contact) if "contact" in r.raw else None
     if contact is not None:
         check_penalty_damping(r, "[contact]", contact.stiffness, contact.damping)
+    contact_pairs = r.array("contact_pair", lambda path, data: read_contact_pair(r, path, data, mesh, elementsets))
+    check_entries(r, "contact_pair", contact_pairs, MAX_CONTACT_PAIRS, "interfaces")
     crush = read_crush(r, r.raw["crush"], solve) if "crush" in r.raw else None
     if solve is not None and solve.kind == "static":
         named = [("[material]", material), *((f"[materials.{key_path(k)}]", m) for k, m in materials.items())]
@@ -333,5 +338,6 @@ def read_scene(r: Reader) -> Scene:
                  initial=tuple(initial), probes=tuple(probes), reference=reference,
                  rigid_bodies=tuple(bodies), point_masses=tuple(point_masses), walls=tuple(walls),
                  tools=tuple(tools), contact=contact, crush=crush,
+                 contact_pairs=tuple(contact_pairs),
                  materials=materials, sections=sections, elementsets=tuple(elementsets), parts=tuple(parts),
                  curves=curves, motions=tuple(motions), pressures=tuple(pressures), gravity=gravity)

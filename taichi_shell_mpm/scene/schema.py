@@ -19,6 +19,7 @@ from typing import Any
 from ..keys import REQUIRED, Key, keys_of, shown_default
 from .boundary import Boundary
 from .contact import Contact
+from .contact_pair import ContactPair
 from .crush import Crush
 from .curves import CURVE_KEYS
 from .element import ElementOptions
@@ -96,6 +97,7 @@ DOC_TABLES: dict[str, Any] = {
     "wall": lambda: keys_of(Wall),
     "tool": lambda: _grouped(Tool, {"kind": KINDS}),
     "contact": lambda: keys_of(Contact),
+    "contact_pair": lambda: keys_of(ContactPair),
     "crush": lambda: keys_of(Crush),
 }
 """The generated key tables of docs/scenes.md, by the name in their markers
@@ -225,6 +227,7 @@ def scene_schema() -> dict:
         "point_mass": _array(table_schema(keys_of(PointMass))),
         "wall": _array(table_schema(keys_of(Wall))), "tool": _array(table_schema(keys_of(Tool))),
         "contact": table_schema(keys_of(Contact)), "crush": table_schema(keys_of(Crush)),
+        "contact_pair": _array(table_schema(keys_of(ContactPair))),
     }
     return {"$schema": "http://json-schema.org/draft-07/schema#",
             "title": "taichi_shell_mpm scene",

@@ -15,6 +15,19 @@ m* |v_t| / dt (:func:`coulomb_friction`).  Contact
 energy is the work done against the contact forces (booked at the node update,
 :mod:`.constraints`).
 
+Pair thickness (model/contact_pairs.py): node c and face e touch at t_ce = (t_n + t_e) / 2,
+t_n the node's thickness (its thickest element's) and t_e the face's, so a 1 mm sheet meets a 3 mm
+one at 2 mm; [contact].thickness, when given, is every single-surface pair's.  The node takes
+the closest face within its own pair thickness.  A free edge: the closest point of a face
+may lie on its edge, so a node beyond a free edge touches it within t_ce, the node's sphere
+of radius t_n / 2 against the edge rounded with radius t_e / 2 (LS-DYNA's shell edge).  The
+search reaches the largest pair thickness, t_c below (contact.thickness), so no pair is missed.
+
+Interfaces ([[contact_pair]], compiled only for scenes with some): the same lists and law,
+with a pair (c, e) allowed only where node_role[c] & segment_role[e] != 0 (filtered when the
+lists are built) and the law, thickness overrides and interface of the lowest common bit
+(model/contact_pairs.py); each interface's slave-side force is summed in the scatter.
+
 Search [choice, issue 4; replaces a hash query of every node at every step]: candidate
 (Verlet) lists.  Each node keeps the elements e with |x_c - centroid_e| - R_e <= t_c + s
 (R_e: the largest centroid-corner distance, so the element lies in that ball; s: the
@@ -33,9 +46,10 @@ every loop costs a thread-pool dispatch per step.
 import numpy as np
 import taichi as ti
 
+from ..model.contact_pairs import SELF_BIT
 from ..state import STATUS_CONTACT_FULL, STATUS_OK
 from .accumulate import Accumulator
-from .timestep import impulse_time
+from .timestep import contact_approach, impulse_time
 
 SKIN_RANGE = (0.25, 1.0)   # s / t_c, see skin_width
 # A side change counts as a crossing of the mid-surface only where the closest point lies
@@ -112,6 +126,15 @@ def skin_width(t_c: float, min_edge: float) -> float:
     return float(np.clip(2.0 * min_edge - t_c, low * t_c, high * t_c))
 
 
+@ti.func
+def lowest_bit(bits):
+    """The index of the lowest set bit of bits != 0."""
+    d = 0
+    while (bits >> d) & 1 == 0:
+        d += 1
+    return d
+
+
 @ti.data_oriented
 class SelfContact:
     def __init__(self, state, cfg, model):
@@ -120,6 +143,8 @@ class SelfContact:
         self.acc = Accumulator(cfg.serial)
         self.scatter_acc = Accumulator(not cfg.atomic_scatter)
         state.contact.skin[None] = skin_width(model.parameters.contact_thickness, model.min_edge)
+        if cfg.contact_pairs:
+            state.contact.approach[None] = contact_approach(model.contact)
 
     @ti.func
     def hash(self, cell):
@@ -227,7 +252,10 @@ class SelfContact:
             slot = self.hash(home + off)
             for i in range(self.s.contact.hash_start[slot], self.s.contact.hash_start[slot + 1]):
                 e = self.s.contact.hash_elements[i]
-                if (x - self.centroid(e)).norm() <= self.s.contact.element_radius[e] + self.reach():
+                allowed = True
+                if ti.static(self.cfg.contact_pairs):     # an interface's side, or [contact]
+                    allowed = self.s.contact.node_role[c] & self.s.contact.segment_role[e] != 0
+                if allowed and (x - self.centroid(e)).norm() <= self.s.contact.element_radius[e] + self.reach():
                     if not self.excluded(c, e):
                         if ti.static(store):
                             self.s.contact.candidate_elements[self.s.contact.candidate_start[c] + found] = e
@@ -269,6 +297,9 @@ class SelfContact:
         in node order (serial: no atomics, and the same sums on any number of threads)."""
         if ti.static(self.cfg.serial):
             self.build_candidates()
+        if ti.static(self.cfg.contact_pairs):
+            for k in range(self.s.contact.interface_count[None]):
+                self.s.contact.interface_force[k] = ti.Vector([0.0, 0.0, 0.0])
         for c in range(self.s.nodes.count[None]):
             self.s.contact.force[c] = ti.Vector([0.0, 0.0, 0.0])
             self.pair(c)
@@ -283,15 +314,60 @@ class SelfContact:
                 self.scatter_acc.add(self.s.contact.force, c, force)
                 for a in ti.static(range(4)):
                     self.scatter_acc.add(self.s.contact.force, corners[a], -w[a] * force)
+                if ti.static(self.cfg.contact_pairs):    # the force on the interface's slave side
+                    d = self.s.contact.pair_direction[c]
+                    k = self.s.contact.law_interface[d]
+                    if k >= 0:
+                        self.scatter_acc.add(self.s.contact.interface_force, k, self.s.contact.law[d][5] * force)
+
+    @ti.func
+    def law_of(self, c, e, t_node):
+        """The direction d (model/contact_pairs.py) of node c against face e (-1: none) and the
+        pair thickness (t_node' + t_e') / 2, each side's override where it has one; without
+        interfaces d = SELF_BIT.  Adding the two
+        halves, a single-section scene's pairs touch at exactly its t; such a scene compiles
+        none of this (Features.pair_thickness: every pair at t_c, the code as before)."""
+        t_face = self.s.sections.thickness[e]
+        d = SELF_BIT
+        t = 0.0
+        if ti.static(self.cfg.contact_pairs):
+            common = self.s.contact.node_role[c] & self.s.contact.segment_role[e]
+            if common == 0:
+                d = -1
+            else:
+                d = lowest_bit(common)
+                law = self.s.contact.law[d]
+                t = 0.5 * ((law[3] if law[3] > 0.0 else t_node) + (law[4] if law[4] > 0.0 else t_face))
+        else:     # [contact].thickness makes every pair's t_c: no per-pair code then
+            t = 0.5 * (t_node + t_face)
+        return d, t
+
+    @ti.func
+    def coefficient(self, d, i: ti.template()):
+        """Column i (0 stiffness, 1 damping, 2 friction) of direction d's law; without
+        interfaces [contact]'s (read where it is used, which keeps a single-surface scene's
+        arithmetic, and its results, bit for bit those before the interfaces)."""
+        out = 0.0
+        if ti.static(self.cfg.contact_pairs):
+            out = self.s.contact.law[d][i]
+        else:
+            out = ti.static((self.s.contact.stiffness, self.s.contact.damping, self.s.contact.friction)[i])[None]
+        return out
 
     @ti.func
     def pair(self, c):
-        """Node c's closest segment within t_c among its candidates, and the penalty force
+        """Node c's closest segment within its pair thickness among its candidates, and the penalty force
         (method.md 7.3) in contact_pair_force; contact_last_element[c] = -1 when none."""
         dt = self.s.step.dt[None]
         x = self.s.nodes.position[c]
-        t_c = self.s.contact.thickness[None]
+        t_c = self.s.contact.thickness[None]     # the largest pair thickness; the only one without per_pair
+        per_pair = ti.static(self.cfg.pair_thickness)
+        t_node = 0.0
+        if ti.static(per_pair):
+            t_node = self.s.nodes.thickness[c]
         best_dist = t_c
+        best_t = t_c
+        best_d = SELF_BIT
         best_e = -1
         best_point = ti.Vector([0.0, 0.0, 0.0])
         best_w = ti.Vector([0.0, 0.0, 0.0, 0.0])
@@ -304,6 +380,12 @@ class SelfContact:
             if ti.static(self.cfg.erosion):     # an eroded element is no contact segment
                 if self.s.elements.eroded[e] != 0:
                     continue
+            d = SELF_BIT
+            t_ce = t_c
+            if ti.static(per_pair):
+                d, t_ce = self.law_of(c, e, t_node)
+                if d < 0:
+                    continue
             corners = self.segment_corners(e)
             p0, p1 = self.s.nodes.position[corners[0]], self.s.nodes.position[corners[1]]
             p2, p3 = self.s.nodes.position[corners[2]], self.s.nodes.position[corners[3]]
@@ -312,17 +394,27 @@ class SelfContact:
             da, db = (x - qa).norm(), (x - qb).norm()
             if ti.static(self.cfg.triangles):
                 if corners[3] == corners[0]:     # a triangle: one segment (the second, (1,3,1), is a line)
-                    db = 2.0 * t_c
-            if da < best_dist:
+                    db = 2.0 * t_ce
+            closer_a = da < best_dist
+            if ti.static(per_pair):
+                closer_a = closer_a and da < t_ce
+            if closer_a:
                 best_dist, best_e, best_point = da, e, qa
                 best_w = ti.Vector([ba[0], ba[1], ba[2], 0.0])
-            if db < best_dist:
+                if ti.static(per_pair):
+                    best_t, best_d = t_ce, d
+            closer_b = db < best_dist
+            if ti.static(per_pair):
+                closer_b = closer_b and db < t_ce
+            if closer_b:
                 best_dist, best_e, best_point = db, e, qb
                 best_w = ti.Vector([bb[0], 0.0, bb[1], bb[2]])
+                if ti.static(per_pair):
+                    best_t, best_d = t_ce, d
         if best_e >= 0 and best_dist > 0.0 and dt > 0.0:
             corners = self.segment_corners(best_e)
             normal = (x - best_point) / best_dist
-            gap = t_c - best_dist
+            gap = best_t - best_dist
             facet = (self.s.nodes.position[corners[2]] - self.s.nodes.position[corners[0]]).cross(
                 self.s.nodes.position[corners[3]] - self.s.nodes.position[corners[1]]).normalized()
             cosine = normal.dot(facet)
@@ -331,7 +423,7 @@ class SelfContact:
                     and ti.abs(cosine) > CROSSING_COSINE:
                 # crossed the mid-surface since last step: push back to the side it came from
                 normal = -normal
-                gap = t_c + best_dist
+                gap = best_t + best_dist
                 side = -side
             self.s.contact.last_element[c] = best_e
             self.s.contact.last_side[c] = side
@@ -344,17 +436,19 @@ class SelfContact:
             m_eff = m_node * m_seg / (m_node + m_seg)
             # k from the stable step, not the current one: a step shortened to land on an
             # output time would otherwise make the spring arbitrarily stiff
-            k = self.s.contact.stiffness[None] * m_eff / (self.s.step.dt_stable[None] ** 2)
+            if ti.static(self.cfg.contact_pairs):
+                self.s.contact.pair_direction[c] = best_d
+            k = self.coefficient(best_d, 0) * m_eff / (self.s.step.dt_stable[None] ** 2)
             v_rel = self.s.nodes.grid_velocity[c] - v_seg
             closing = -v_rel.dot(normal)
-            f_n = ti.max(0.0, k * gap + self.s.contact.damping[None] * 2.0 * ti.sqrt(k * m_eff) * closing)
+            f_n = ti.max(0.0, k * gap + self.coefficient(best_d, 1) * 2.0 * ti.sqrt(k * m_eff) * closing)
             force = f_n * normal
             if ti.static(self.cfg.friction):
-                force += coulomb_friction(self.s.contact.friction[None], f_n, v_rel, normal,
+                force += coulomb_friction(self.coefficient(best_d, 2), f_n, v_rel, normal,
                                           self.s.contact.slip_speed[None], m_eff, impulse_time(self.s.step))
             self.s.contact.pair_force[c] = force
             self.s.contact.pair_weight[c] = best_w
-            self.acc.maximum(self.s.contact.max_penetration, gap / t_c)
+            self.acc.maximum(self.s.contact.max_penetration, gap / best_t)
             self.acc.total(self.s.contact.pairs, 1)
         else:
             self.s.contact.last_element[c] = -1

@@ -105,6 +105,13 @@ def contact_step(stiffness: float) -> float:
     return CONTACT_STEP * math.sqrt(stiffness / 0.1)
 
 
+def contact_approach(laws) -> float:
+    """The largest approach per step of any contact law: the smallest contact_step(alpha) t
+    over the laws (model/contact_pairs.ContactTable.step_terms), t a law's smallest pair
+    thickness."""
+    return min(contact_step(alpha) * t for alpha, t in laws.step_terms)
+
+
 @ti.func
 def approach_step(stiffness):
     """contact_step in a kernel: the largest approach per step, in thicknesses, of a penalty
@@ -144,11 +151,22 @@ class TimeStep:
 
     @ti.func
     def contact_limit(self):
-        """Self-contact: dt <= contact_step(alpha_c) t_c / v_rel, v_rel = the norm of the
+        """Contact: dt <= contact_step(alpha_c) t / v_rel, v_rel = the norm of the
         per-axis spread of the nodal velocities, an upper bound of any two nodes' approach
-        speed (Galilean invariant: a shell flying as a whole does not pay)."""
+        speed (Galilean invariant: a shell flying as a whole does not pay).  t: the smallest
+        pair thickness [choice: the thinnest pair's contact zone is the one a node must not
+        cross in a step; one bound, not one per pair, since v_rel is one bound too]; with
+        [[contact_pair]] laws of their own stiffness, the smallest of contact_step(alpha) t
+        over the laws (contact_approach)."""
         spread = (self.s.contact.velocity_high[None] - self.s.contact.velocity_low[None]).norm()
-        return approach_step(self.s.contact.stiffness[None]) * self.s.contact.thickness[None] / ti.max(spread, 1e-300)
+        length = 0.0
+        if ti.static(self.cfg.contact_pairs):
+            length = self.s.contact.approach[None]
+        elif ti.static(self.cfg.pair_thickness):
+            length = approach_step(self.s.contact.stiffness[None]) * self.s.contact.step_thickness[None]
+        else:      # one pair thickness t_c (as before the per-pair rule)
+            length = approach_step(self.s.contact.stiffness[None]) * self.s.contact.thickness[None]
+        return length / ti.max(spread, 1e-300)
 
     @ti.func
     def next_step(self):
@@ -192,7 +210,7 @@ def initial_dt(model, velocity: np.ndarray, cfg) -> float:
     if cfg.contact:
         spread = float(np.linalg.norm(velocity.max(axis=0) - velocity.min(axis=0)))
         if spread > 0.0:
-            dt = min(dt, contact_step(p.contact_stiffness) * p.contact_thickness / spread)
+            dt = min(dt, contact_approach(model.contact) / spread)
     if cfg.tools:
         from ..model.tools import first_step_limit
         tt = model.tools
