@@ -54,6 +54,7 @@ class Features:
     #                             update and the slaves' placement x = x_c + R (X - X_c); a
     #                             translation-only ram compiles the translation alone
     tool_kinds: tuple[str, ...] = ()   # rigid tool kinds the scene uses (tools.TOOL_KINDS order; stages/tools.py)
+    joints: bool = False        # [[tie]] or [[spotweld]] (stages/joints.py)
     finite_increment: bool = False  # the step is one large increment (Newton's trial,
     #                             solvers/tangent.py): mid-step shape from the end shapes
     #                             (stages/shell.mid_geometry)
@@ -146,4 +147,5 @@ class Features:
             grid_contact=(model.grid is not None and scene.method.fields == "multi"
                           and scene.method.field_contact == "grid"),
             launch=launch, loads=model.loading.loads or (model.tools is not None and model.tools.prescribed),
-            body_rotation=any(b.rotates for b in model.rigid_bodies))
+            body_rotation=any(b.rotates for b in model.rigid_bodies),
+            joints=model.joints is not None)

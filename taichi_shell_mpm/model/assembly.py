@@ -17,6 +17,7 @@ from ..loading import Loading, assemble_loading
 from ..mesh import Mesh
 from ..nodesets import select_nodes
 from ..scene import DOFS, Scene, SceneError
+from .joints import JointTable, build_joints, consistent_velocities
 from .bodies import PointMassSpec, RigidBodySpec, WallSpec, body_step, body_step_notes, node_point_masses, rigid_body
 from .parts import ElementData, MaterialTable, PartSpec, SectionTable, element_selection, part_data, tables
 from .tools import ToolTable, build_tools
@@ -109,6 +110,7 @@ class Model:
     neighbor_start: np.ndarray | None = None   # CSR: nodes sharing an element with node c (incl. c)
     neighbor_nodes: np.ndarray | None = None
     loading: Loading | None = None        # curve and follower loads, pressure, gravity, prescribed motion
+    joints: JointTable | None = None      # [[tie]] and [[spotweld]] (model/joints.py); None: none
 
 
 def element_frames(points: np.ndarray, elements: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -427,6 +429,13 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
     for d in range(3):                       # supports do not move: no initial velocity there
         velocity0[(fix_mask >> d) & 1 == 1, d] = 0.0
         omega0[(fix_mask >> (3 + d)) & 1 == 1, d] = 0.0
+    joints, joint_notes = build_joints(
+        scene, mesh, points, elements, element.thickness, node_thickness, nodes_of,
+        lambda name, path: element_selection(name, scene, mesh, points, elements, path), fix_mask, node_body,
+        loading.motion_mask if loading is not None else None)
+    if joints is not None:
+        notes += joint_notes
+        consistent_velocities(joints, velocity0, omega0)
     probes = tuple(ProbeSpec(p.name, nodes_of(p.nodes), p.components) for p in scene.probes)
     min_edge = float(edges.min())
     free = int(np.sum(((fix_mask & 0b111) != 0b111) & (node_body < 0)))
@@ -460,7 +469,7 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
                  grid=grid, probes=probes, min_edge=min_edge, mean_edge=float(edges.mean()),
                  max_edge=float(edges.max()), rigid_bodies=tuple(bodies), point_masses=tuple(point_masses),
                  walls=walls, tools=tools, node_body=node_body,
-                 loading=loading,
+                 loading=loading, joints=joints,
                  **(node_neighbors(elements, n) if scene.contact else {}))
 
 
