@@ -162,6 +162,7 @@ def build_joints(scene, mesh, points: np.ndarray, elements: np.ndarray, thicknes
     rows, groups, notes, strengths = [], [], [], []
     for k, tie in enumerate(scene.ties):
         slaves = nodes_of(tie.nodes)
+        check_slaves(f"{name}: [[tie]] '{tie.name}'", slaves, fix_mask, node_body, motion_mask)
         surface = element_selection(tie.surface, f"[[tie]][{k}]")
         found, unfound, text = tie_rows(scene, tie, slaves, surface, points, elements, thickness, node_thickness)
         if text:
@@ -205,6 +206,18 @@ def build_joints(scene, mesh, points: np.ndarray, elements: np.ndarray, thicknes
     return table, notes
 
 
+def check_slaves(where: str, slaves: np.ndarray, fix_mask, node_body, motion_mask) -> None:
+    """No slave is fixed, moved or in a rigid body (error naming the first such node)."""
+    for s in slaves:
+        s = int(s)
+        if fix_mask[s] != 0:
+            raise SceneError(f"{where}: node {s} is fixed by a [[boundary]] and cannot be a joint's slave")
+        if motion_mask is not None and motion_mask[s] != 0:
+            raise SceneError(f"{where}: node {s} is moved by a [[motion]] and cannot be a joint's slave")
+        if node_body[s] >= 0:
+            raise SceneError(f"{where}: node {s} is in a [[rigid_body]] and cannot be a joint's slave")
+
+
 def check_joints(scene, table: JointTable, fix_mask, node_body, motion_mask) -> None:
     """One slave per node; a slave is neither fixed, moved nor in a rigid body, nor a master;
     a master is neither moved nor in a rigid body (it may be fixed: the slave's load then goes
@@ -221,12 +234,7 @@ def check_joints(scene, table: JointTable, fix_mask, node_body, motion_mask) -> 
             raise SceneError(f"{name}: {where[j]}: node {s} is already the slave of {where[seen[s]]} (a node "
                              "follows one joint)")
         seen[s] = j
-        if fix_mask[s] != 0:
-            raise SceneError(f"{name}: {where[j]}: node {s} is fixed by a [[boundary]] and cannot be a joint's slave")
-        if motion_mask is not None and motion_mask[s] != 0:
-            raise SceneError(f"{name}: {where[j]}: node {s} is moved by a [[motion]] and cannot be a joint's slave")
-        if node_body[s] >= 0:
-            raise SceneError(f"{name}: {where[j]}: node {s} is in a [[rigid_body]] and cannot be a joint's slave")
+        check_slaves(f"{name}: {where[j]}", np.array([s]), fix_mask, node_body, motion_mask)
     for j, masters in enumerate(table.masters):
         for a in masters[masters >= 0]:
             a = int(a)
