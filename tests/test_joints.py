@@ -397,6 +397,7 @@ def test_restart_through_a_weld_failure_is_bit_for_bit(tmp_path, monkeypatch):
      "[[spotweld]][0].normal_strength"),
     ('[[boundary]]\nnodes = "one"\nfix = "all"\n[[tie]]\nname = "t"\nnodes = "one"\n',
      "[[tie]] 't': node 40 is fixed"),
+    ('[[tie]]\nname = "t"\nnodes = "one"\nsurface = "part:9"\n', "[[tie]][0].surface: no element set or mesh set"),
 ])
 def test_bad_joint_input_is_one_line_exit_2(tmp_path, table, expect):
     n1, n2 = lap(tmp_path, "bad")

@@ -163,7 +163,10 @@ def build_joints(scene, mesh, points: np.ndarray, elements: np.ndarray, thicknes
     for k, tie in enumerate(scene.ties):
         slaves = nodes_of(tie.nodes)
         check_slaves(f"{name}: [[tie]] '{tie.name}'", slaves, fix_mask, node_body, motion_mask)
-        surface = element_selection(tie.surface, f"[[tie]][{k}]")
+        try:
+            surface = element_selection(tie.surface, f"[[tie]][{k}]")
+        except SceneError as exc:          # parts.element_selection names the key `elements`
+            raise SceneError(str(exc).replace(f"[[tie]][{k}].elements", f"[[tie]][{k}].surface")) from None
         found, unfound, text = tie_rows(scene, tie, slaves, surface, points, elements, thickness, node_thickness)
         if text:
             notes.append(text)

@@ -255,7 +255,7 @@ def read_scene(r: Reader) -> Scene:
     check_entries(r, "motion", motions, MAX_MOTIONS, "entries")
     pressures = r.array("pressure", lambda path, data: read_pressure(r, path, data, mesh, elementsets))
     gravity = r.table_object("[gravity]", r.raw["gravity"], Gravity) if "gravity" in r.raw else None
-    ties = r.array("tie", lambda path, data: read_tie(r, path, data))
+    ties = r.array("tie", lambda path, data: read_tie(r, path, data, mesh, elementsets))
     check_entries(r, "tie", ties, 1 << 20, "entries")
     spotwelds = r.array("spotweld", lambda path, data: read_spotweld(r, path, data))
     check_entries(r, "spotweld", spotwelds, 1 << 20, "entries")

@@ -5,7 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from ..keys import Check, Invalid, boolean, identifier, is_int, key, keys_of, node_set, nonempty, positive, show
+from ..keys import Check, Invalid, boolean, hint, identifier, is_int, key, keys_of, node_set, nonempty, positive, show
+from .mesh import FileMesh
 from .reader import Reader
 
 
@@ -63,11 +64,14 @@ class SpotWeld:
         doc="TF: the welds fail at this time whatever their force")
 
 
-def read_tie(r: Reader, path: str, data: Any) -> Tie | None:
+def read_tie(r: Reader, path: str, data: Any, mesh, elementsets) -> Tie | None:
     mark = len(r.messages)
     v = r.read(path, data, keys_of(Tie), Tie)
     if v is None:
         return None
+    names = [s.name for s in elementsets]
+    if "surface" in v and v["surface"] != "all" and v["surface"] not in names and not isinstance(mesh, FileMesh):
+        r.error(f"{path}.surface", f"no [elementsets.{v['surface']}]" + hint(v["surface"], names + ["all"], "defined"))
     return r.build(mark, Tie, v)
 
 
