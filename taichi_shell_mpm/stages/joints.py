@@ -51,7 +51,8 @@ nodes: N1's shell normal at t = 0): the normal force f_n = -f_c . e (> 0: tensio
 the pair apart) and the shear f_s = |f_c + f_n e|.  The weld fails at the end of the first
 step where (max(f_n, 0) / SN)^n + (f_s / SS)^m >= 1 (LS-DYNA: only tension counts; coincident
 nodes, where the axis has no sense: |f_n|), or at TF; from the next step on the two nodes are
-free.  Its failure forces and time stay in the fields (summary.json).
+free.  In a static solve the relaxation's inertia is fictitious: f_c = -f_2 (the equilibrium's
+force; during a level's relaxation it may pass its converged value).  Its failure forces and time stay in the fields (summary.json).
 
 A tie to a segment that erodes is released (the slave is free from the next step on).
 """
@@ -191,9 +192,10 @@ class Joints:
     def weld(self, j, s, v, v_start, axis):
         """Weld j's force this step and its failure test (module docstring)."""
         kick = impulse_time(self.s.step)
-        force = ti.Vector([0.0, 0.0, 0.0])
-        if kick > 0.0:
-            force = self.s.nodes.mass[s] * (v - v_start) / kick - self.s.joints.slave_force[j]
+        force = -self.s.joints.slave_force[j]
+        if ti.static(not self.cfg.static):      # a static solve's (relaxation's) inertia is fictitious
+            if kick > 0.0:
+                force += self.s.nodes.mass[s] * (v - v_start) / kick
         normal = -force.dot(axis)
         shear = (force + normal * axis).norm()
         self.s.joints.force_normal[j] = normal
