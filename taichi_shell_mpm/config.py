@@ -58,6 +58,7 @@ class Features:
     #                             (model/contact_pairs.py); without, the single-surface law's scalars
     pair_thickness: bool = False  # contact pairs touch at different thicknesses (several sections without
     #                             [contact].thickness, or interfaces): stages/contact.law_of; else at t_c
+    joints: bool = False        # [[tie]] or [[spotweld]] (stages/joints.py)
     finite_increment: bool = False  # the step is one large increment (Newton's trial,
     #                             solvers/tangent.py): mid-step shape from the end shapes
     #                             (stages/shell.mid_geometry)
@@ -153,4 +154,5 @@ class Features:
             grid_contact=(model.grid is not None and scene.method.fields == "multi"
                           and scene.method.field_contact == "grid"),
             launch=launch, loads=model.loading.loads or (model.tools is not None and model.tools.prescribed),
-            body_rotation=any(b.rotates for b in model.rigid_bodies))
+            body_rotation=any(b.rotates for b in model.rigid_bodies),
+            joints=model.joints is not None)

@@ -216,8 +216,15 @@ def node_masses(state, model) -> tuple[np.ndarray, np.ndarray]:
 def kinetic_energy(state, model) -> float:
     """KE = 1/2 sum m |v~|^2 + 1/2 sum J |omega|^2 over the nodes that are not rigid-body
     slaves, + 1/2 M_tot V^2 of each rigid body (its slaves and added mass move with V), + the
-    kinetic energy of selective mass scaling's added mass (:func:`added_kinetic`)."""
+    kinetic energy of selective mass scaling's added mass (:func:`added_kinetic`).  With
+    [[tie]] / [[spotweld]], the lumped kinetic energy the step keeps: each active joint's
+    slave mass on its masters (stages/joints.py, model/joints.lumped)."""
     m, inertia = node_masses(state, model)
+    if model.joints is not None:
+        from .model.joints import lumped
+        count = len(model.joints)
+        m, inertia = lumped(model.joints, state.read(state.joints.active, count) == 1,
+                            state.read(state.joints.offset, count), m, inertia)
     free = model.node_body < 0 if model.node_body is not None else np.ones(len(m), bool)
     v = state.read(state.nodes.grid_velocity, state.n_nodes)[free]
     w = state.read(state.nodes.omega, state.n_nodes)[free]

@@ -275,7 +275,7 @@ class Simulation:
         self.history.force_rows.append([key] + st.reaction[None].to_numpy().tolist()
                                        + st.reaction_impulse[None].to_numpy().tolist()
                                        + self.body_values() + self.motion_values() + self.tool_values()
-                                       + self.interface_values())
+                                       + self.interface_values() + self.joint_values())
         if frame:
             self.write_frame(key)
 
@@ -395,6 +395,61 @@ class Simulation:
         return [] if tt is None else [f"{name}.{c}" for name in tt.names
                                       for c in ("force_x", "force_y", "force_z", "energy", "work")]
 
+    def joint_state(self) -> dict[str, np.ndarray]:
+        """The joints' run-time fields now (stages/joints.py)."""
+        jt, g = self.model.joints, self.state.joints
+        return {name: self.state.read(getattr(g, name), len(jt)) for name in (
+            "active", "failure_time", "force_normal", "force_shear", "peak_normal", "peak_shear")}
+
+    def joint_values(self) -> list[float]:
+        """force.csv's weld columns (:meth:`joint_columns`): per [[spotweld]] group the largest
+        normal (tension > 0) and shear force of this step over its welds intact at its end (0
+        when none), and how many have failed."""
+        jt = self.model.joints
+        if jt is None:
+            return []
+        from .model.joints import WELD
+        x = self.joint_state()
+        out = []
+        for g in jt.groups:
+            if g.kind != WELD:
+                continue
+            rows = slice(g.first, g.first + g.count)
+            intact = x["active"][rows] == 1
+            normal = x["force_normal"][rows][intact]
+            shear = x["force_shear"][rows][intact]
+            out += [float(normal.max()) if len(normal) else 0.0, float(shear.max()) if len(shear) else 0.0,
+                    float(np.count_nonzero(x["failure_time"][rows] >= 0.0))]
+        return out
+
+    def joint_columns(self) -> list[str]:
+        from .model.joints import WELD
+        jt = self.model.joints
+        return [] if jt is None else [f"{g.name}.{c}" for g in jt.groups if g.kind == WELD
+                                      for c in ("force_normal", "force_shear", "failed")]
+
+    def joint_summary(self) -> dict:
+        """summary.json's `ties` and `spotwelds` blocks."""
+        from .model.joints import TIE
+        jt = self.model.joints
+        x = self.joint_state()
+        ties, welds = [], []
+        for g in jt.groups:
+            rows = np.arange(g.first, g.first + g.count)
+            if g.kind == TIE:
+                ties.append({"name": g.name, "slaves": int(g.count), "unfound": len(g.unfound),
+                             "unfound_nodes": list(g.unfound[:100]),
+                             "released": int(np.count_nonzero(x["active"][rows] == 0))})
+                continue
+            failed = rows[x["failure_time"][rows] >= 0.0]
+            welds.append({
+                "name": g.name, "welds": int(g.count), "failed": int(len(failed)),
+                "peak_normal": float(x["peak_normal"][rows].max()), "peak_shear": float(x["peak_shear"][rows].max()),
+                "failures": [{"pair": [int(jt.masters[j, 0]), int(jt.slave[j])],
+                              "time": float(x["failure_time"][j]), "force_normal": float(x["force_normal"][j]),
+                              "force_shear": float(x["force_shear"][j])} for j in failed]})
+        return {**({"ties": ties} if ties else {}), **({"spotwelds": welds} if welds else {})}
+
     def motion_columns(self) -> list[str]:
         return [f"{m.name}.{c}" for m in self.model.loading.motions for c in
                 [f"reaction_{d}" for d in m.dofs] + ["work"]]
@@ -431,6 +486,7 @@ class Simulation:
         self.motion_values()
         self.tool_values()
         self.interface_values()
+        self.joint_values()
         self.where()
         ti.sync()
 
@@ -613,7 +669,7 @@ class Simulation:
     def force_header(self) -> list[str]:
         return ([self.history.probe_header[0], "support_x", "support_y", "support_z", "support_impulse_x",
                  "support_impulse_y", "support_impulse_z"] + self.body_columns() + self.motion_columns()
-                + self.tool_columns() + self.interface_columns())
+                + self.tool_columns() + self.interface_columns() + self.joint_columns())
 
     def part_added_mass(self) -> np.ndarray:
         """The mass selective mass scaling has added to each part so far (0 for rigid bodies and point masses)."""
@@ -747,6 +803,8 @@ class Simulation:
                  "nodes_in_contact": int(contacts[i])} for i, name in enumerate(tt.names)]
         if self.cfg.erosion:
             summary["erosion"] = {"eroded_elements": int(eroded_elements(self.state).sum())}
+        if self.model.joints is not None:
+            summary.update(self.joint_summary())
         if self.cfg.mass_scaling:
             summary["mass_scaling"] = self.mass_scaling_summary()
         if self.state.contact is not None:

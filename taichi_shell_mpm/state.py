@@ -500,6 +500,40 @@ class State:
                  used=meshes)
 
         # --- self-contact (method.md 7.3), used only when the scene asks for it
+        # --- [[tie]] and [[spotweld]] (stages/joints.py, model/joints.py): per joint its slave,
+        # masters and weights N_a, offset r and axis (turned with the masters), whether the
+        # rotation is tied, a tie's segment, the kind, a weld's SN SS n m TF coincident; active
+        # (1 until a weld fails or a tie's segment erodes), the failure time (-1: intact),
+        # this step's normal (tension > 0) and shear force of a weld, their peaks; per node the
+        # joint it follows (-1: none) and the slaves' mass, rotary inertia, force and moment
+        # lumped on it this step (stages/joints.Joints.distribute)
+        g = self.joints = Group("joints")
+        jt = model.joints
+        on = fx.joints
+        nj = len(jt) if jt is not None else 0
+        g.table("count", ti.field(i32), (), used=on)
+        g.entity("slave", ti.field(i32), nj, used=on)
+        g.entity("masters", ti.Vector.field(4, i32), nj, used=on)
+        g.entity("weights", ti.Vector.field(4, f64), nj, used=on)
+        g.entity("offset", ti.Vector.field(3, f64), nj, used=on)
+        g.entity("axis", ti.Vector.field(3, f64), nj, used=on)
+        g.entity("rotations", ti.field(i32), nj, used=on)
+        g.entity("element", ti.field(i32), nj, used=on)
+        g.entity("kind", ti.field(i32), nj, used=on)
+        g.entity("strength", ti.Vector.field(6, f64), nj, used=on)
+        g.entity("active", ti.field(i32), nj, used=on)
+        g.entity("failure_time", ti.field(f64), nj, used=on)
+        g.entity("force_normal", ti.field(f64), nj, used=on)
+        g.entity("force_shear", ti.field(f64), nj, used=on)
+        g.entity("peak_normal", ti.field(f64), nj, used=on)
+        g.entity("peak_shear", ti.field(f64), nj, used=on)
+        g.entity("slave_force", ti.Vector.field(3, f64), nj, persistent=False, used=on, host=False)
+        g.entity("node_joint", ti.field(i32), n, used=on)
+        for name in ("node_mass", "node_inertia"):
+            g.entity(name, ti.field(f64), n, persistent=False, used=on, host=False)
+        for name in ("node_force", "node_moment"):
+            g.entity(name, ti.Vector.field(3, f64), n, persistent=False, used=on, host=False)
+
         g = contact = Group("contact")
         self.contact = g if fx.contact else None
         for name, dtype in (("max_penetration", f64), ("pairs", i32), ("rebuild", i32), ("skin", f64),
@@ -634,8 +668,8 @@ class State:
             g.field_normal = ti.Vector.field(3, f64)
             placed += [g.field_position, g.field_normal]
         g._builder.dense(ti.i, slots * (MAX_FIELDS if multi else 1)).place(*placed)
-        for group in (self.nodes, self.elements, self.sections, self.step, self.bodies, self.loads, self.tools, contact,
-                      self.points, grid):
+        for group in (self.nodes, self.elements, self.sections, self.step, self.bodies, self.loads, self.tools,
+                      self.joints, contact, self.points, grid):
             group.finalize()
     
     # ------------------------------------------------------------ the model's data
@@ -734,6 +768,8 @@ class State:
             w(bd.slave_nodes, np.concatenate([b.nodes for b in model.rigid_bodies]).astype(np.int32))
         for i, wall in enumerate(model.walls):
             bd.wall_point[i], bd.wall_normal[i], bd.wall_body[i] = wall.point, wall.normal, wall.body
+        if self.features.joints:
+            self._load_joints(model.joints, n)
         self._load_loading(model.loading)
         self._load_tools(model.tools)
         # the step's run-time parameters
@@ -789,6 +825,18 @@ class State:
                 w(nd.part, part.astype(np.int32))
             st.dilatational_speed[None] = model.materials.dilatational_speed
 
+    def _load_joints(self, jt, n: int) -> None:
+        """The joints' tables and initial state (model/joints.py)."""
+        g, w = self.joints, self.write
+        g.count[None] = len(jt)
+        for name in ("slave", "masters", "weights", "offset", "axis", "rotations", "element", "kind", "strength"):
+            w(getattr(g, name), getattr(jt, name))
+        w(g.active, np.ones(len(jt), np.int32))
+        w(g.failure_time, np.full(len(jt), -1.0))
+        node_joint = np.full(n, -1, np.int32)
+        node_joint[jt.slave] = np.arange(len(jt), dtype=np.int32)
+        w(g.node_joint, node_joint)
+
     def _load_tools(self, tt) -> None:
         """The tables of tools.ToolTable."""
         g, w = self.tools, self.write
@@ -837,7 +885,8 @@ class State:
         return {name: g for name, g in (("nodes", self.nodes), ("elements", self.elements),
                                         ("sections", self.sections), ("points", self.points),
                                         ("step", self.step), ("bodies", self.bodies), ("loads", self.loads),
-                                        ("tools", self.tools), ("contact", self.contact), ("grid", self.grid)) if g is not None}
+                                        ("tools", self.tools), ("joints", self.joints), ("contact", self.contact),
+                                        ("grid", self.grid)) if g is not None}
 
     def read(self, field, size: int) -> np.ndarray:
         """The first `size` entries of `field` (all of a 0-d or fixed table) as a numpy array

@@ -18,6 +18,7 @@ from ..mesh import Mesh
 from ..nodesets import select_nodes
 from ..scene import DOFS, Scene, SceneError
 from .contact_pairs import ContactTable, contact_table
+from .joints import JointTable, build_joints, consistent_velocities
 from .bodies import PointMassSpec, RigidBodySpec, WallSpec, body_step, body_step_notes, node_point_masses, rigid_body
 from .parts import ElementData, MaterialTable, PartSpec, SectionTable, element_selection, part_data, tables
 from .tools import ToolTable, build_tools
@@ -112,6 +113,7 @@ class Model:
     neighbor_nodes: np.ndarray | None = None
     loading: Loading | None = None        # curve and follower loads, pressure, gravity, prescribed motion
     contact: ContactTable | None = None   # [contact] and [[contact_pair]] laws (model/contact_pairs.py)
+    joints: JointTable | None = None      # [[tie]] and [[spotweld]] (model/joints.py); None: none
 
 
 def element_frames(points: np.ndarray, elements: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -430,6 +432,13 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
     for d in range(3):                       # supports do not move: no initial velocity there
         velocity0[(fix_mask >> d) & 1 == 1, d] = 0.0
         omega0[(fix_mask >> (3 + d)) & 1 == 1, d] = 0.0
+    joints, joint_notes = build_joints(
+        scene, mesh, points, elements, element.thickness, node_thickness, nodes_of,
+        lambda name, path: element_selection(name, scene, mesh, points, elements, path), fix_mask, node_body,
+        loading.motion_mask if loading is not None else None)
+    if joints is not None:
+        notes += joint_notes
+        consistent_velocities(joints, velocity0, omega0)
     probes = tuple(ProbeSpec(p.name, nodes_of(p.nodes), p.components) for p in scene.probes)
     min_edge = float(edges.min())
     free = int(np.sum(((fix_mask & 0b111) != 0b111) & (node_body < 0)))
@@ -465,7 +474,7 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
                  grid=grid, probes=probes, min_edge=min_edge, mean_edge=float(edges.mean()),
                  max_edge=float(edges.max()), rigid_bodies=tuple(bodies), point_masses=tuple(point_masses),
                  walls=walls, tools=tools, node_body=node_body,
-                 loading=loading, contact=laws,
+                 loading=loading, contact=laws, joints=joints,
                  **(node_neighbors(elements, n) if laws is not None else {}))
 
 

@@ -29,6 +29,7 @@ from .initial import InitialVelocity
 from .load import Load
 from .material import MODEL_KEYS, AnyMaterial, Material, OrthotropicMaterial
 from .mesh import DECK_SUFFIXES, FileMesh, HemisphereMesh, MeshSpec, PlateMesh, TubeMesh
+from .joints import SpotWeld, Tie
 from .method import Method
 from .motion import MAX_MOTIONS, MOTION_KINDS, Motion
 from .nodesets import NodeSet
@@ -49,7 +50,7 @@ __all__ = [
     "DOFS", "ElementOptions", "ElementSet", "FileMesh", "Gravity", "HemisphereMesh", "InitialVelocity", "Load",
     "MAX_BODIES", "MAX_CURVES", "MAX_MOTIONS", "MOTION_KINDS", "Material", "MeshSpec", "Method", "Motion",
     "NodeSet", "OrthotropicMaterial", "Output", "Part", "PlateMesh", "Ply", "PointMass", "Pressure", "Probe",
-    "Reference", "ReferenceColumn", "RigidBody", "Scene", "SceneError", "SceneInfo", "Section", "Solve",
+    "Reference", "ReferenceColumn", "RigidBody", "Scene", "SceneError", "SceneInfo", "Section", "Solve", "SpotWeld", "Tie",
     "TOOL_KINDS", "Tool", "TubeMesh", "Vec3", "Wall", "apply_overrides", "inertia_tensor", "load_scene",
     "name_hint", "parse_scene", "penalty_damping_limit", "value_problem"]
 

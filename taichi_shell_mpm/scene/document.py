@@ -18,6 +18,7 @@ from .curves import MAX_CURVES, Curve, read_curve
 from .element import ElementOptions
 from .gravity import Gravity
 from .info import SceneInfo
+from .joints import SpotWeld, Tie, read_spotweld, read_tie
 from .initial import InitialVelocity
 from .load import Load, read_load
 from .material import AnyMaterial
@@ -65,6 +66,10 @@ class Scene:
     contact_pairs: tuple[ContactPair, ...] = ()
     """[[contact_pair]] interfaces (scene/contact_pair.py)."""
     crush: Crush | None = None
+    ties: tuple[Tie, ...] = ()
+    """[[tie]] entries (tied contact; scene/joints.py)."""
+    spotwelds: tuple[SpotWeld, ...] = ()
+    """[[spotweld]] entries (scene/joints.py)."""
     materials: dict[str, AnyMaterial] = field(default_factory=dict)
     """Named materials ([materials.NAME]); with [[part]]."""
     sections: dict[str, Section] = field(default_factory=dict)
@@ -330,6 +335,13 @@ def read_scene(r: Reader) -> Scene:
     check_entries(r, "motion", motions, MAX_MOTIONS, "entries")
     pressures = r.array("pressure", lambda path, data: read_pressure(r, path, data, mesh, elementsets))
     gravity = r.table_object("[gravity]", r.raw["gravity"], Gravity) if "gravity" in r.raw else None
+    ties = r.array("tie", lambda path, data: read_tie(r, path, data, mesh, elementsets))
+    check_entries(r, "tie", ties, 1 << 20, "entries")
+    spotwelds = r.array("spotweld", lambda path, data: read_spotweld(r, path, data))
+    check_entries(r, "spotweld", spotwelds, 1 << 20, "entries")
+    if (ties or spotwelds) and solve is not None and solve.kind == "dynamic" and solve.mass_scaling == "selective":
+        r.error("[solve].mass_scaling", '"selective" does not take [[tie]] or [[spotweld]] (their masses are '
+                'lumped on the master nodes, stages/joints.py): use "conventional" or "none"')
     if r.messages:
         raise SceneError(r.messages, mesh=mesh)
     return Scene(source=r.source, info=info, mesh=mesh, material=material, section=section,
@@ -340,4 +352,5 @@ def read_scene(r: Reader) -> Scene:
                  tools=tuple(tools), contact=contact, crush=crush,
                  contact_pairs=tuple(contact_pairs),
                  materials=materials, sections=sections, elementsets=tuple(elementsets), parts=tuple(parts),
-                 curves=curves, motions=tuple(motions), pressures=tuple(pressures), gravity=gravity)
+                 curves=curves, motions=tuple(motions), pressures=tuple(pressures), gravity=gravity,
+                 ties=tuple(ties), spotwelds=tuple(spotwelds))

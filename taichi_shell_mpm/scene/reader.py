@@ -27,7 +27,7 @@ from ..keys import (
 TABLES = ("scene", "mesh", "material", "section", "materials", "sections", "elementsets", "part", "element",
           "method", "nodesets", "boundary", "load", "initial", "probe", "reference", "solve", "output",
           "rigid_body", "point_mass", "wall", "tool", "contact", "crush",
-          "contact_pair", "curves", "motion", "pressure", "gravity")
+          "contact_pair", "curves", "motion", "pressure", "gravity", "tie", "spotweld")
 """The top-level tables of a scene (each read by its module, scene/<table>.py)."""
 REQUIRED_TABLES = ("scene", "mesh", "solve")
 

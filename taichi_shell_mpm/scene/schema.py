@@ -34,6 +34,7 @@ from .motion import Motion
 from .nodesets import NODE_SET_KEYS
 from .output import Output
 from .parts import ELEMENT_SET_KEYS, Part
+from .joints import SpotWeld, Tie
 from .point_mass import PointMass
 from .pressure import Pressure
 from .probe import Probe
@@ -99,6 +100,8 @@ DOC_TABLES: dict[str, Any] = {
     "contact": lambda: keys_of(Contact),
     "contact_pair": lambda: keys_of(ContactPair),
     "crush": lambda: keys_of(Crush),
+    "tie": lambda: keys_of(Tie),
+    "spotweld": lambda: keys_of(SpotWeld),
 }
 """The generated key tables of docs/scenes.md, by the name in their markers
 ``<!-- keys: NAME -->`` ... ``<!-- /keys -->``."""
@@ -228,6 +231,7 @@ def scene_schema() -> dict:
         "wall": _array(table_schema(keys_of(Wall))), "tool": _array(table_schema(keys_of(Tool))),
         "contact": table_schema(keys_of(Contact)), "crush": table_schema(keys_of(Crush)),
         "contact_pair": _array(table_schema(keys_of(ContactPair))),
+        "tie": _array(table_schema(keys_of(Tie))), "spotweld": _array(table_schema(keys_of(SpotWeld))),
     }
     return {"$schema": "http://json-schema.org/draft-07/schema#",
             "title": "taichi_shell_mpm scene",

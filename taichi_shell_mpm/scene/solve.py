@@ -156,7 +156,8 @@ def check_newton(r: Reader, v: dict, data: dict) -> None:
         if isinstance(element, dict) and element.get("drilling") == "projection":
             r.error("[solve].solver", '"newton" needs the drilling spring ([element].drilling = "penalty"): the '
                     "projection leaves the drilling rotation without stiffness")
-        for key in ("rigid_body", "wall", "tool", "contact", "contact_pair", "motion", "pressure", "gravity"):
+        for key in ("rigid_body", "wall", "tool", "contact", "contact_pair", "motion", "pressure", "gravity", "tie",
+                    "spotweld"):
             if key in raw:       # loads and constraints the element pass of the tangent does not see
                 r.error("[solve].solver", f'"newton" does not handle [{key}] (use "relaxation")')
         loads = raw.get("load", [])

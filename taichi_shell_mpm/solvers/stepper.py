@@ -32,6 +32,7 @@ from ..stages.bodies import RigidBodies
 from ..stages.constraints import NodeUpdate, drop_fixed
 from ..stages.contact import SelfContact
 from ..stages.grid import GridUpdate
+from ..stages.joints import Joints
 from ..stages.loads import ExternalLoads
 from ..stages.mapping import Mapping
 from ..stages.motion import PrescribedMotion
@@ -57,7 +58,10 @@ class Stepper:
         self.loads = ExternalLoads(state, cfg)
         self.motion = PrescribedMotion(state, cfg, self.loads, self.energy)
         self.bodies = RigidBodies(state, cfg, self.energy, self.loads)     # the rigid system, tools included
-        self.nodes = NodeUpdate(state, cfg, self.bodies, self.energy, self.loads, self.motion)
+        self.joints = Joints(state, cfg, self.loads) if cfg.joints else None      # [[tie]], [[spotweld]]
+        self.nodes = NodeUpdate(state, cfg, self.bodies, self.energy, self.loads, self.motion, self.joints)
+        if self.joints is not None:
+            self.joints.nodes = self.nodes
         self.contact = SelfContact(state, cfg, model) if cfg.contact else None
         self.shell = ShellElement(state, cfg, self.energy)
         self.timestep = TimeStep(state, cfg)
@@ -90,7 +94,10 @@ class Stepper:
 
     @ti.func
     def velocity_update(self):
-        """S2-S6: new nodal velocities, positions and rotations (grid or direct FE)."""
+        """S2-S6: new nodal velocities, positions and rotations (grid or direct FE); a joint's
+        slaves lumped on their masters before, placed after (stages/joints.py)."""
+        if ti.static(self.cfg.joints):
+            self.joints.distribute()
         if ti.static(self.cfg.bodies):
             self.bodies.update()
         if ti.static(self.mpm):
@@ -102,6 +109,8 @@ class Stepper:
                 self.selective.explicit_fe()
             else:
                 self.nodes.explicit_fe()
+        if ti.static(self.cfg.joints):
+            self.joints.follow()
 
     @ti.func
     def end(self):
@@ -167,7 +176,7 @@ class Stepper:
                 if ti.static(self.cfg.loads):      # a prescribed DOF's velocity is no relaxation
                     held = self.s.nodes.motion_mask[c]
                     v, w = drop_fixed(v, held, 0), drop_fixed(w, held, 3)
-                m, inertia = self.s.nodes.mass[c], self.s.nodes.inertia[c]
+                m, inertia = self.nodes.mass_of(c), self.nodes.inertia_of(c)
                 self.acc.total(self.s.step.fire_power, force.dot(v) + torque.dot(w))
                 self.acc.total(self.s.step.fire_speed_sq, m * v.norm_sqr() + inertia * w.norm_sqr())
                 self.acc.total(self.s.step.fire_force_sq, force.norm_sqr() / m + torque.norm_sqr() / inertia)

@@ -386,6 +386,8 @@ class RigidBodies:
                 dv = ti.max(0.0, target - out.dot(n))
                 out += dv * n
                 m = self.s.nodes.mass[c]
+                if ti.static(self.cfg.joints):          # a master with its joint slaves' mass (stages/joints.py)
+                    m += self.s.joints.node_mass[c]
                 if b >= 0:
                     if ti.static(self.cfg.moving_walls):
                         impulse = -m * dv * n

@@ -29,13 +29,14 @@ def drop_fixed(vec, mask, first_bit: ti.template()):
 
 @ti.data_oriented
 class NodeUpdate:
-    def __init__(self, state: State, cfg, bodies, energy, loads, motion):
+    def __init__(self, state: State, cfg, bodies, energy, loads, motion, joints=None):
         self.s = state
         self.cfg = cfg
         self.bodies = bodies            # stages/bodies.RigidBodies: the rigid system (its tools too)
         self.energy = energy            # energy.EnergyLedger
         self.loads = loads              # stages/loads.ExternalLoads
         self.motion = motion            # stages/motion.PrescribedMotion
+        self.joints = joints            # stages/joints.Joints (None without [[tie]] / [[spotweld]])
         self.acc = Accumulator(cfg.serial)
 
     @ti.func
@@ -48,9 +49,29 @@ class NodeUpdate:
 
     @ti.func
     def is_prescribed(self, c):
-        """All translations fixed or prescribed, or a rigid-body slave: Lagrangian only, skipped
-        by P2G/G2P (method.md 2.5a, 2.5c)."""
-        return (self.held(c) & FIXED_TRANSLATION) == FIXED_TRANSLATION or self.s.nodes.body[c] >= 0
+        """All translations fixed or prescribed, a rigid-body slave or a joint's slave: Lagrangian
+        only, skipped by P2G/G2P (method.md 2.5a, 2.5c; stages/joints.py)."""
+        out = (self.held(c) & FIXED_TRANSLATION) == FIXED_TRANSLATION or self.s.nodes.body[c] >= 0
+        if ti.static(self.cfg.joints):
+            out = out or self.joints.follows(c)
+        return out
+
+    @ti.func
+    def mass_of(self, c):
+        """The mass the node update integrates: the node's, plus its joint slaves' lumped shares
+        (stages/joints.py)."""
+        m = self.s.nodes.mass[c]
+        if ti.static(self.cfg.joints):
+            m += self.s.joints.node_mass[c]
+        return m
+
+    @ti.func
+    def inertia_of(self, c):
+        """The rotary inertia the node update integrates (as :meth:`mass_of`)."""
+        j = self.s.nodes.inertia[c]
+        if ti.static(self.cfg.joints):
+            j += self.s.joints.node_inertia[c]
+        return j
 
     @ti.func
     def is_idle(self, c):
@@ -58,7 +79,7 @@ class NodeUpdate:
         skipped by P2G/G2P and the explicit-FE update, it keeps a zero velocity."""
         out = self.is_prescribed(c)
         if ti.static(self.cfg.mass_update):
-            out = out or self.s.nodes.mass[c] <= 0.0
+            out = out or self.mass_of(c) <= 0.0
         return out
 
     @ti.func
@@ -90,6 +111,8 @@ class NodeUpdate:
         r = force - self.s.nodes.force_int[c]
         if ti.static(self.cfg.contact or self.cfg.tools):
             r += self.contact_force(c)
+        if ti.static(self.cfg.joints):       # the slaves' forces lumped on a master (stages/joints.py)
+            r += self.s.joints.node_force[c]
         return drop_fixed(r, self.held(c), 0)
 
     @ti.func
@@ -105,6 +128,8 @@ class NodeUpdate:
         """residual_torque with the node's drilling normal and external moment already at hand
         (finish has them)."""
         torque = moment - self.s.nodes.moment_int[c]
+        if ti.static(self.cfg.joints):
+            torque += self.s.joints.node_moment[c]
         if project:
             torque -= torque.dot(normal) * normal
         return drop_fixed(torque, self.held(c), 3)
@@ -131,6 +156,9 @@ class NodeUpdate:
         w_start = keep * self.s.nodes.omega[c]
         vg = drop_fixed(v_grid, mask, 0)
         rigid = self.s.nodes.body[c] >= 0
+        follower, spins = False, False           # a joint's slave, its rotation tied (stages/joints.py)
+        if ti.static(self.cfg.joints):
+            follower, spins = self.joints.follows(c), self.joints.spins_with(c)
         placed = self.s.nodes.position[c]              # a rotating body's slave: its new place
         if ti.static(self.cfg.bodies):
             if rigid:
@@ -147,9 +175,11 @@ class NodeUpdate:
                 reaction -= self.contact_force(c)
             if ti.static(self.cfg.selective_mass):     # the added mass's inertial force (stages/selective_mass.py)
                 reaction += self.s.nodes.sms_product[c]
+            if ti.static(self.cfg.joints):             # a fixed master carries its slaves' loads
+                reaction -= self.s.joints.node_force[c]
             self.acc.total(self.s.step.reaction, reaction)
         elif ti.static(self.cfg.walls):
-            if not rigid and (moved & FIXED_TRANSLATION) == 0:      # walls leave prescribed nodes alone
+            if not rigid and not follower and (moved & FIXED_TRANSLATION) == 0:      # walls leave prescribed nodes alone
                 vg = self.bodies.walls(c, vg)
         if not (vg.norm() <= self.s.step.runaway_speed[None]):       # also catches NaN
             self.s.step.status[None] = STATUS_NONFINITE
@@ -166,7 +196,9 @@ class NodeUpdate:
         # rotations: J w' = mu_ext - mu_int, then remove the drilling component
         normal, project = self.drill_normal(c)
         torque = moment_ext - self.s.nodes.moment_int[c]
-        w = w_start + self.velocity_gain(self.s.nodes.inertia[c]) * torque
+        if ti.static(self.cfg.joints):
+            torque += self.s.joints.node_moment[c]
+        w = w_start + self.velocity_gain(self.inertia_of(c)) * torque
         if ti.static(self.cfg.selective_mass):     # solved with the added mass (stages/selective_mass.py)
             w = w_start + impulse_time(self.s.step) * self.s.nodes.angular_acceleration[c]
         if project:
@@ -179,22 +211,31 @@ class NodeUpdate:
         if ti.static(self.cfg.loads):
             w = self.motion.prescribed(c, w, w_start, 3)
         if ti.static(self.cfg.mass_update):
-            if self.s.nodes.inertia[c] <= 0.0:      # a node without mass (stages/masses.py)
+            if self.inertia_of(c) <= 0.0:      # a node without mass (stages/masses.py)
                 w = ti.Vector([0.0, 0.0, 0.0])
+        if ti.static(self.cfg.joints):
+            if spins:
+                w = self.joints.spin(c)
         self.s.nodes.omega[c] = w
         self.rotate_orientation(c, dt * w)
         if ti.static(self.cfg.body_rotation):
             if rigid:           # composed with the body's rotation exactly (R(t = 0) = 1)
                 self.s.nodes.rotation[c] = self.s.bodies.rotation[self.s.nodes.body[c]]
         if not rigid:        # a slave's rotation is held and its translation is the body's (stages/bodies.py)
-            self.acc.total(self.s.step.residual_sq,
-                           self.residual_torque_about(c, normal, project, moment_ext).norm_sqr()
-                           / (self.s.step.length_ref[None] ** 2))
+            if not spins:
+                self.acc.total(self.s.step.residual_sq,
+                               self.residual_torque_about(c, normal, project, moment_ext).norm_sqr()
+                               / (self.s.step.length_ref[None] ** 2))
             moving_v, moving_w = vg, w
             if ti.static(self.cfg.static and self.cfg.loads):      # a prescribed DOF's speed is no relaxation
                 moving_v, moving_w = drop_fixed(vg, moved, 0), drop_fixed(w, moved, 3)
-            self.acc.total(self.s.step.kinetic, 0.5 * (self.s.nodes.mass[c] * moving_v.norm_sqr()
-                                                  + self.s.nodes.inertia[c] * moving_w.norm_sqr()))
+            mass, inertia = self.mass_of(c), self.inertia_of(c)
+            if ti.static(self.cfg.joints):     # a joint's slave: its masters carry its (lumped) kinetic energy
+                if follower:
+                    mass = 0.0
+                if spins:
+                    inertia = 0.0
+            self.acc.total(self.s.step.kinetic, 0.5 * (mass * moving_v.norm_sqr() + inertia * moving_w.norm_sqr()))
         v_mid, w_mid = 0.5 * (v_start + vg), 0.5 * (w_start + w)
         kick = impulse_time(self.s.step)              # the duration of the velocity update (dt/2 from rest)
         external = self.loads.work(c, v_mid, w_mid, kick)
@@ -209,7 +250,7 @@ class NodeUpdate:
             contact += self.bodies.tool_work(c, v_mid, kick)
         if ti.static(self.cfg.contact or self.cfg.tools):
             force += self.contact_force(c)
-        wall = -self.s.nodes.mass[c] * (vg - before_walls).dot(v_mid)     # minus the walls' impulse . v_mid
+        wall = -self.mass_of(c) * (vg - before_walls).dot(v_mid)     # minus the walls' impulse . v_mid
         motion = 0.0
         if ti.static(self.cfg.loads):
             motion = self.motion.book(c, force, torque, v_start, vg, w_start, w)
@@ -246,5 +287,9 @@ class NodeUpdate:
             if not self.is_idle(c):
                 r = self.residual_force(c)
                 self.acc.total(self.s.step.residual_sq, r.norm_sqr())
-                v = self.s.step.velocity_keep[None] * self.s.nodes.grid_velocity[c] + self.velocity_gain(self.s.nodes.mass[c]) * r
-            self.finish(c, v)
+                v = self.s.step.velocity_keep[None] * self.s.nodes.grid_velocity[c] + self.velocity_gain(self.mass_of(c)) * r
+            if ti.static(self.cfg.joints):
+                if not self.joints.follows(c):          # a joint's slave: after its masters (stages/joints.py)
+                    self.finish(c, v)
+            else:
+                self.finish(c, v)

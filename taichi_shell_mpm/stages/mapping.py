@@ -159,7 +159,7 @@ class Mapping:
         - r: h^2 (d2v/dxdy d_x d_y + d2v/dydz d_y d_z + d2v/dzdx d_z d_x) + h^3 d3v/dxdydz d_x d_y d_z."""
         _base, frac, _inside = self.stencil(self.s.nodes.position[c])
         w = self.axis_weights(frac)
-        mass = self.s.nodes.mass[c]
+        mass = self.nodes.mass_of(c)          # with a joint's slaves lumped on it (stages/joints.py)
         keep = self.s.step.velocity_keep[None]
         force = self.nodes.residual_force(c)
         vel = keep * self.s.nodes.velocity[c]
@@ -234,7 +234,7 @@ class Mapping:
             if self.s.grid.on_grid[c] == 1:
                 base, frac, _inside = self.stencil(self.s.nodes.position[c])
                 w = self.axis_weights(frac)
-                mass = self.s.nodes.mass[c]
+                mass = self.nodes.mass_of(c)
                 v_delta = ti.Vector([0.0, 0.0, 0.0])
                 affine = ti.Matrix.zero(ti.f64, 3, 3)
                 massive_grad = ti.Vector([0.0, 0.0, 0.0])
@@ -302,7 +302,11 @@ class Mapping:
                     # the grid contact's work, booked like a wall's: its impulse m dv . v_mid (energy.py)
                     v_mid = 0.5 * (self.s.step.velocity_keep[None] * self.s.nodes.grid_velocity[c] + v_grid)
                     self.nodes.energy.node(c, 0.0, -mass * v_contact.dot(v_mid), 0.0, 0.0)
-            self.nodes.finish(c, v_grid)
+            if ti.static(self.cfg.joints):
+                if not self.nodes.joints.follows(c):     # a joint's slave: after its masters (stages/joints.py)
+                    self.nodes.finish(c, v_grid)
+            else:
+                self.nodes.finish(c, v_grid)
 
     @ti.func
     def clear_grid(self):
