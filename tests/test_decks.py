@@ -269,6 +269,20 @@ SNIPPETS = [
     ("*CONTROL_HOURGLASS\n4,0.08\n*CONTROL_CONTACT\n0.2\n*CONTACT_AUTOMATIC_SINGLE_SURFACE_ID\n1 contact\n0,0,5\n0.1\n"
      "2.0,1.0,0.8\n",
      "[element]\nhourglass = 0.08\n[contact]\nfriction = 0.1\ndamping = 0.0\nstiffness = 0.4\nthickness = 0.8\n"),
+    ("*CONTACT_AUTOMATIC_SURFACE_TO_SURFACE\n1,2,3,3\n0.3,0.0,0.0,0.0,10.0\n1.0,1.0,0.5,0.8\n",
+     "[[contact_pair]]\nname = \"interface_0\"\nslave = \"part:1\"\nmaster = \"part:2\"\nsymmetric = true\n"
+     "friction = 0.3\ndamping = 0.1\nstiffness = 0.1\nslave_thickness = 0.5\nmaster_thickness = 0.8\n"),
+    ("*CONTACT_AUTOMATIC_NODES_TO_SURFACE_ID\n4 lap\n3,2,1,3\n*SET_SHELL_LIST\n3\n5,6\n",
+     "[elementsets.shells_3]\nids = [4, 5]\n"
+     "[[contact_pair]]\nname = \"interface_0\"\nslave = \"shells_3\"\nmaster = \"part:2\"\nsymmetric = false\n"
+     "friction = 0.0\ndamping = 0.0\nstiffness = 0.1\n"),
+    ("*CONTACT_TIED_SHELL_EDGE_TO_SURFACE_OFFSET\n7,2,4,3\n*SET_NODE_LIST\n7\n111,112,113,114,115\n",
+     "[nodesets.set_7]\nids = [10, 11, 12, 13, 14]\n"
+     "[[tie]]\nname = \"tie_0\"\nnodes = \"set_7\"\nsurface = \"part:2\"\nrotations = true\n"),
+    ("*CONSTRAINED_SPOTWELD\n103,201,100.0,200.0\n104,202,100.0,200.0,4.0,3.0\n",
+     "[[spotweld]]\nname = \"welds_0\"\npairs = [[2, 15]]\nnormal_strength = 100.0\nshear_strength = 200.0\n"
+     "[[spotweld]]\nname = \"welds_1\"\npairs = [[3, 16]]\nnormal_strength = 100.0\nshear_strength = 200.0\n"
+     "n = 4.0\nm = 3.0\n"),
     ("*NODE\n120,40.0,20.0,5.0,0,0\n*SET_NODE_LIST_GENERATE\n7\n111,115,118,121\n*DATABASE_HISTORY_NODE_SET\n7\n"
      "*DATABASE_NODOUT\n1.0e-5\n*DATABASE_RCFORC\n2.0e-5\n*DATABASE_BINARY_D3PLOT\n0.0,0,0,4\n",
      "[nodesets.set_7]\nids = [10, 11, 12, 13, 14]\n[[probe]]\nname = \"set_7\"\nnodes = \"set_7\"\n"

@@ -352,6 +352,11 @@ class _Translator:
             "CONSTRAINED_EXTRA_NODES_NODE": self._extra_nodes, "CONSTRAINED_EXTRA_NODES_SET": self._extra_nodes,
             "ELEMENT_MASS": self._element_mass, "ELEMENT_MASS_PART": self._element_mass_part,
             "CONTACT_AUTOMATIC_SINGLE_SURFACE": self._single_surface,
+            "CONTACT_AUTOMATIC_SURFACE_TO_SURFACE": self._interface,
+            "CONTACT_AUTOMATIC_NODES_TO_SURFACE": self._interface,
+            "CONTACT_TIED_NODES_TO_SURFACE": self._tie, "CONTACT_TIED_NODES_TO_SURFACE_OFFSET": self._tie,
+            "CONTACT_TIED_SHELL_EDGE_TO_SURFACE": self._tie, "CONTACT_TIED_SHELL_EDGE_TO_SURFACE_OFFSET": self._tie,
+            "CONSTRAINED_SPOTWELD": self._spotweld,
             "DATABASE_HISTORY_NODE": self._history, "DATABASE_HISTORY_NODE_SET": self._history,
             "DATABASE_BINARY_D3PLOT": self._d3plot,
         }
@@ -953,6 +958,137 @@ class _Translator:
                 self.unread(where, f"{key.upper()}: contact boxes are not read")
         self.doc.raw["contact"] = entry
         self.origin("[contact]", where)
+
+    def _surface(self, sid: int, styp: int, where: str, side: str) -> str:
+        """The element set of a contact's side: SSTYP/MSTYP 0 segment set (the shells whose
+        corners the segments are), 1 shell set, 2 part set, 3 part, 5 (or id 0) every part."""
+        if styp == 5 or sid == 0:
+            return "all"
+        if styp == 3:
+            if not np.any(self.deck.element_parts == sid):
+                raise SceneError(f"{where}: {side} part {sid} has no shells")
+            return f"part:{sid}"
+        if styp == 2:
+            rows = np.nonzero(np.isin(self.deck.element_parts, self.part_set(sid, where)))[0]
+            return self._rows_set(f"partset_{sid}", rows, where)
+        if styp == 1:
+            if sid not in self.shell_sets:
+                raise SceneError(f"{where}: {side} {sid} is not a *SET_SHELL of this deck")
+            eids, at = self.shell_sets[sid]
+            return self._element_set(f"shells_{sid}", eids, at)
+        if styp == 0:
+            if sid not in self.segment_sets:
+                raise SceneError(f"{where}: {side} {sid} is not a *SET_SEGMENT of this deck")
+            segments, at = self.segment_sets[sid]
+            by_corners = {}
+            for row, corners in enumerate(self.deck_corner_ids()):
+                by_corners.setdefault(frozenset(corners), row)
+            rows = []
+            for seg in segments:
+                key = frozenset(n for n in seg if n) if seg[2] != seg[3] else frozenset(seg[:3])
+                if key not in by_corners:
+                    raise SceneError(f"{at}: segment {list(seg)} is not the face of a shell of this deck")
+                rows.append(by_corners[key])
+            return self._rows_set(f"segments_{sid}", np.array(rows), at)
+        raise SceneError(f"{where}: {side} type {styp}: expected 0 (segment set), 1 (shell set), 2 (part set), "
+                         "3 (part) or 5 (all)")
+
+    def deck_corner_ids(self):
+        """Each shell's corner node ids (the deck's), a triangle's three."""
+        ids = self.deck.node_ids
+        for row in self.elements:
+            yield tuple(int(ids[c]) for c in row if c >= 0)
+
+    def _rows_set(self, name: str, rows, where: str) -> str:
+        sets = self.table("elementsets")
+        if name not in sets:
+            if len(rows) == 0:
+                raise SceneError(f"{where}: {name.replace('_', ' ')} holds no shell")
+            sets[name] = {"ids": sorted({int(r) for r in rows})}
+            self.origin(f"[elementsets.{name}]", where)
+        return name
+
+    def _law(self, v: dict, where: str) -> dict:
+        """A contact's friction, damping and penalty scale (as [contact]'s: _single_surface)."""
+        slsfac = getattr(self, "slsfac", (0.1, ""))[0]
+        if v["fd"] and v["fd"] != v["fs"] and v["dc"]:
+            self.note(where, f"FD = {v['fd']:g} with DC = {v['dc']:g}: the friction coefficient is FS = {v['fs']:g} "
+                             "at every slip speed")
+        if v["bt"] or (v["dt"] and v["dt"] < NEVER):
+            self.unread(where, "BT, DT: the contact acts over the whole run")
+        for key in ("sboxid", "mboxid"):
+            if v[key]:
+                self.unread(where, f"{key.upper()}: contact boxes are not read")
+        return {"friction": v["fs"], "damping": v["vdc"] / 100.0, "stiffness": min(1.0, slsfac * (v["sfs"] or 1.0))}
+
+    def _interface(self, block: Block) -> None:
+        """*CONTACT_AUTOMATIC_SURFACE_TO_SURFACE (symmetric) / _NODES_TO_SURFACE (one-way) as a
+        [[contact_pair]]: SST, MST (x SFST, SFMT) the sides' thickness overrides."""
+        v, where = self._one(block, [_CONTACT_1, _CONTACT_2, _CONTACT_3])
+        one_way = "NODES_TO_SURFACE" in block.name
+        if one_way and v["sstyp"] == 4:
+            self.unread(where, "SSTYP = 4 (a node set) on the slave side: an interface's slave side is a set of "
+                               "shells; read as the shells of those nodes' parts is not done")
+            return
+        k = len(self.doc.raw.get("contact_pair", []))
+        entry = {"name": f"interface_{k}", "slave": self._surface(v["ssid"], v["sstyp"], where, "SSID"),
+                 "master": self._surface(v["msid"], v["mstyp"], where, "MSID"), "symmetric": not one_way,
+                 **self._law(v, where)}
+        if v["sst"] > 0.0:
+            entry["slave_thickness"] = v["sst"] * (v["sfst"] or 1.0)
+        if v["mst"] > 0.0:
+            entry["master_thickness"] = v["mst"] * (v["sfmt"] or 1.0)
+        self.append("contact_pair", entry, where)
+
+    def _tie(self, block: Block) -> None:
+        """*CONTACT_TIED_NODES_TO_SURFACE / _SHELL_EDGE_TO_SURFACE (and _OFFSET) as a [[tie]]:
+        the slave nodes (SSTYP 4 node set, 2 part set, 3 part) on the master shells."""
+        v, where = self._one(block, [_CONTACT_1, _CONTACT_2, _CONTACT_3])
+        styp, sid = v["sstyp"], v["ssid"]
+        if styp == 4:
+            nodes = self.node_set(sid, where, "SSID")
+        elif styp in (2, 3):
+            pids = [sid] if styp == 3 else self.part_set(sid, where)
+            nodes = self.nodeset(f"{'part' if styp == 3 else 'partset'}_{sid}_nodes", self.part_nodes(pids, where),
+                                 where)
+        else:
+            raise SceneError(f"{where}: SSTYP = {styp}: a tie's slave side is a node set (4), a part set (2) or a "
+                             "part (3)")
+        k = len(self.doc.raw.get("tie", []))
+        entry = {"name": f"tie_{k}", "nodes": nodes, "surface": self._surface(v["msid"], v["mstyp"], where, "MSID"),
+                 "rotations": "SHELL_EDGE" in block.name}
+        if not block.name.endswith("_OFFSET") and not block.name.endswith(("_OFFSET_ID", "_OFFSET_TITLE")):
+            self.note(where, "the slaves keep their offset from the surface (LS-DYNA's non-_OFFSET tie moves them "
+                             "onto it first)")
+        self.append("tie", entry, where)
+
+    def _spotweld(self, block: Block) -> None:
+        """*CONSTRAINED_SPOTWELD: welds of equal SN, SS, N, M, TF as one [[spotweld]] group."""
+        layout = _ints("n1 n2") + columns("sn ss n m tf ep", 10)
+        cards = self._titled(block)
+        if block.name.endswith("_ID"):       # each weld has its own id card first
+            cards = [c for k, c in enumerate(data_cards(block)) if k % 2 == 1 and c.text.strip()]
+        groups: dict[tuple, list] = {}
+        for card in cards:
+            v = read_card(card, layout, block.name)
+            where = location(card, block.name)
+            if v["ep"] and v["ep"] < NEVER:
+                self.unread(where, f"EP = {v['ep']:g}: failure by plastic strain is not read")
+            pair = self.positions([v["n1"]], where, "N1") + self.positions([v["n2"]], where, "N2")
+            if len(pair) != 2:
+                raise SceneError(f"{where}: N1, N2 = {v['n1']}, {v['n2']}: a weld joins two nodes of shells")
+            key = (v["sn"], v["ss"], v["n"], v["m"], v["tf"] if 0.0 < v["tf"] < NEVER else 0.0)
+            groups.setdefault(key, []).append((pair, where))
+        for (sn, ss, n, m, tf), welds in groups.items():
+            where = welds[0][1]
+            if sn <= 0.0 or ss <= 0.0:       # LS-DYNA: a blank SN or SS, no failure by that force
+                self.note(where, "SN or SS blank: the welds do not fail by that force (read as 1e30)")
+                sn, ss = sn if sn > 0.0 else 1e30, ss if ss > 0.0 else 1e30
+            k = len(self.doc.raw.get("spotweld", []))
+            entry = {"name": f"welds_{k}", "pairs": [list(p) for p, _ in welds], "normal_strength": sn,
+                     "shear_strength": ss, **({"n": n} if n else {}), **({"m": m} if m else {}),
+                     **({"failure_time": tf} if tf else {})}
+            self.append("spotweld", entry, where)
 
     # -- output
     def _history(self, block: Block) -> None:
