@@ -443,3 +443,26 @@ def test_rigid_part_extra_nodes_and_part_hourglass(tmp_path):
     with pytest.raises(SceneError) as e:
         load_scene(differ)
     assert "hourglass coefficients differ between parts (0.07, 0.1): one per scene, 0.07" in e.value.messages[0]
+
+
+def test_the_top_hat_deck_runs(tmp_path):
+    """scenes/top_hat.k (benchmarks/top_hat.py; docs/decks.md, worked example) through the CLI,
+    shortened to the first 0.4 ms (the impactor's first 2 mm past touch): the deck is read with
+    nothing left unread, the section pushes back, no weld fails yet, the balance closes."""
+    out = tmp_path / "top_hat"
+    r = cli_run("run", str(Path(__file__).resolve().parents[1] / "scenes" / "top_hat.k"), "--set", "method.kind=fem",
+                "--set", "solve.end_time=0.4", "--out", str(out), "--quiet")
+    assert_clean_output(r)
+    assert r.code == 0, r.err
+    assert "not read" not in r.out, r.out
+    summary = json.loads((out / "summary.json").read_text())
+    welds = summary["spotwelds"][0]
+    force = np.genfromtxt(out / "force.csv", delimiter=",", names=True)
+    energy = np.genfromtxt(out / "energy.csv", delimiter=",", names=True)
+    balance = abs(energy["balance_error"][-1]) / energy["motion_work"][-1]
+    print(f"\ntop hat, 0.4 ms: {summary['steps']} steps, peak reaction {np.abs(force['support_z']).max():.1f} kN, "
+          f"welds {welds['welds']} ({welds['failed']} failed, peak shear {welds['peak_shear']:.2f} kN), "
+          f"balance {balance:.1e} of the motion's work")
+    assert welds["welds"] == 14 and welds["failed"] == 0
+    assert np.abs(force["support_z"]).max() > 10.0
+    assert balance < 1e-3
