@@ -245,6 +245,10 @@ SNIPPETS = [
     ("*LOAD_SHELL_ELEMENT\n1,1,2.0,0.5\n2,1,2.0,0.5\n*DEFINE_CURVE\n1\n0.0,1.0\n1.0,1.0\n",
      "[elementsets.pressure_0]\nids = [0, 1]\n[curves.lc_1_at_0p5]\npoints = [[0.0, 0.0], [0.5, 0.0], [1.5, 1.0]]\n"
      "[[pressure]]\nvalue = -2.0\nelements = \"pressure_0\"\ncurve = \"lc_1_at_0p5\"\n"),
+    ("*LOAD_SEGMENT\n1,2.0,0.0,101,102,107,106\n1,2.0,0.0,103,102,107,108\n*DEFINE_CURVE\n1\n0.0,1.0\n",
+     "[elementsets.pressure_0]\nids = [0]\n[elementsets.pressure_1]\nids = [1]\n[curves.lc_1]\npoints = [[0.0, 1.0]]\n"
+     "[[pressure]]\nvalue = -2.0\nelements = \"pressure_0\"\ncurve = \"lc_1\"\n"
+     "[[pressure]]\nvalue = 2.0\nelements = \"pressure_1\"\ncurve = \"lc_1\"\n"),
     ("*LOAD_BODY_X\n1,2.0\n*LOAD_BODY_Y\n1,-3.0\n*DEFINE_CURVE\n1\n0.0,1.0\n",
      "[curves.lc_1]\npoints = [[0.0, 1.0]]\n[gravity]\nacceleration = [-2.0, 3.0, 0.0]\ncurve = \"lc_1\"\n"),
     ("*RIGIDWALL_PLANAR_FINITE\n0\n0.0,0.0,-5.0,0.0,0.0,-4.0,0.3\n10.0,0.0,-5.0,40.0,20.0\n",

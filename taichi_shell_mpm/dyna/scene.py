@@ -346,6 +346,7 @@ class _Translator:
             "INITIAL_VELOCITY_GENERATION": self._generation,
             "LOAD_NODE_POINT": self._load_node, "LOAD_NODE_SET": self._load_node, "LOAD_NODE": self._load_node,
             "LOAD_SHELL_ELEMENT": self._load_shell, "LOAD_SHELL_SET": self._load_shell,
+            "LOAD_SEGMENT": self._load_segment, "LOAD_SEGMENT_SET": self._load_segment,
             "LOAD_BODY_X": self._load_body, "LOAD_BODY_Y": self._load_body, "LOAD_BODY_Z": self._load_body,
             "RIGIDWALL_PLANAR": self._wall, "RIGIDWALL_PLANAR_FINITE": self._wall,
             "CONSTRAINED_NODAL_RIGID_BODY": self._nodal_rigid, "CONSTRAINED_NODAL_RIGID_BODY_SPC": self._nodal_rigid,
@@ -742,6 +743,32 @@ class _Translator:
             k = len(self.doc.raw.get("pressure", []))
             self._add_pressure(key, self._element_set(f"pressure_{k}", [e for e, _ in cards], where), where)
 
+    def _load_segment(self, block: Block) -> None:
+        """*LOAD_SEGMENT (LCID SF AT N1..N4 per card) / _SET (SSID LCID SF AT) as [[pressure]]:
+        LS-DYNA's positive pressure acts against the segment's normal (its corner order), so a
+        segment ordered against its shell's corners takes the opposite sign."""
+        by_set = block.name.startswith("LOAD_SEGMENT_SET")
+        layout = _ints("id lcid") + columns("sf at", 10) if by_set else \
+            _ints("lcid") + columns("sf at", 10) + _ints("n1 n2 n3 n4")
+        groups: dict[tuple, list] = {}
+        for v, where in self._each(block, layout):
+            if not v["lcid"]:
+                raise SceneError(f"{where}: LCID: a pressure needs a load curve")
+            sf = v["sf"] if v["sf"] != 0.0 else 1.0
+            if by_set:
+                if v["id"] not in self.segment_sets:
+                    raise SceneError(f"{where}: SSID {v['id']} is not a *SET_SEGMENT of this deck")
+                segments = self.segment_sets[v["id"]][0]
+            else:
+                segments = [tuple(v[f"n{k}"] for k in range(1, 5))]
+            for seg in segments:
+                row, along = self.segment_shell(seg, where)
+                groups.setdefault((v["lcid"], sf if along else -sf, v["at"]), []).append((row, where))
+        for (lcid, sf, at), rows in groups.items():
+            where = rows[0][1]
+            k = len(self.doc.raw.get("pressure", []))
+            self._add_pressure((lcid, sf, at), self._rows_set(f"pressure_{k}", [r for r, _ in rows], where), where)
+
     def _element_set(self, name: str, eids, where: str) -> str:
         rows = []
         for eid in eids:
@@ -980,24 +1007,32 @@ class _Translator:
             if sid not in self.segment_sets:
                 raise SceneError(f"{where}: {side} {sid} is not a *SET_SEGMENT of this deck")
             segments, at = self.segment_sets[sid]
-            by_corners = {}
-            for row, corners in enumerate(self.deck_corner_ids()):
-                by_corners.setdefault(frozenset(corners), row)
-            rows = []
-            for seg in segments:
-                key = frozenset(n for n in seg if n) if seg[2] != seg[3] else frozenset(seg[:3])
-                if key not in by_corners:
-                    raise SceneError(f"{at}: segment {list(seg)} is not the face of a shell of this deck")
-                rows.append(by_corners[key])
+            rows = [self.segment_shell(seg, at)[0] for seg in segments]
             return self._rows_set(f"segments_{sid}", np.array(rows), at)
         raise SceneError(f"{where}: {side} type {styp}: expected 0 (segment set), 1 (shell set), 2 (part set), "
                          "3 (part) or 5 (all)")
 
-    def deck_corner_ids(self):
-        """Each shell's corner node ids (the deck's), a triangle's three."""
-        ids = self.deck.node_ids
-        for row in self.elements:
-            yield tuple(int(ids[c]) for c in row if c >= 0)
+    @cached_property
+    def shells_by_corners(self) -> dict:
+        """frozenset of a shell's corner node ids (the deck's) -> (its row, the ids in order)."""
+        ids, out = self.deck.node_ids, {}
+        for row, corners in enumerate(self.elements):
+            order = tuple(int(ids[c]) for c in corners if c >= 0)
+            out.setdefault(frozenset(order), (row, order))
+        return out
+
+    def segment_shell(self, segment, where: str) -> tuple[int, bool]:
+        """The shell whose face a segment (N1..N4; N3 = N4 or N4 = 0 a triangle) is, and whether
+        the segment's corner order runs the shell's way (its normal along the shell's)."""
+        order = tuple(n for n in segment if n)
+        if len(order) == 4 and order[2] == order[3]:
+            order = order[:3]
+        found = self.shells_by_corners.get(frozenset(order))
+        if found is None:
+            raise SceneError(f"{where}: segment {list(segment)} is not the face of a shell of this deck")
+        row, corners = found
+        k = corners.index(order[0])
+        return row, order[1] == corners[(k + 1) % len(corners)]
 
     def _rows_set(self, name: str, rows, where: str) -> str:
         sets = self.table("elementsets")
