@@ -433,7 +433,7 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
         velocity0[(fix_mask >> d) & 1 == 1, d] = 0.0
         omega0[(fix_mask >> (3 + d)) & 1 == 1, d] = 0.0
     joints, joint_notes = build_joints(
-        scene, mesh, points, elements, element.thickness, node_thickness, nodes_of,
+        scene, points, elements, element.thickness, node_thickness, nodes_of,
         lambda name, path: element_selection(name, scene, mesh, points, elements, path), fix_mask, node_body,
         loading.motion_mask if loading is not None else None)
     if joints is not None:

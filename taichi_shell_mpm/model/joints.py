@@ -101,8 +101,8 @@ def node_normals(points: np.ndarray, elements: np.ndarray) -> np.ndarray:
     return out / np.maximum(np.linalg.norm(out, axis=1), 1e-300)[:, None]
 
 
-def _ids(text: str) -> str:
-    return ", ".join(map(str, text[:FIRST_IDS])) + (" ..." if len(text) > FIRST_IDS else "")
+def _ids(nodes: list[int]) -> str:
+    return ", ".join(map(str, nodes[:FIRST_IDS])) + (" ..." if len(nodes) > FIRST_IDS else "")
 
 
 def tie_rows(scene, tie, slaves: np.ndarray, surface: np.ndarray, points: np.ndarray, elements: np.ndarray,
@@ -150,7 +150,7 @@ def tie_rows(scene, tie, slaves: np.ndarray, surface: np.ndarray, points: np.nda
     return rows, unfound, text
 
 
-def build_joints(scene, mesh, points: np.ndarray, elements: np.ndarray, thickness: np.ndarray,
+def build_joints(scene, points: np.ndarray, elements: np.ndarray, thickness: np.ndarray,
                  node_thickness: np.ndarray, nodes_of, element_selection, fix_mask: np.ndarray,
                  node_body: np.ndarray, motion_mask: np.ndarray | None) -> tuple[JointTable | None, list[str]]:
     """The joints of the scene's [[tie]] and [[spotweld]] entries, and the notes (warnings) of
