@@ -273,6 +273,10 @@ SNIPPETS = [
     ("*CONTROL_HOURGLASS\n4,0.08\n*CONTROL_CONTACT\n0.2\n*CONTACT_AUTOMATIC_SINGLE_SURFACE_ID\n1 contact\n0,0,5\n0.1\n"
      "2.0,1.0,0.8\n",
      "[element]\nhourglass = 0.08\n[contact]\nfriction = 0.1\ndamping = 0.0\nstiffness = 0.4\nthickness = 0.8\n"),
+    ("*CONTACT_AUTOMATIC_SINGLE_SURFACE\n4,0,2\n0.1\n*SET_PART_LIST\n4\n1\n",
+     "[elementsets.partset_4]\nids = [0, 1, 2, 3, 4, 5, 6, 7]\n"
+     "[[contact_pair]]\nname = \"interface_0\"\nslave = \"partset_4\"\nmaster = \"partset_4\"\n"
+     "friction = 0.1\ndamping = 0.0\nstiffness = 0.1\n"),
     ("*CONTACT_AUTOMATIC_SURFACE_TO_SURFACE\n1,2,3,3\n0.3,0.0,0.0,0.0,10.0\n1.0,1.0,0.5,0.8\n",
      "[[contact_pair]]\nname = \"interface_0\"\nslave = \"part:1\"\nmaster = \"part:2\"\nsymmetric = true\n"
      "friction = 0.3\ndamping = 0.1\nstiffness = 0.1\nslave_thickness = 0.5\nmaster_thickness = 0.8\n"),

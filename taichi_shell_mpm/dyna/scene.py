@@ -28,7 +28,12 @@ deck's file, line and keyword (:attr:`DeckDocument.origins`).  What is read, and
 ``*ELEMENT_MASS``, ``*ELEMENT_MASS_PART``  ``[[point_mass]]``
 ``*SET_NODE/_SHELL/_PART/_SEGMENT``        the sets the cards above name (``_LIST``,
                                            ``_GENERATE``, ``_TITLE``)
-``*CONTACT_AUTOMATIC_SINGLE_SURFACE``      ``[contact]`` (FS, VDC, SFS, SST)
+``*CONTACT_AUTOMATIC_SINGLE_SURFACE``      ``[contact]`` (FS, VDC, SFS, SST); of some parts:
+                                           a ``[[contact_pair]]`` of them with themselves
+``*CONTACT_AUTOMATIC_SURFACE_TO_SURFACE``  ``[[contact_pair]]`` (``_NODES_TO_SURFACE``: one-way)
+``*CONTACT_TIED_..._TO_SURFACE``           ``[[tie]]`` (``_SHELL_EDGE_``: with rotations)
+``*CONSTRAINED_SPOTWELD``                  ``[[spotweld]]``
+``*LOAD_SEGMENT(_SET)``                    ``[[pressure]]`` on the shells the segments are
 ``*DATABASE_HISTORY_NODE(_SET)``           ``[[probe]]`` per node
 ``*DATABASE_BINARY_D3PLOT``                ``[output].frame_interval``
 ``*DATABASE_GLSTAT/_RCFORC/...``           ``[output].history_interval`` (the smallest DT)
@@ -960,31 +965,26 @@ class _Translator:
 
     # -- contact
     def _single_surface(self, block: Block) -> None:
+        """*CONTACT_AUTOMATIC_SINGLE_SURFACE: [contact] when its surface is every part, else a
+        [[contact_pair]] of that surface with itself (self-contact within those parts)."""
         v, where = self._one(block, [_CONTACT_1, _CONTACT_2, _CONTACT_3])
-        if "contact" in self.doc.raw:
-            self.unread(where, "a second single-surface contact: one [contact] per scene")
+        surface = self._surface(v["ssid"], v["sstyp"], where, "SSID")
+        parts = [int(p) for p in np.unique(self.deck.element_parts)]
+        if surface == "all" or parts == [v["ssid"]] and v["sstyp"] == 3:
+            if "contact" in self.doc.raw:
+                self.unread(where, "a second single-surface contact over every part: one [contact] per scene")
+                return
+            entry = self._law(v, where)
+            if v["sst"] > 0.0:
+                entry["thickness"] = v["sst"] * (v["sfst"] or 1.0)
+            self.doc.raw["contact"] = entry
+            self.origin("[contact]", where)
             return
-        styp, ssid = v["sstyp"], v["ssid"]
-        covers_all = styp == 5 or ssid == 0 or (styp == 2 and set(self.part_set(ssid, where)) >= set(
-            int(p) for p in np.unique(self.deck.element_parts))) or (
-            styp == 3 and set(int(p) for p in np.unique(self.deck.element_parts)) == {ssid})
-        if not covers_all:
-            self.unread(where, f"SSID {ssid} (SSTYP {styp}) is not every part: the contact is every part's")
-        slsfac = getattr(self, "slsfac", (0.1, ""))[0]
-        sfs = v["sfs"] or 1.0
-        entry = {"friction": v["fs"], "damping": v["vdc"] / 100.0, "stiffness": min(1.0, slsfac * sfs)}
+        k = len(self.doc.raw.get("contact_pair", []))
+        entry = {"name": f"interface_{k}", "slave": surface, "master": surface, **self._law(v, where)}
         if v["sst"] > 0.0:
-            entry["thickness"] = v["sst"] * (v["sfst"] or 1.0)
-        if v["fd"] and v["fd"] != v["fs"] and v["dc"]:
-            self.note(where, f"FD = {v['fd']:g} with DC = {v['dc']:g}: the friction coefficient is FS = {v['fs']:g} "
-                             "at every slip speed")
-        if v["bt"] or (v["dt"] and v["dt"] < NEVER):
-            self.unread(where, "BT, DT: the contact acts over the whole run")
-        for key in ("sboxid", "mboxid"):
-            if v[key]:
-                self.unread(where, f"{key.upper()}: contact boxes are not read")
-        self.doc.raw["contact"] = entry
-        self.origin("[contact]", where)
+            entry["slave_thickness"] = entry["master_thickness"] = v["sst"] * (v["sfst"] or 1.0)
+        self.append("contact_pair", entry, where)
 
     def _surface(self, sid: int, styp: int, where: str, side: str) -> str:
         """The element set of a contact's side: SSTYP/MSTYP 0 segment set (the shells whose
@@ -1044,7 +1044,8 @@ class _Translator:
         return name
 
     def _law(self, v: dict, where: str) -> dict:
-        """A contact's friction, damping and penalty scale (as [contact]'s: _single_surface)."""
+        """A contact's friction (FS), damping (VDC, percent of critical) and penalty scale
+        (SLSFAC x SFS as the stiffness alpha), with what is listed as not read."""
         slsfac = getattr(self, "slsfac", (0.1, ""))[0]
         if v["fd"] and v["fd"] != v["fs"] and v["dc"]:
             self.note(where, f"FD = {v['fd']:g} with DC = {v['dc']:g}: the friction coefficient is FS = {v['fs']:g} "
