@@ -570,12 +570,17 @@ class _Translator:
                 self.append("boundary", {"nodes": nodes, "fix": list(fix)}, where)
             else:
                 groups.setdefault(fix, []).append((v["id"], where))
-        for fix, cards in groups.items():
+        self._per_group(groups, "boundary", "spc",
+                        lambda fix, nodes, where: self.append("boundary", {"nodes": nodes, "fix": list(fix)}, where))
+
+    def _per_group(self, groups: dict, table: str, prefix: str, add) -> None:
+        """Cards of single nodes grouped by what they say: one node set per group, named
+        ``<prefix>_<k>`` (k: the index its entry takes in `table`), given to add(key, set, where)."""
+        for key, cards in groups.items():
             where = cards[0][1]
             ids = self.positions([nid for nid, _ in cards], where, "NID")
             if ids:
-                k = len(self.doc.raw.get("boundary", []))
-                self.append("boundary", {"nodes": self.nodeset(f"spc_{k}", ids, where), "fix": list(fix)}, where)
+                add(key, self.nodeset(f"{prefix}_{len(self.doc.raw.get(table, []))}", ids, where), where)
 
     def _motion(self, block: Block) -> None:
         rigid = "RIGID" in block.name
@@ -603,12 +608,8 @@ class _Translator:
                 self._add_motion(key, {"nodes": self.node_set(v["id"], where, "NSID")}, where)
             else:
                 groups.setdefault(key, []).append((v["id"], where))
-        for key, cards in groups.items():
-            where = cards[0][1]
-            ids = self.positions([nid for nid, _ in cards], where, "NID")
-            if ids:
-                k = len(self.doc.raw.get("motion", []))
-                self._add_motion(key, {"nodes": self.nodeset(f"motion_{k}", ids, where)}, where)
+        self._per_group(groups, "motion", "motion",
+                        lambda key, nodes, where: self._add_motion(key, {"nodes": nodes}, where))
 
     def _add_motion(self, key: tuple, target: dict, where: str) -> None:
         dof, kind, lcid, sf = key
@@ -655,13 +656,8 @@ class _Translator:
             if v["icid"] or any(v[c] for c in ("vxr", "vyr", "vzr")):
                 self.unread(where, "ICID, VXR, VYR, VZR: a local system or nodal spin is not read")
             groups.setdefault((v["vx"], v["vy"], v["vz"]), []).append((v["nid"], where))
-        for velocity, cards in groups.items():
-            where = cards[0][1]
-            ids = self.positions([nid for nid, _ in cards], where, "NID")
-            if ids:
-                k = len(self.doc.raw.get("initial", []))
-                self.append("initial", {"nodes": self.nodeset(f"initial_{k}", ids, where),
-                                        "velocity": list(velocity)}, where)
+        self._per_group(groups, "initial", "initial", lambda velocity, nodes, where: self.append(
+            "initial", {"nodes": nodes, "velocity": list(velocity)}, where))
 
     def _generation(self, block: Block) -> None:
         cards = self._titled(block)
@@ -712,12 +708,7 @@ class _Translator:
                 self._add_load(key, self.node_set(v["id"], where, "NSID"), where)
             else:
                 groups.setdefault(key, []).append((v["id"], where))
-        for key, cards in groups.items():
-            where = cards[0][1]
-            ids = self.positions([nid for nid, _ in cards], where, "NID")
-            if ids:
-                k = len(self.doc.raw.get("load", []))
-                self._add_load(key, self.nodeset(f"load_{k}", ids, where), where)
+        self._per_group(groups, "load", "load", self._add_load)
 
     def _add_load(self, key: tuple, nodes: str, where: str) -> None:
         dof, lcid, sf = key
