@@ -54,6 +54,8 @@ class Features:
     #                             update and the slaves' placement x = x_c + R (X - X_c); a
     #                             translation-only ram compiles the translation alone
     tool_kinds: tuple[str, ...] = ()   # rigid tool kinds the scene uses (tools.TOOL_KINDS order; stages/tools.py)
+    motion_windows: bool = False  # a [[motion]] with start/end: its DOFs held only in its window
+    #                             (stages/motion.PrescribedMotion.mask); else every step
     contact_pairs: bool = False  # [[contact_pair]] interfaces: the role masks and per-direction laws
     #                             (model/contact_pairs.py); without, the single-surface law's scalars
     pair_thickness: bool = False  # contact pairs touch at different thicknesses (several sections without
@@ -155,4 +157,6 @@ class Features:
                           and scene.method.field_contact == "grid"),
             launch=launch, loads=model.loading.loads or (model.tools is not None and model.tools.prescribed),
             body_rotation=any(b.rotates for b in model.rigid_bodies),
+            motion_windows=model.loading is not None and any(m.window != (0.0, float("inf"))
+                                                             for m in model.loading.motions),
             joints=model.joints is not None)

@@ -48,6 +48,7 @@ class MotionSpec:
     curve: int                      # -1: the load factor
     value: np.ndarray               # (6,) per DOF (ux .. rz), 0 where not prescribed
     body: int = -1                  # the rigid body it moves (nodes empty), -1: its nodes
+    window: tuple[float, float] = (0.0, float("inf"))   # prescribed from .. until (start, end)
 
 
 @dataclass(frozen=True)
@@ -259,6 +260,9 @@ def assemble_loading(scene: Scene, points: np.ndarray, elements: np.ndarray, nod
                                       index[mo.curve] if mo.curve is not None else -1, value, b))
             continue
         ids = nodes_of(mo.nodes)
+        if (mo.start > 0.0 or mo.end is not None) and scene.method.kind == "mpm":
+            raise SceneError(f"{where}: start / end (a time window) need [method].kind = \"fem\": in mpm a node "
+                             "released from a motion would rejoin the grid without its affine velocity field")
         for label, clash in (("fixed by a [[boundary]]", fix_mask[ids] & bits),
                              ("prescribed by another [[motion]]", motion_mask[ids] & bits)):
             if np.any(clash):
@@ -272,7 +276,8 @@ def assemble_loading(scene: Scene, points: np.ndarray, elements: np.ndarray, nod
         for d in mo.dofs:
             node_motion[ids, DOFS.index(d)] = k
         motions.append(MotionSpec(mo.name, ids, mo.dofs, MOTION_KINDS.index(mo.kind),
-                                  index[mo.curve] if mo.curve is not None else -1, value))
+                                  index[mo.curve] if mo.curve is not None else -1, value,
+                                  window=(mo.start, mo.end if mo.end is not None else float("inf"))))
 
     loading = Loading(
         curves=_curve_table(scene), entry_start=entry_start, entry_node=nodes.astype(np.int32),

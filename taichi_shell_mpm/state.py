@@ -448,6 +448,9 @@ class State:
         for name, dtype in (("motion_kind", i32), ("motion_curve", i32)):
             g.table(name, ti.field(dtype), (MAX_MOTIONS,), nm, used=on)
         g.table("motion_value", ti.Vector.field(6, f64), (MAX_MOTIONS,), nm, used=on)   # per DOF ux .. rz
+        windows = fx.motion_windows
+        g.table("motion_window", ti.Vector.field(2, f64), (MAX_MOTIONS,), nm, used=windows)  # start, end
+        g.table("motion_active", ti.field(i32), (MAX_MOTIONS,), nm, persistent=False, used=windows)  # this step
         # this step's displacement level f(s^(n+1)) and rate (stages/motion.py); the acceleration
         # curves' mean velocity of the last step
         g.table("motion_level", ti.field(f64), (MAX_MOTIONS,), nm, persistent=False, used=on)
@@ -879,6 +882,8 @@ class State:
             w(L.motion_kind, np.array([m.kind for m in ld.motions], np.int32))
             w(L.motion_curve, np.array([m.curve for m in ld.motions], np.int32))
             w(L.motion_value, np.array([m.value for m in ld.motions]))
+            if self.features.motion_windows:
+                w(L.motion_window, np.array([m.window for m in ld.motions], np.float64))
 
     # ------------------------------------------------------------ host access
     def groups(self) -> dict[str, Group]:

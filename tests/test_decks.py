@@ -235,6 +235,10 @@ SNIPPETS = [
      "[nodesets.set_7]\nids = [4, 9, 14]\n[curves.lc_4]\npoints = [[0.0, 0.0], [2.0, 1.0]]\n"
      "[[motion]]\nname = \"motion_0\"\nnodes = \"set_7\"\ndofs = [\"ux\"]\nkind = \"displacement\"\nvalue = 0.5\n"
      "curve = \"lc_4\"\n"),
+    ("*BOUNDARY_PRESCRIBED_MOTION_NODE\n115,3,0,1,-2.0,0,0.5,0.1\n*DEFINE_CURVE\n1\n0.0,1.0\n",
+     "[method]\nkind = \"fem\"\n[nodesets.motion_0]\nids = [14]\n[curves.lc_1]\npoints = [[0.0, 1.0]]\n"
+     "[[motion]]\nname = \"motion_0\"\nnodes = \"motion_0\"\ndofs = [\"uz\"]\nkind = \"velocity\"\nvalue = -2.0\n"
+     "curve = \"lc_1\"\nstart = 0.1\nend = 0.5\n"),
     ("*BOUNDARY_PRESCRIBED_MOTION_NODE\n115,7,1,1\n*DEFINE_CURVE\n1\n0.0,0.0\n1.0,1.0\n",
      "[nodesets.motion_0]\nids = [14]\n[curves.lc_1]\npoints = [[0.0, 0.0], [1.0, 1.0]]\n"
      "[[motion]]\nname = \"motion_0\"\nnodes = \"motion_0\"\ndofs = [\"rz\"]\nkind = \"acceleration\"\nvalue = 1.0\n"

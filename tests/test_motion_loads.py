@@ -732,3 +732,66 @@ def test_bad_curve_file_is_one_line(tmp_path):
         "error: case.toml: [curves.table].file: v.csv line 3: expected two finite numbers t, f, got '1,x'"], r.err
     scene.write_text(MOTION_SCENE)
     assert cli_run("validate", str(scene)).code == 0
+
+
+WINDOW = """
+[scene]
+name = "window"
+units = "consistent"
+[mesh]
+kind = "plate"
+lx = 2.0
+ly = 1.0
+nx = 2
+ny = 1
+[material]
+E = 1.0e4
+nu = 0.3
+density = 1.0
+[section]
+thickness = 0.05
+[method]
+kind = "{method}"
+[[initial]]
+velocity = [0.5, 0.0, 0.0]
+[[motion]]
+name = "push"
+nodes = "all"
+dofs = ["ux", "uy", "uz"]
+kind = "velocity"
+value = [0.0, 0.0, 1.0]
+start = 0.1
+end = 0.3
+[[probe]]
+name = "p"
+nodes = "all"
+components = ["ux", "uz"]
+[solve]
+kind = "dynamic"
+end_time = 0.5
+[output]
+history_interval = 0.05
+"""
+
+
+def test_a_motion_holds_its_dofs_only_in_its_time_window(tmp_path):
+    """[[motion]] start/end (LS-DYNA BIRTH/DEATH): a free plate drifting at 0.5 along x is held
+    to (0, 0, 1) from t = 0.1 to 0.3, then released: it keeps that velocity.  Positions to
+    round-off at every record (the window's edges fall on steps: landing on the records);
+    the released DOFs do no work (balance); in mpm the window is refused (one line)."""
+    from .conftest import run_scene
+    scene = tmp_path / "window.toml"
+    scene.write_text(WINDOW.format(method="fem"))
+    proc = run_scene(scene, tmp_path / "out")
+    assert proc.returncode == 0, proc.stderr
+    rows = np.genfromtxt(tmp_path / "out" / "probes.csv", delimiter=",", names=True)
+    t = rows["time"]
+    ux = np.where(t <= 0.1, 0.5 * t, 0.05)
+    uz = np.clip(t - 0.1, 0.0, None)
+    error = max(np.abs(rows["pux"] - ux).max(), np.abs(rows["puz"] - uz).max())
+    balance = proc.summary["energies"]["balance_error"]
+    print(f"\nwindowed motion: position error {error:.1e}, balance {balance:.1e}")
+    assert error < 1e-12 and abs(balance) < 1e-12
+    scene.write_text(WINDOW.format(method="mpm"))
+    proc = run_scene(scene, tmp_path / "mpm")
+    assert proc.returncode == 2 and "start / end (a time window) need [method].kind = \"fem\"" in proc.stderr

@@ -179,7 +179,7 @@ class _Translator:
         self.rigid_parts: dict[int, str] = {}
         self.bodies: dict[str, dict] = {}
         self.windows: list[tuple] = []
-        """(where, BIRTH, DEATH) of each prescribed motion, checked against the end time."""
+        """(where, BIRTH, DEATH) of each rigid part's prescribed motion with a window (not read)."""
         self.npltc = None
 
     # -- ids -> mesh positions (built when a keyword first needs them: a deck of mesh cards only
@@ -594,12 +594,15 @@ class _Translator:
             if vad not in (0, 1, 2):
                 self.unread(where, f"VAD = {vad}: only velocity (0), acceleration (1) and displacement (2) are read")
                 continue
-            self.windows.append((where, v["birth"], v["death"] or NEVER))
             if v["vid"]:
                 self.unread(where, f"VID = {v['vid']}: a direction vector is not read")
             sf = v["sf"] if v["sf"] != 0.0 else 1.0
-            key = (DOF_NAMES[dof], ("velocity", "acceleration", "displacement")[vad], v["lcid"], sf)
+            death = v["death"] if 0.0 < v["death"] < NEVER else None
+            key = (DOF_NAMES[dof], ("velocity", "acceleration", "displacement")[vad], v["lcid"], sf, v["birth"], death)
             if rigid:
+                if v["birth"] > 0.0 or death is not None:
+                    self.windows.append((where, v["birth"], death))
+                key = key[:4] + (0.0, None)
                 pid = v["id"]
                 if pid not in self.rigid_parts:
                     raise SceneError(f"{where}: PID {pid} is not a part of *MAT_RIGID material")
@@ -612,11 +615,16 @@ class _Translator:
                         lambda key, nodes, where: self._add_motion(key, {"nodes": nodes}, where))
 
     def _add_motion(self, key: tuple, target: dict, where: str) -> None:
-        dof, kind, lcid, sf = key
+        """A [[motion]]; BIRTH > 0 and a DEATH are its window (start, end: fem, node sets)."""
+        dof, kind, lcid, sf, birth, death = key
         k = len(self.doc.raw.get("motion", []))
         entry = {"name": f"motion_{k}", "dofs": [dof], "kind": kind, "value": sf, **target}
         if lcid:
             entry["curve"] = self.curve(lcid, where)
+        if birth > 0.0:
+            entry["start"] = birth
+        if death is not None:
+            entry["end"] = death
         self.append("motion", entry, where)
 
     # -- initial velocities
@@ -1181,10 +1189,10 @@ class _Translator:
         elif endmas:
             self.unread(endmas[1], f"ENDMAS = {endmas[0]:g}: no conventional mass scaling to limit", physics=False)
         end = self.doc.raw.get("solve", {}).get("end_time", math.inf)
-        for where, birth, death in self.windows:
-            if birth > 0.0 or death < end:
-                self.unread(where, f"BIRTH = {birth:g}, DEATH = {death:g}: the DOF is prescribed over the whole run "
-                                   "(it is not released outside that window)")
+        for where, birth, death in self.windows:          # a rigid body's motion has no window
+            if birth > 0.0 or (death is not None and death < end):
+                self.unread(where, f"BIRTH = {birth:g}, DEATH = {death:g}: a rigid part's motion is prescribed over "
+                                   "the whole run (a window is for node sets)")
         if self.npltc and end < math.inf:
             npltc, where = self.npltc
             self.set_value("output", "frame_interval", end / npltc, where)

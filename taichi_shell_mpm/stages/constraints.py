@@ -44,7 +44,7 @@ class NodeUpdate:
         """DOF bits (ux .. rz) of node c that a [[boundary]] fixes or a [[motion]] prescribes."""
         mask = self.s.nodes.fix_mask[c]
         if ti.static(self.cfg.loads):
-            mask |= self.s.nodes.motion_mask[c]
+            mask |= self.motion.mask(c)
         return mask
 
     @ti.func
@@ -165,7 +165,7 @@ class NodeUpdate:
                 vg, placed = self.bodies.slave_motion(c)
         moved = 0                                            # DOF bits prescribed by a motion
         if ti.static(self.cfg.loads):
-            moved = self.s.nodes.motion_mask[c]
+            moved = self.motion.mask(c)
             vg = self.motion.prescribed(c, vg, v_start, 0)
         before_walls = vg
         if (mask & FIXED_TRANSLATION) == FIXED_TRANSLATION:

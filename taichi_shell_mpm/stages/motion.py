@@ -78,13 +78,31 @@ class PrescribedMotion:
                 self.s.loads.motion_rate[k] = mean - self.s.loads.motion_mean[k]
                 self.s.loads.motion_mean[k] = mean
         self.s.step.curve_argument[None] = end
+        if ti.static(self.cfg.motion_windows):     # held over this step when start <= t^n < end
+            now = self.s.step.time[None]
+            for k in range(self.s.loads.motion_count[None]):
+                window = self.s.loads.motion_window[k]
+                self.s.loads.motion_active[k] = 1 if window[0] <= now < window[1] else 0
+
+    @ti.func
+    def mask(self, c):
+        """DOF bits of node c its motions hold this step: all of them, or with time windows
+        ([[motion]] start/end) those whose window holds t^n [choice: a window's edge inside a
+        step takes effect at the next step; the steps do not land on it]."""
+        m = self.s.nodes.motion_mask[c]
+        if ti.static(self.cfg.motion_windows):
+            for d in ti.static(range(6)):
+                if (m >> d) & 1:
+                    if self.s.loads.motion_active[self.s.nodes.motion[c][d]] == 0:
+                        m &= ~(1 << d)
+        return m
 
     @ti.func
     def prescribed(self, c, vec, start, first_bit: ti.template()):
         """`vec` (a velocity: first_bit 0; an angular velocity: 3) with the components node c's
         motions prescribe this step; `start`: the same at the start of the step."""
         out = vec
-        mask = self.s.nodes.motion_mask[c]
+        mask = self.mask(c)
         for d in ti.static(range(3)):
             if (mask >> (first_bit + d)) & 1:
                 k = self.s.nodes.motion[c][first_bit + d]
@@ -106,8 +124,12 @@ class PrescribedMotion:
     def book(self, c, force, torque, v_start, v, w_start, w):
         """Reaction and work of node c's prescribed DOFs (module docstring); `force`, `torque`:
         f_ext - f_int + f_con and mu_ext - mu_int at the node.  Returns the node's work."""
-        mask = self.s.nodes.motion_mask[c]
+        mask = self.mask(c)
         work = 0.0
+        if ti.static(self.cfg.motion_windows):     # a released DOF has no reaction
+            for d in ti.static(range(6)):
+                if (self.s.nodes.motion_mask[c] >> d) & 1 and not (mask >> d) & 1:
+                    self.s.nodes.motion_reaction[c, d] = 0.0
         if mask != 0:
             kick, dt = impulse_time(self.s.step), self.s.step.dt[None]
             mass, inertia = self.s.nodes.mass[c], self.s.nodes.inertia[c]
