@@ -6,9 +6,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from ..keys import boolean, hint, identifier, key, keys_of, non_negative, nonempty, number, positive, unit_interval
+from ..keys import boolean, identifier, key, keys_of, non_negative, nonempty, number, positive, unit_interval
 from .contact import check_penalty_damping
-from .mesh import FileMesh
+from .parts import check_element_set
 from .reader import Reader
 
 MAX_CONTACT_PAIRS = 15
@@ -51,8 +51,8 @@ def read_contact_pair(r: Reader, path: str, data: Any, mesh, elementsets) -> Con
         return None
     names = [s.name for s in elementsets]
     for side in ("slave", "master"):
-        if side in v and v[side] != "all" and v[side] not in names and not isinstance(mesh, FileMesh):
-            r.error(f"{path}.{side}", f"no [elementsets.{v[side]}]" + hint(v[side], names + ["all"], "defined"))
+        if side in v:
+            check_element_set(r, f"{path}.{side}", v[side], names, mesh)
     if "stiffness" in v and "damping" in v:
         check_penalty_damping(r, path, v["stiffness"], v["damping"])
     return r.build(mark, ContactPair, v)

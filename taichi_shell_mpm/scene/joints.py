@@ -5,8 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from ..keys import Check, Invalid, boolean, hint, identifier, is_int, key, keys_of, node_set, nonempty, positive, show
-from .mesh import FileMesh
+from ..keys import Check, Invalid, boolean, identifier, is_int, key, keys_of, node_set, nonempty, positive, show
+from .parts import check_element_set
 from .reader import Reader
 
 
@@ -69,9 +69,8 @@ def read_tie(r: Reader, path: str, data: Any, mesh, elementsets) -> Tie | None:
     v = r.read(path, data, keys_of(Tie), Tie)
     if v is None:
         return None
-    names = [s.name for s in elementsets]
-    if "surface" in v and v["surface"] != "all" and v["surface"] not in names and not isinstance(mesh, FileMesh):
-        r.error(f"{path}.surface", f"no [elementsets.{v['surface']}]" + hint(v["surface"], names + ["all"], "defined"))
+    if "surface" in v:
+        check_element_set(r, f"{path}.surface", v["surface"], [s.name for s in elementsets], mesh)
     return r.build(mark, Tie, v)
 
 

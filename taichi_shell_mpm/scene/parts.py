@@ -134,12 +134,15 @@ def read_parts(r: Reader, mesh):
             elif section_of is not None and not section_of.layered and part.material is None:
                 r.error(f"[[part]][{i}].material", f"missing required key (section {part.section!r} "
                                                    "is not layered)")
-            if part.elements in set_names or part.elements == "all":
-                continue
-            if not isinstance(mesh, FileMesh):
-                r.error(f"[[part]][{i}].elements", f"no [elementsets.{part.elements}]"
-                        + hint(part.elements, set_names + ["all"], "defined"))
+            check_element_set(r, f"[[part]][{i}].elements", part.elements, set_names, mesh)
     return material, section, materials, sections, [s for s in elementsets if s is not None], parts
+
+
+def check_element_set(r: Reader, path: str, value: str, names: list[str], mesh) -> None:
+    """A key naming an element set: "all", an [elementsets.NAME] (`names`), or on a mesh file
+    one of the file's sets (those are checked when the mesh is read, model/parts.py)."""
+    if value != "all" and value not in names and not isinstance(mesh, FileMesh):
+        r.error(path, f"no [elementsets.{value}]" + hint(value, names + ["all"], "defined"))
 
 
 def read_elementset(r: Reader, name: str, data: Any) -> ElementSet | None:

@@ -4,8 +4,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from ..keys import curve_name, hint, key, keys_of, nonempty, nonzero
-from .mesh import FileMesh
+from ..keys import curve_name, key, keys_of, nonempty, nonzero
+from .parts import check_element_set
 from .reader import Reader
 
 
@@ -25,8 +25,6 @@ def read_pressure(r: Reader, path: str, data: Any, mesh, elementsets) -> Pressur
     v = r.read(path, data, keys_of(Pressure), Pressure)
     if v is None:
         return None
-    names = [s.name for s in elementsets]
-    if "elements" in v and v["elements"] != "all" and v["elements"] not in names and not isinstance(mesh, FileMesh):
-        r.error(f"{path}.elements", f"no [elementsets.{v['elements']}]"
-                + hint(v["elements"], names + ["all"], "defined"))
+    if "elements" in v:
+        check_element_set(r, f"{path}.elements", v["elements"], [s.name for s in elementsets], mesh)
     return r.build(mark, Pressure, v)
