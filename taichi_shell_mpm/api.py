@@ -28,6 +28,7 @@ from .checkpoint import CheckpointError
 from .problems import SceneError
 
 EXIT_SCENE, EXIT_RUNTIME = 2, 3
+"""Exit codes of a mistake in the scene and of a run-time failure (the CLI's, cli.py)."""
 
 
 class RunFailed(Exception):

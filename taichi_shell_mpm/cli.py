@@ -24,10 +24,11 @@ from .preflight import (  # noqa: F401  (setup_warnings, reference_note: still i
     reference_note,
     setup_warnings,
 )
+from .api import EXIT_SCENE
 from .extras import MissingExtra, require
 from .tables import positive_int
 
-EXIT_INTERNAL, EXIT_SCENE, EXIT_RUNTIME = 1, 2, 3      # interrupted: 128 + the signal (run_control.exit_code)
+EXIT_INTERNAL = 1      # EXIT_SCENE 2 and the run-time failure 3: api.py; interrupted: 128 + the signal (run_control.exit_code)
 
 
 def _fraction(text: str) -> float:
