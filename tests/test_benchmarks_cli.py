@@ -1,23 +1,23 @@
-"""Accuracy through the public CLI against Sze, Liu & Lo (2004), both tabulated
-displacements at all 20 load levels, in mpm and fem mode (issue 2).
+"""Accuracy of the bundled scenes against Sze, Liu & Lo (2004), both tabulated
+displacements at all 20 load levels, in mpm and fem mode (issue 2), and the output files a
+run writes.
 
-e_i = |sim_i - ref_i| / max(|ref_i|, 0.1 max_j |ref_j|).  The four runs are started
-together, two at a time (the machine has 2 cores), and each test reads its summary.
+e_i = |sim_i - ref_i| / max(|ref_i|, 0.1 max_j |ref_j|).  The runs go through the Python API
+in this process (conftest.run_scene: the `run` command's code path less argument parsing,
+which test_run_defects and test_reliability test), one after the other, and each test reads
+its summary and files.
 """
 from __future__ import annotations
 
 import csv
 import json
-import subprocess
-import sys
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import meshio
 import numpy as np
 import pytest
 
-from .conftest import ROOT
+from .conftest import ROOT, run_scene
 
 # (scene, method) -> column -> (mean, max) bound on e_i: about 1.5x the measured errors, each
 # printed by the test (`python -m pytest -q -s tests/test_benchmarks_cli.py`; measured
@@ -42,21 +42,18 @@ NEWTON = [(scene, "fem", "newton") for scene in ("hemisphere", "cantilever")]   
 AGREEMENT = {"cantilever": (0.0011, 0.0023), "hemisphere": (0.0014, 0.0052)}
 
 
-def run_cli(out: Path, scene: str, method: str, relaxation: str = "fire") -> tuple[Path, subprocess.CompletedProcess]:
+def run(out: Path, scene: str, method: str, relaxation: str = "fire"):
+    """`run scenes/SCENE.toml --set method.kind=METHOD` (+ the relaxation or Newton) in this
+    process: the output folder and the run's exit code / error lines."""
     target = out / f"{scene}_{method}_{relaxation}"
-    solver = ("--set", "solve.solver=newton") if relaxation == "newton" else ("--set", f"solve.relaxation={relaxation}")
-    proc = subprocess.run([sys.executable, "-m", "taichi_shell_mpm", "run", str(ROOT / "scenes" / f"{scene}.toml"),
-                           "--out", str(target), "--set", f"method.kind={method}", *solver],
-                          capture_output=True, text=True, timeout=1500)
-    return target, proc
+    solver = "solve.solver=newton" if relaxation == "newton" else f"solve.relaxation={relaxation}"
+    return target, run_scene(ROOT / "scenes" / f"{scene}.toml", target, f"method.kind={method}", solver)
 
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
-    out = tmp_path_factory.mktemp("cli")
-    with ThreadPoolExecutor(max_workers=2) as pool:
-        futures = {key: pool.submit(run_cli, out, *key) for key in RUNS + [KINETIC] + NEWTON}
-        return {key: f.result() for key, f in futures.items()}
+    out = tmp_path_factory.mktemp("runs")
+    return {key: run(out, *key) for key in RUNS + [KINETIC] + NEWTON}
 
 
 @pytest.mark.parametrize("scene,method", RUNS)

@@ -19,8 +19,6 @@ strain rates (dt = increment / rate); the rate-free elements must give the same 
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import meshio
 import numpy as np
@@ -29,7 +27,8 @@ import taichi as ti
 
 from taichi_shell_mpm.scene import load_scene
 
-from .conftest import ROOT, unwarmed_simulation, write_scene
+from .conftest import ROOT, run_scene, unwarmed_simulation, write_scene
+from .test_reliability import cli_run
 
 E, NU, SY0 = 2.0e5, 0.3, 250.0
 INCREMENT, STEPS = 0.003, 100             # true strain increment per step, to 0.3
@@ -563,22 +562,20 @@ def test_lsdyna_curve_and_cowper_symonds(tmp_path):
 def test_cli_mistakes_are_one_line_each(tmp_path):
     """`validate` of the rate-dependent tube with wrong hardening and rate keys: exit code 2,
     one line per mistake naming the key, no traceback."""
-    proc = subprocess.run([sys.executable, "-m", "taichi_shell_mpm", "validate",
-                           str(ROOT / "scenes" / "tube_rate_dependent.toml"), "--set", "material.hardening_law=swift",
-                           "--set", "material.K=0.5", "--set", "material.Q=0.1", "--set", "material.rate_measure=viscous",
-                           "--set", "material.rate_filter_time=-1"], capture_output=True, text=True, timeout=300)
-    lines = proc.stderr.strip().splitlines()
-    print("\n" + proc.stderr)
-    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    proc = cli_run("validate", str(ROOT / "scenes" / "tube_rate_dependent.toml"), "--set", "material.hardening_law=swift",
+                   "--set", "material.K=0.5", "--set", "material.Q=0.1", "--set", "material.rate_measure=viscous",
+                   "--set", "material.rate_filter_time=-1")
+    lines = proc.err.strip().splitlines()
+    print("\n" + proc.err)
+    assert proc.code == 2 and "Traceback" not in proc.err
     assert lines == [
         "error: tube_rate_dependent.toml: [material].rate_measure: expected one of total, plastic, got 'viscous'",
         "error: tube_rate_dependent.toml: [material].rate_filter_time: expected a number > 0, got -1",
         'error: tube_rate_dependent.toml: [material].Q: not used by hardening_law = "swift" '
         "(its keys: K, n, eps0, yield_stress, hardening)",
         'error: tube_rate_dependent.toml: [material].n: missing required key for hardening_law = "swift"']
-    ok = subprocess.run([sys.executable, "-m", "taichi_shell_mpm", "validate",
-                         str(ROOT / "scenes" / "tube_rate_dependent.toml")], capture_output=True, text=True, timeout=300)
-    assert ok.returncode == 0, ok.stderr
+    ok = cli_run("validate", str(ROOT / "scenes" / "tube_rate_dependent.toml"))
+    assert ok.code == 0, ok.err
 
 
 PLATE_RUN = """
@@ -626,12 +623,11 @@ times = [0.02]
 
 
 def test_cli_run_with_swift_and_cowper_symonds(tmp_path):
-    """Through the CLI: a strip clamped at x = 0 and flying off along +x at 15 m/s (Swift
+    """A whole run: a strip clamped at x = 0 and flying off along +x at 15 m/s (Swift
     steel with a filtered Cowper-Symonds rate law): the clamped end yields, the run finishes
     and the energy balances."""
     scene = write_scene(tmp_path, PLATE_RUN)
-    proc = subprocess.run([sys.executable, "-m", "taichi_shell_mpm", "run", str(scene), "--out", str(tmp_path / "out"),
-                           "--quiet"], capture_output=True, text=True, timeout=900)
+    proc = run_scene(scene, tmp_path / "out")      # in this process, through the Python API
     assert proc.returncode == 0, proc.stderr[-3000:]
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     energies = summary["energies"]

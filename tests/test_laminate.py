@@ -6,8 +6,6 @@ from __future__ import annotations
 
 import json
 import re
-import subprocess
-import sys
 
 import meshio
 import numpy as np
@@ -18,6 +16,7 @@ from taichi_shell_mpm.model.assembly import assemble
 from taichi_shell_mpm.scene import load_scene
 
 from .conftest import element_stage, run_scene, simulation, unwarmed_simulation, write_scene
+from .test_reliability import cli_run
 
 # ply materials (mm-N-s-t: MPa, t/mm^3)
 CFRP = dict(E1=135e3, E2=10e3, G12=5e3, G13=5e3, G23=3.5e3, nu12=0.3, density=1.6e-9)
@@ -438,14 +437,13 @@ def test_invalid_layered_scene_is_one_line_exit_2(tmp_path, case):
     mutate, expected = INVALID[case]
     path = write_scene(tmp_path, mutate(GOOD))
     assert path.read_text() != GOOD
-    proc = subprocess.run([sys.executable, "-m", "taichi_shell_mpm", "run", str(path), "--out", str(tmp_path / "o")],
-                          capture_output=True, text=True, timeout=300)
-    lines = proc.stderr.strip().splitlines()
-    print(f"\n{case}: exit {proc.returncode}: {proc.stderr.strip()}")
-    assert proc.returncode == 2
+    proc = cli_run("run", str(path), "--out", str(tmp_path / "o"))
+    lines = proc.err.strip().splitlines()
+    print(f"\n{case}: exit {proc.code}: {proc.err.strip()}")
+    assert proc.code == 2
     assert len(lines) == 1 and lines[0].startswith("error: scene.toml: ")
     assert expected in lines[0]
-    assert "Traceback" not in proc.stderr
+    assert "Traceback" not in proc.err
 
 
 TWO_PARTS = """
@@ -473,10 +471,9 @@ def test_valid_layered_scenes_validate(tmp_path):
     section table has its part's material, the isotropic row the same one throughout."""
     for name, text in (("one_section", GOOD), ("two_parts", GOOD + TWO_PARTS)):
         path = write_scene(tmp_path, text, f"{name}.toml")
-        proc = subprocess.run([sys.executable, "-m", "taichi_shell_mpm", "validate", str(path)],
-                              capture_output=True, text=True, timeout=300)
-        print(proc.stdout, proc.stderr)
-        assert proc.returncode == 0, proc.stderr
+        proc = cli_run("validate", str(path))
+        print(proc.out, proc.err)
+        assert proc.code == 0, proc.err
     scene = load_scene(path)
     mesh = build_mesh(scene.mesh)
     model = assemble(scene, mesh)

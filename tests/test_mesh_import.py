@@ -624,13 +624,11 @@ def test_scene_parts_on_a_deck(tmp_path):
 
 def test_hostile_deck_cli_exit_2(tmp_path):
     """The CLI: exit 2, one line, no traceback."""
-    import subprocess
-    import sys
+    from .test_reliability import cli_run
     (tmp_path / "plate.k").write_text(fixed_deck().replace(ELASTIC_CARD, "         1    7.8e-9  210000.0       0.5"))
     (tmp_path / "deck.toml").write_text(DECK_SCENE)
-    proc = subprocess.run([sys.executable, "-m", "taichi_shell_mpm", "validate", str(tmp_path / "deck.toml")],
-                          capture_output=True, text=True, timeout=300)
-    lines = [t for t in proc.stderr.splitlines() if t.startswith("error")]
-    print(proc.returncode, proc.stderr)
-    assert proc.returncode == 2 and len(lines) == 1 and "Traceback" not in proc.stderr
+    proc = cli_run("validate", str(tmp_path / "deck.toml"))
+    lines = [t for t in proc.err.splitlines() if t.startswith("error")]
+    print(proc.code, proc.err)
+    assert proc.code == 2 and len(lines) == 1 and "Traceback" not in proc.err
     assert "plate.k:36: *MAT_ELASTIC (mid 1): PR" in lines[0]

@@ -8,22 +8,21 @@
   R/t = 333 lifted to 580 t, that dynamic relaxation does not solve (docs/newton.md);
 * the scene checks of the Newton keys.
 
-The three runs go two at a time (2 cores).  Bounds are about 1.5x the measured errors,
+The runs and the checks go through the command line's code in this process
+(test_reliability.cli_run: `main([...])` with its output captured), one after the other.  Bounds are about 1.5x the measured errors,
 printed with ``pytest -s``.
 """
 from __future__ import annotations
 
 import csv
 import json
-import subprocess
-import sys
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from .conftest import ROOT
+from .test_reliability import CliResult, cli_run
 
 ROOF_8 = ("--set", "mesh.path=data/hinged_roof_8x8q.vtu")
 # the 6x30 mesh: 7 nodes on the lifted face, spacing 2/3: 0.8 x 2/3 on every node less half of it at A and B
@@ -46,10 +45,8 @@ JUMP_ITERATIONS = 100
 SLIT_BOUND = {"W_A": (0.0045, 0.010), "W_B": (0.0042, 0.008)}
 
 
-def run_cli(scene: Path, out: Path, *extra: str) -> tuple[Path, subprocess.CompletedProcess]:
-    proc = subprocess.run([sys.executable, "-m", "taichi_shell_mpm", "run", str(scene), "--out", str(out), *extra],
-                          capture_output=True, text=True, timeout=900)
-    return out, proc
+def run_cli(scene: Path, out: Path, *extra: str) -> tuple[Path, CliResult]:
+    return out, cli_run("run", str(scene), "--out", str(out), *extra, timeout=900)
 
 
 @pytest.fixture(scope="module")
@@ -68,9 +65,7 @@ def runs(tmp_path_factory):
             "load": (ROOT / "scenes" / "hinged_roof.toml", tmp / "load", *ROOF_8, "--set", "solve.control=load",
                      "--set", "solve.load_steps=10", "--set", f"solve.max_iterations={JUMP_ITERATIONS}"),
             "slit": (slit, tmp / "slit")}
-    with ThreadPoolExecutor(max_workers=2) as pool:
-        futures = {k: pool.submit(run_cli, *args) for k, args in jobs.items()}
-        return {k: f.result() for k, f in futures.items()}
+    return {k: run_cli(*args) for k, args in jobs.items()}
 
 
 def summary_of(out: Path) -> dict:
@@ -79,7 +74,7 @@ def summary_of(out: Path) -> dict:
 
 def test_roof_arc_length_through_the_limit_points(runs):
     out, proc = runs["arc"]
-    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert proc.code == 0, proc.err[-2000:]
     s = summary_of(out)
     ref = s["reference"]
     col = ref["columns"]["minus_W_C"]
@@ -102,17 +97,17 @@ def test_roof_arc_length_through_the_limit_points(runs):
 
 def test_roof_load_control_reports_the_jump(runs):
     out, proc = runs["load"]
-    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert proc.code == 0, proc.err[-2000:]
     s = summary_of(out)
     jumps = [w for w in s["warnings"] if "jumped to a remote branch" in w]
     print("\n" + "\n".join(jumps))
     assert len(jumps) == 1 and "between load factors 0.7 and 0.8" in jumps[0]
-    assert "jumped to a remote branch" in proc.stderr + proc.stdout
+    assert "jumped to a remote branch" in proc.err + proc.out
 
 
 def test_slit_annular_plate_converges(runs):
     out, proc = runs["slit"]
-    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert proc.code == 0, proc.err[-2000:]
     s = summary_of(out)
     ref = s["reference"]
     print(f"\nslit annular plate 6x30: {s['points']} points, {s['iterations']} iterations, {s['cutbacks']} "
@@ -125,9 +120,8 @@ def test_slit_annular_plate_converges(runs):
         assert r["mean_rel_error"] <= mean_bound and r["max_rel_error"] <= max_bound
 
 
-def validate(tmp_path: Path, *sets: str, scene: str = "hinged_roof.toml") -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "taichi_shell_mpm", "validate", str(ROOT / "scenes" / scene),
-                           *[a for s in sets for a in ("--set", s)]], capture_output=True, text=True, timeout=600)
+def validate(tmp_path: Path, *sets: str, scene: str = "hinged_roof.toml") -> CliResult:
+    return cli_run("validate", str(ROOT / "scenes" / scene), *[a for s in sets for a in ("--set", s)])
 
 
 @pytest.mark.parametrize("sets, message", [
@@ -139,13 +133,13 @@ def validate(tmp_path: Path, *sets: str, scene: str = "hinged_roof.toml") -> sub
 ])
 def test_newton_scene_checks(tmp_path, sets, message):
     proc = validate(tmp_path, *sets)
-    print(proc.stderr.strip())
-    assert proc.returncode == 2 and message in proc.stderr and "Traceback" not in proc.stderr
+    print(proc.err.strip())
+    assert proc.code == 2 and message in proc.err and "Traceback" not in proc.err
 
 
 def test_newton_keys_need_the_newton_solver(tmp_path):
     proc = validate(tmp_path, "solve.arc_length=2", scene="cantilever.toml")
-    assert proc.returncode == 2 and '[solve].arc_length: is a key of the Newton solver' in proc.stderr
+    assert proc.code == 2 and '[solve].arc_length: is a key of the Newton solver' in proc.err
 
 
 def test_reference_along_a_path(tmp_path):

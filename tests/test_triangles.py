@@ -8,10 +8,6 @@ of a triangle mesh bit for bit; the reduced tube crush with one face of triangle
 the all-quad tube's mean force."""
 from __future__ import annotations
 
-import json
-import subprocess
-import sys
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import meshio
@@ -22,7 +18,7 @@ from taichi_shell_mpm.mesh import build_mesh
 from taichi_shell_mpm.model.assembly import triangle_shear_gain
 from taichi_shell_mpm.scene import PlateMesh
 
-from .conftest import ROOT, element_simulation, element_stage
+from .conftest import ROOT, element_simulation, element_stage, run_scene
 
 E, NU, T = 2.0e5, 0.3, 0.05
 KAPPA = 5.0 / 6.0
@@ -335,15 +331,13 @@ def test_stable_step_holds_on_slivers(tmp_path, inertia):
         assert ratio <= 1.0 + 1e-9          # a sliver's membrane reaches the bound 3 c^2 beta (stages/triangle.py)
 
 
-# ------------------------------------------------------------------ through the CLI
-def cli(out: Path, scene: Path, *overrides: str, timeout: int = 1500) -> dict:
-    """`python -m taichi_shell_mpm run scene --set ...` in a process of its own: the summary."""
-    args = [sys.executable, "-m", "taichi_shell_mpm", "run", str(scene), "--out", str(out), "--quiet"]
-    for item in overrides:
-        args += ["--set", item]
-    proc = subprocess.run(args, capture_output=True, text=True, timeout=timeout)
+# ------------------------------------------------------------------ whole runs (through the API)
+def run_summary(out: Path, scene: Path, *overrides: str) -> dict:
+    """`run scene --set ...` in this process through the Python API (conftest.run_scene): the
+    summary."""
+    proc = run_scene(scene, out, *overrides)
     assert proc.returncode == 0, proc.stderr[-3000:]
-    return json.loads((out / "summary.json").read_text())
+    return proc.summary
 
 
 SZE = ("mesh.nx=20", "mesh.ny=2", "mesh.triangles=all")
@@ -357,12 +351,10 @@ SZE_BOUNDS = {"fem": {"W_tip": (0.00028, 0.00078), "minus_U_tip": (0.00097, 0.00
 
 @pytest.fixture(scope="module")
 def sze_runs(tmp_path_factory):
-    """Both modes at once (two cores), each in its own process."""
+    """Both modes, one after the other, in this process."""
     out = tmp_path_factory.mktemp("sze_triangles")
     scene = ROOT / "scenes" / "cantilever.toml"
-    with ThreadPoolExecutor(max_workers=2) as pool:
-        futures = {m: pool.submit(cli, out / m, scene, *SZE, f"method.kind={m}") for m in SZE_BOUNDS}
-        return {m: (out / m, f.result()) for m, f in futures.items()}
+    return {m: (out / m, run_summary(out / m, scene, *SZE, f"method.kind={m}")) for m in SZE_BOUNDS}
 
 
 @pytest.mark.parametrize("method", ["fem", "mpm"])
@@ -417,7 +409,7 @@ def test_stepped_cantilever_with_a_triangle_part_from_gmsh(tmp_path, method):
     scene.write_text(COMMON.format(mesh='[mesh]\nkind = "file"\npath = "strip.msh"\n', method=method, P=P)
                      + NAMED.format(E=1.2e6, T1=T1, T2=T2, sets="", root="root", outer="physical:2"))
     out = tmp_path / "out"
-    summary = cli(out, scene)
+    summary = run_summary(out, scene)
     uz = float(np.atleast_1d(np.genfromtxt(out / "probes.csv", delimiter=",", names=True)["tipuz"])[-1])
     exact = stepped_tip_deflection()
     error = uz / exact - 1.0
@@ -462,7 +454,7 @@ def test_reduced_crush_with_a_face_of_triangles(tmp_path):
     the all-quad tube's (the issue's bound), the triangle block in the frames, the energy
     balance and penetration as bounded for the all-quad tube."""
     from .test_crush import REDUCED_MEAN_FORCE, SHORT
-    summary = cli(tmp_path, ROOT / "scenes" / "square_tube.toml", *SHORT, TUBE_BAND)
+    summary = run_summary(tmp_path, ROOT / "scenes" / "square_tube.toml", *SHORT, TUBE_BAND)
     c = summary["crush"]
     frame = meshio.read(sorted((tmp_path / "frames").glob("*.vtu"))[-1])
     shapes = [(cell.type, len(cell.data)) for cell in frame.cells]
