@@ -391,6 +391,12 @@ def test_tip_point_mass_stays_with_erosion_and_mass_scaling(tmp_path):
     ('[nodesets.edge]\nplane = { point = [1.0, 0.0, 0.0], normal = [1.0, 0.0, 0.0] }\n[[rigid_body]]\nname = "b"\n'
      'nodes = "edge"\nmass_from_nodes = false\nmass = 1e-12\ninertia = [1.0, 1.0, 1.0]',
      "[[rigid_body]] 'b': mass, inertia: far too small for the elements it carries"),
+    ('[[rigid_body]]\nname = "b"\ncenter = [0.0, 0.0, -1.0]\ndirection = [0, 0, 1]',
+     "[[rigid_body]][0].mass: a body without nodes needs mass > 0"),
+    ('[[rigid_body]]\nname = "b"\nmass = 1.0\ndirection = [0, 0, 1]',
+     "[[rigid_body]][0].center: a body without nodes needs its center"),
+    ('[[rigid_body]]\nname = "b"\nmass = 1.0\ncenter = [0.0, 0.0, -1.0]',
+     "[[rigid_body]] 'b': the inertia about its free rotation axes is singular: give inertia"),
     ('[[point_mass]]\nname = "p"\nnodes = "all"\nmass = 1.0\ntotal_mass = 2.0',
      "[[point_mass]][0].mass: give one of mass (each node's) or total_mass"),
     ('[[point_mass]]\nname = "p"\nnodes = "nowhere"\nmass = 1.0', "[[point_mass]][0].nodes"),

@@ -258,6 +258,15 @@ SNIPPETS = [
     ("*RIGIDWALL_PLANAR_FINITE\n0\n0.0,0.0,-5.0,0.0,0.0,-4.0,0.3\n10.0,0.0,-5.0,40.0,20.0\n",
      "[[tool]]\nname = \"wall_0\"\nkind = \"rectangle\"\nnormal = [0.0, 0.0, 1.0]\naxis = [1.0, 0.0, 0.0]\n"
      "size = [40.0, 20.0]\ncenter = [20.0, 10.0, -5.0]\nfriction = 0.3\n"),
+    ("*RIGIDWALL_PLANAR_MOVING\n0\n0.0,0.0,-5.0,0.0,0.0,-4.0\n2.0e-3,-3.0\n",
+     "[[rigid_body]]\nname = \"rigidwall_0\"\nmass = 2.0e-3\ncenter = [0.0, 0.0, -5.0]\ndirection = [0.0, 0.0, 1.0]\n"
+     "velocity = [0.0, 0.0, -3.0]\n"
+     "[[wall]]\npoint = [0.0, 0.0, -5.0]\nnormal = [0.0, 0.0, 1.0]\nmoves_with = \"rigidwall_0\"\n"),
+    ("*RIGIDWALL_PLANAR_FINITE_MOVING\n0\n0.0,0.0,-5.0,0.0,0.0,-4.0,0.3\n10.0,0.0,-5.0,40.0,20.0\n2.0e-3,4.0\n",
+     "[[rigid_body]]\nname = \"rigidwall_0\"\nmass = 2.0e-3\ncenter = [0.0, 0.0, -5.0]\ndirection = [0.0, 0.0, 1.0]\n"
+     "velocity = [0.0, 0.0, 4.0]\n"
+     "[[tool]]\nname = \"wall_0\"\nkind = \"rectangle\"\nnormal = [0.0, 0.0, 1.0]\naxis = [1.0, 0.0, 0.0]\n"
+     "size = [40.0, 20.0]\ncenter = [20.0, 10.0, -5.0]\nfriction = 0.3\nmoves_with = \"rigidwall_0\"\n"),
     ("*CONSTRAINED_NODAL_RIGID_BODY_SPC\n5,0,7\n1,7,0\n*SET_NODE_LIST\n7\n113,114,115\n",
      "[nodesets.body_nrb_5]\nids = [12, 13, 14]\n"
      "[[rigid_body]]\nname = \"nrb_5\"\nnodes = \"body_nrb_5\"\nfixed = [\"ux\", \"uy\", \"uz\"]\n"),
@@ -483,3 +492,39 @@ def test_the_top_hat_deck_runs(tmp_path):
     assert welds["welds"] == 14 and welds["failed"] == 0
     assert np.abs(force["support_z"]).max() > 10.0
     assert balance < 1e-3
+
+
+@pytest.mark.parametrize("method", ["fem", "mpm"])
+def test_a_moving_wall_is_a_body_without_nodes(tmp_path, method):
+    """*RIGIDWALL_PLANAR_MOVING: a wall of mass MASS below the plate (part 1 alone, at rest)
+    starting up at V0 along its normal strikes it and is slowed by it (a [[rigid_body]] without
+    nodes that the [[wall]] moves with).  No external force: the plate's momentum plus the
+    wall's stays M V0 (round-off), the balance closes, the plate leaves upwards, the wall
+    slower than it came."""
+    plate = mesh_deck(rigid=False).split("*PART\nimpactor")[0].replace("\n9,2,201,202,203,204", "")
+    mass, speed = 3.0e-5, 5000.0
+    deck = write(tmp_path, "wall.k", plate + "*SECTION_SHELL\n1,2,0.833,3\n1.0,1.0,1.0,1.0\n"
+                 "*MAT_ELASTIC\n1,7.85e-9,2.1e5,0.3\n*RIGIDWALL_PLANAR_MOVING\n0\n0.0,0.0,-2.0,0.0,0.0,-1.0\n"
+                 f"{mass},{speed}\n*CONTROL_TERMINATION\n1.0e-3\n*END\n")
+    out = tmp_path / method
+    r = cli_run("run", str(deck), "--set", f"method.kind={method}", "--out", str(out), "--quiet")
+    assert_clean_output(r)
+    assert r.code == 0, r.out + r.err
+    summary = json.loads((out / "summary.json").read_text())
+    (body,) = summary["rigid_bodies"]
+    frame = sorted((out / "frames").glob("*.vtu"))[-1]
+    import meshio
+    mesh = meshio.read(frame)
+    area = np.zeros(len(mesh.points))            # the plate's lumped masses: a quarter of each shell's
+    for quad in mesh.cells[0].data:
+        area[quad] += 100.0 / 4
+    plate_momentum = float((7.85e-9 * 1.0 * area * mesh.point_data["velocity"][:, 2]).sum())
+    total = plate_momentum + mass * body["velocity"][2]
+    energy = np.genfromtxt(out / "energy.csv", delimiter=",", names=True)
+    involved = 0.5 * mass * speed ** 2
+    print(f"\n{method}: wall {body['velocity'][2]:.2f} (from {speed}), plate momentum {plate_momentum:.4e}, "
+          f"total - M V0 {total - mass * speed:.2e} ({(total - mass * speed) / (mass * speed):.1e}), wall energy "
+          f"{energy['wall'][-1]:.3e}, balance {energy['balance_error'][-1] / involved:.1e} of the wall's energy")
+    assert body["velocity"][2] < speed and plate_momentum > 0.0
+    assert abs(total - mass * speed) <= 1e-12 * mass * speed
+    assert abs(energy["balance_error"][-1]) <= 1e-9 * involved

@@ -21,7 +21,8 @@ deck's file, line and keyword (:attr:`DeckDocument.origins`).  What is read, and
 ``*LOAD_NODE_POINT/_SET``                  ``[[load]]`` (each node SF x the curve)
 ``*LOAD_SHELL_ELEMENT/_SET``               ``[[pressure]]`` (positive: against the normal)
 ``*LOAD_BODY_X/Y/Z``                       ``[gravity]`` (the base acceleration, reversed)
-``*RIGIDWALL_PLANAR``                      ``[[wall]]``; ``_FINITE``: a rectangle ``[[tool]]``
+``*RIGIDWALL_PLANAR``                      ``[[wall]]``; ``_FINITE``: a rectangle ``[[tool]]``;
+                                           ``_MOVING``: moving with a ``[[rigid_body]]`` without nodes
 ``*MAT_RIGID`` parts                       ``[[rigid_body]]`` (CMO = 1: CON1, CON2 -> ``fixed``)
 ``*CONSTRAINED_NODAL_RIGID_BODY(_SPC)``    ``[[rigid_body]]``
 ``*CONSTRAINED_EXTRA_NODES_NODE/_SET``     nodes added to the rigid part's body
@@ -135,6 +136,7 @@ _LOAD_BODY = _ints("lcid") + columns("sf", 10) + _ints("lciddr") + columns("xc y
 _WALL = _ints("nsid nsidex boxid") + columns("offset birth death rwksf", 10)
 _WALL_2 = columns("xt yt zt xh yh zh fric wvel", 10)
 _WALL_FINITE = columns("xhev yhev zhev lenl lenm", 10)
+_WALL_MOVING = columns("mass v0", 10)
 _NODAL_RIGID = _ints("pid cid nsid pnode iprt drflag rrflag")
 _RIGID_SPC = columns("cmo con1 con2", 10)
 _EXTRA_NODES = _ints("pid id")
@@ -354,6 +356,7 @@ class _Translator:
             "LOAD_SEGMENT": self._load_segment, "LOAD_SEGMENT_SET": self._load_segment,
             "LOAD_BODY_X": self._load_body, "LOAD_BODY_Y": self._load_body, "LOAD_BODY_Z": self._load_body,
             "RIGIDWALL_PLANAR": self._wall, "RIGIDWALL_PLANAR_FINITE": self._wall,
+            "RIGIDWALL_PLANAR_MOVING": self._wall, "RIGIDWALL_PLANAR_FINITE_MOVING": self._wall,
             "CONSTRAINED_NODAL_RIGID_BODY": self._nodal_rigid, "CONSTRAINED_NODAL_RIGID_BODY_SPC": self._nodal_rigid,
             "CONSTRAINED_EXTRA_NODES_NODE": self._extra_nodes, "CONSTRAINED_EXTRA_NODES_SET": self._extra_nodes,
             "ELEMENT_MASS": self._element_mass, "ELEMENT_MASS_PART": self._element_mass_part,
@@ -813,9 +816,12 @@ class _Translator:
 
     # -- walls
     def _wall(self, block: Block) -> None:
-        finite = "FINITE" in block.name
+        """*RIGIDWALL_PLANAR(_FINITE)(_MOVING): a [[wall]], or a rectangle [[tool]] when finite;
+        _MOVING gives it a body of its own: a [[rigid_body]] without nodes of mass MASS, moving
+        along the normal only, starting at V0 along it, which the wall moves with."""
+        finite, moving = "FINITE" in block.name, "MOVING" in block.name
         cards = self._titled(block)
-        size = 3 if finite else 2
+        size = 2 + finite + moving
         for group in (cards[k:k + size] for k in range(0, len(cards), size)):
             where = location(group[0], block.name)
             if len(group) < size:
@@ -826,23 +832,33 @@ class _Translator:
             normal = np.array([two["xh"], two["yh"], two["zh"]]) - tail
             if not np.any(normal):
                 raise SceneError(f"{where}: the head XH, YH, ZH equals the tail XT, YT, ZT: no normal")
+            n = normal / np.linalg.norm(normal)
             if one["nsid"] or one["nsidex"] or one["boxid"]:
                 self.unread(where, "NSID, NSIDEX, BOXID: the wall holds back every node, not a set's")
             if one["birth"] or (one["death"] and one["death"] < NEVER):
                 self.unread(where, "BIRTH, DEATH: the wall is there for the whole run")
             if two["wvel"]:
-                self.unread(where, f"WVEL = {two['wvel']:g}: no wall velocity")
+                self.unread(where, f"WVEL = {two['wvel']:g}: nodes welding to the wall above a critical "
+                                   "velocity is not modelled")
             if one["offset"]:
                 self.note(where, f"OFFSET = {one['offset']:g}: every node is checked against the wall")
+            body = None
+            if moving:
+                m = read_card(group[-1], _WALL_MOVING, block.name)
+                body = f"rigidwall_{len(self.doc.raw.get('rigid_body', []))}"
+                self.note(where, f"a moving wall is a [[rigid_body]] '{body}' without nodes (MASS, V0 along the "
+                                 "normal) that the wall moves with")
+                self.append("rigid_body", {"name": body, "mass": m["mass"], "center": tail.tolist(),
+                                           "direction": n.tolist(), "velocity": (m["v0"] * n).tolist()}, where)
             if not finite:
                 if two["fric"]:
                     self.unread(where, f"FRIC = {two['fric']:g}: the wall is frictionless")
                 self.note(where, "the wall keeps the shells' mid-surface half a thickness away (LS-DYNA's: the nodes)")
-                self.append("wall", {"point": tail.tolist(), "normal": normal.tolist()}, where)
+                self.append("wall", {"point": tail.tolist(), "normal": normal.tolist(),
+                                     **({"moves_with": body} if body else {})}, where)
                 continue
             f = read_card(group[2], _WALL_FINITE, block.name)
             first = np.array([f["xhev"], f["yhev"], f["zhev"]]) - tail
-            n = normal / np.linalg.norm(normal)
             first = first - (first @ n) * n
             if not np.any(first) or f["lenl"] <= 0.0 or f["lenm"] <= 0.0:
                 raise SceneError(f"{where}: XHEV, YHEV, ZHEV must give an edge off the normal and LENL, LENM > 0")
@@ -853,7 +869,7 @@ class _Translator:
             self.note(where, "a finite wall is a rectangle [[tool]] (penalty contact, stiffness 0.1)")
             self.append("tool", {"name": f"wall_{k}", "kind": "rectangle", "normal": n.tolist(),
                                  "axis": l_axis.tolist(), "size": [f["lenl"], f["lenm"]], "center": center.tolist(),
-                                 "friction": two["fric"]}, where)
+                                 "friction": two["fric"], **({"moves_with": body} if body else {})}, where)
 
     # -- rigid bodies and masses
     def _rigid_parts(self) -> None:

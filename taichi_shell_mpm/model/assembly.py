@@ -407,7 +407,7 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
     node_body = np.full(n, -1, dtype=np.int32)
     bodies = []
     for i, rb in enumerate(scene.rigid_bodies):
-        ids = nodes_of(rb.nodes)
+        ids = nodes_of(rb.nodes) if rb.nodes is not None else np.zeros(0, dtype=np.int64)
         if np.any(node_body[ids] >= 0):
             raise SceneError(f"{scene.source.name}: [[rigid_body]] '{rb.name}': nodes already belong to "
                              "another rigid body")

@@ -98,7 +98,7 @@ def rigid_body(scene: Scene, rb, ids: np.ndarray, points: np.ndarray, node_mass:
         given = mass_centre = points[ids].mean(axis=0)
     rotation_free, translation_free, d, moved = free_dofs(scene, rb)
     turned = any(m.body == rb.name and set(m.dofs) & set(DOFS[3:]) for m in scene.motions)
-    size = max(float(np.linalg.norm(points[ids] - given, axis=1).max()), min_edge)
+    size = max(float(np.linalg.norm(points[ids] - given, axis=1).max(initial=0.0)), min_edge)
     center = given
     if (rotation_free.any() or turned) and np.linalg.norm(given - mass_centre) > 1e-9 * size:
         held = not translation_free.any()
@@ -112,10 +112,11 @@ def rigid_body(scene: Scene, rb, ids: np.ndarray, points: np.ndarray, node_mass:
     added = inertia_tensor(rb.inertia) + rb.mass * _arms((given - center)[None])[0]   # moved from `center` to the centre
     rotary = float(node_inertia[ids].sum()) if rb.mass_from_nodes else 0.0
     inertia = added + rotary * np.eye(3) + np.einsum("c,cij->ij", m, _arms(r))
+    start = np.mean(velocity0[ids], axis=0) if len(ids) else np.zeros(3)     # (without nodes: at rest)
     if d is not None:
-        v0 = float(np.mean(velocity0[ids] @ d)) * d if rb.velocity is None else translation_free @ rb.velocity
+        v0 = float(start @ d) * d if rb.velocity is None else translation_free @ rb.velocity
     else:
-        v0 = translation_free @ (np.mean(velocity0[ids], axis=0) if rb.velocity is None else np.asarray(rb.velocity))
+        v0 = translation_free @ (start if rb.velocity is None else np.asarray(rb.velocity))
     spin = rotation_free @ np.asarray(rb.spin if rb.spin is not None else (0.0, 0.0, 0.0))
     if rb.velocity is not None:                  # given at `center`: the mass centre's is V + omega x (G - C)
         v0 = v0 + translation_free @ np.cross(spin, center - given)

@@ -1,4 +1,5 @@
-"""[[rigid_body]]: nodes moving as one rigid body."""
+"""[[rigid_body]]: nodes moving as one rigid body (or a body of its own mass without nodes, which
+walls and tools move with)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -28,8 +29,11 @@ class RigidBody:
     `direction` only (the tube's 500 kg ram, method.md 2.5c), carrying an added `mass` and
     `inertia` (about the centre, global axes at t = 0: 3 diagonal entries or xx yy zz xy yz zx)."""
     name: str = key(identifier, "body name (force.csv columns, summary.json)")
-    nodes: str = key(node_set, allowed="a defined node set; no node in two bodies or with a fixed translation",
-        doc="slave nodes")
+    nodes: str | None = key(node_set, default=None, default_text="none (a body without nodes)",
+        allowed="a defined node set; no node in two bodies or with a fixed translation; without it `mass` > 0 and "
+                "`center` are required",
+        doc="slave nodes; a body without nodes is its `mass` and `inertia` alone, moved by the walls and tools "
+            "that move with it (LS-DYNA's *RIGIDWALL_PLANAR_MOVING)")
     mass: float = key(non_negative, default=0.0, unit="mass", allowed=">= 0 (> 0 with `mass_from_nodes = false`)",
         doc="added mass (at the centre)")
     direction: Vec3 | None = key(nonzero_vec3, default=None, default_text="none (6 DOFs)",
@@ -67,4 +71,9 @@ def read_rigid_body(r: Reader, path: str, data: Any) -> RigidBody | None:
                                          "are held): leave out direction for a 6-DOF body")
     if v.get("mass_from_nodes") is False and "mass" in v and not v["mass"] > 0.0:
         r.error(f"{path}.mass", "must be > 0 with mass_from_nodes = false (it is the body's whole mass)")
+    if isinstance(data, dict) and "nodes" not in data:
+        if not v.get("mass", 0.0) > 0.0:
+            r.error(f"{path}.mass", "a body without nodes needs mass > 0 (it is the body's whole mass)")
+        if v.get("center") is None:
+            r.error(f"{path}.center", "a body without nodes needs its center")
     return r.build(mark, RigidBody, v)
