@@ -814,8 +814,9 @@ class Simulation:
             if laws.pairs:
                 force = self.interface_values()
                 summary["contact_pairs"] = [
-                    {"name": name, "slave": p.slave, "master": p.master, "symmetric": p.symmetric,
-                     "slave_elements": laws.slave_elements[k], "master_elements": laws.master_elements[k],
+                    {"name": name, "slave": p.slave if p.slave_nodes is None else p.slave_nodes, "master": p.master,
+                     "symmetric": p.symmetric, "slave_elements": laws.slave_elements[k],
+                     "slave_nodes": laws.slave_nodes[k], "master_elements": laws.master_elements[k],
                      "force": force[3 * k:3 * k + 3]}
                     for k, (name, p) in enumerate(zip(laws.names, self.scene.contact_pairs))]
         stopped = bool(extra and extra.get("error"))

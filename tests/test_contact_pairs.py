@@ -136,10 +136,12 @@ RESTING = [
     ("interface_sst_mst", BASE + INTERFACE.format(damping=1.0, keys="slave_thickness = 0.2\nmaster_thickness = 0.5"),
      0.35),
     ("interface_one_way", BASE + INTERFACE.format(damping=1.0, keys="symmetric = false"), 0.5 * (T_LOWER + T_UPPER)),
+    ("interface_slave_nodes", BASE + INTERFACE.replace('slave = "upper"', 'slave_nodes = "top"').format(damping=1.0, keys=""),
+     0.5 * (T_LOWER + T_UPPER)),
     ("interface_and_single_surface", BASE + INTERFACE.format(damping=1.0, keys="") + "[contact]\nthickness = 0.5\n",
      0.5 * (T_LOWER + T_UPPER)),
 ]
-PAIRS = {"interface_one_way": 9}       # contact pairs at the end: the 9 upper nodes
+PAIRS = {"interface_one_way": 9, "interface_slave_nodes": 9}   # contact pairs at the end: the 9 upper nodes
 """(the other interface cases, symmetric: 18, the 9 upper nodes and the 9 lower ones under the
 upper plate; with [contact] as well, the interface's pairs take its law: the [contact]
 thickness 0.5 acts nowhere)"""
@@ -153,7 +155,7 @@ def test_a_thin_plate_rests_on_a_thick_one_at_half_the_sum_of_their_thicknesses(
     before the per-pair rule it rested at the thickest section's 0.3.  [contact].thickness
     overrides every pair (0.25); an interface's slave/master_thickness (LS-DYNA SST/MST) each
     side's (0.2, 0.5: (0.2 + 0.5) / 2 = 0.35).  One-way (symmetric = false): only the slave
-    nodes touch.  With [contact] as well (thickness 0.5), the interface's pairs keep its law.  The interface's force on the slave side
+    nodes touch; the same with the slave side given as a node set (slave_nodes).  With [contact] as well (thickness 0.5), the interface's pairs keep its law.  The interface's force on the slave side
     (force.csv, summary.json) carries the upper plate's weight 0.1 x 4 x 1 = 0.4."""
     scene = write(tmp_path, tables, z_upper=expected + GAP)
     out, summary = run(scene)
@@ -164,7 +166,7 @@ def test_a_thin_plate_rests_on_a_thick_one_at_half_the_sum_of_their_thicknesses(
     print(f"\n{case}: rests at {height:.6f}, expected {expected}: error {error:.3e} ({error / expected:.2e} relative)")
     # measured 2.118e-4 in each case, the penalty's static depth whatever the thickness; one-way
     # 4.241e-4, with half the springs (only the slave nodes push)
-    assert error < (6.4e-4 if case == "interface_one_way" else 3.2e-4)
+    assert error < (6.4e-4 if case in PAIRS else 3.2e-4)
     if case.startswith("interface"):
         print(f"pairs at the end: {summary['contact']['pairs_last_step']}")
         assert summary["contact"]["pairs_last_step"] == PAIRS.get(case, 18)
@@ -233,14 +235,19 @@ def test_a_restart_with_an_interface_is_bit_for_bit(tmp_path, monkeypatch):
 
 
 BAD = [
-    ("slave = \"uper\"", "plates.toml: [[contact_pair]][0].slave: no element set or mesh set named 'uper'"),
-    ("master = \"part:9\"", "plates.toml: [[contact_pair]][0].master: no element set or mesh set named 'part:9'"),
+    # (the INTERFACE line replaced, by what, the message)
+    ("slave", "slave = \"uper\"", "plates.toml: [[contact_pair]][0].slave: no element set or mesh set named 'uper'"),
+    ("master", "master = \"part:9\"", "plates.toml: [[contact_pair]][0].master: no element set or mesh set named 'part:9'"),
+    ("slave", "slave = \"upper\"\nslave_nodes = \"top\"",
+     "plates.toml: [[contact_pair]][0].slave: give one of slave (an element set) or slave_nodes (a node set)"),
+    ("slave", "slave_nodes = \"tops\"", "plates.toml: [[contact_pair]][0].slave_nodes: unknown node set 'tops'"),
+    ("slave", "slave_nodes = \"top\"\nsymmetric = true",
+     "plates.toml: [[contact_pair]][0].symmetric: a slave side of nodes has no faces"),
 ]
 
 
-@pytest.mark.parametrize("change,message", BAD, ids=["slave", "master"])
-def test_an_unknown_set_is_one_line_naming_the_key(tmp_path, change, message):
-    key = change.split(" =")[0]
+@pytest.mark.parametrize("key,change,message", BAD, ids=["slave", "master", "both_sides", "unknown_nodes", "symmetric"])
+def test_an_unknown_set_is_one_line_naming_the_key(tmp_path, key, change, message):
     text = BASE + INTERFACE.format(damping=0.1, keys="")
     text = "\n".join(change if line.startswith(key + " =") else line for line in text.splitlines())
     scene = write(tmp_path, text)

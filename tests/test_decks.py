@@ -297,6 +297,10 @@ SNIPPETS = [
      "[elementsets.shells_3]\nids = [4, 5]\n"
      "[[contact_pair]]\nname = \"interface_0\"\nslave = \"shells_3\"\nmaster = \"part:2\"\nsymmetric = false\n"
      "friction = 0.0\ndamping = 0.0\nstiffness = 0.1\n"),
+    ("*CONTACT_AUTOMATIC_NODES_TO_SURFACE\n7,2,4,3\n0.2\n*SET_NODE_LIST\n7\n111,112,113,114,115\n",
+     "[nodesets.set_7]\nids = [10, 11, 12, 13, 14]\n"
+     "[[contact_pair]]\nname = \"interface_0\"\nslave_nodes = \"set_7\"\nmaster = \"part:2\"\nsymmetric = false\n"
+     "friction = 0.2\ndamping = 0.0\nstiffness = 0.1\n"),
     ("*CONTACT_TIED_SHELL_EDGE_TO_SURFACE_OFFSET\n7,2,4,3\n*SET_NODE_LIST\n7\n111,112,113,114,115\n",
      "[nodesets.set_7]\nids = [10, 11, 12, 13, 14]\n"
      "[[tie]]\nname = \"tie_0\"\nnodes = \"set_7\"\nsurface = \"part:2\"\nrotations = true\n"),

@@ -1074,17 +1074,17 @@ class _Translator:
 
     def _interface(self, block: Block) -> None:
         """*CONTACT_AUTOMATIC_SURFACE_TO_SURFACE (symmetric) / _NODES_TO_SURFACE (one-way) as a
-        [[contact_pair]]: SST, MST (x SFST, SFMT) the sides' thickness overrides."""
+        [[contact_pair]]: SST, MST (x SFST, SFMT) the sides' thickness overrides; a one-way
+        slave side of SSTYP = 4 is its node set (slave_nodes)."""
         v, where = self._one(block, [_CONTACT_1, _CONTACT_2, _CONTACT_3])
         one_way = "NODES_TO_SURFACE" in block.name
-        if one_way and v["sstyp"] == 4:
-            self.unread(where, "SSTYP = 4 (a node set) on the slave side: an interface's slave side is a set of "
-                               "shells; read as the shells of those nodes' parts is not done")
-            return
         k = len(self.doc.raw.get("contact_pair", []))
-        entry = {"name": f"interface_{k}", "slave": self._surface(v["ssid"], v["sstyp"], where, "SSID"),
-                 "master": self._surface(v["msid"], v["mstyp"], where, "MSID"), "symmetric": not one_way,
-                 **self._law(v, where)}
+        if one_way and v["sstyp"] == 4:          # the slave side a node set
+            slave = {"slave_nodes": self.node_set(v["ssid"], where, "SSID")}
+        else:
+            slave = {"slave": self._surface(v["ssid"], v["sstyp"], where, "SSID")}
+        entry = {"name": f"interface_{k}", **slave, "master": self._surface(v["msid"], v["mstyp"], where, "MSID"),
+                 "symmetric": not one_way, **self._law(v, where)}
         if v["sst"] > 0.0:
             entry["slave_thickness"] = v["sst"] * (v["sfst"] or 1.0)
         if v["mst"] > 0.0:

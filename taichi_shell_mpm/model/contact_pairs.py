@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..nodesets import select_nodes
 from ..scene import Scene, SceneError
 from .parts import element_selection, mesh_set
 
@@ -36,7 +37,8 @@ LAW_COLUMNS = ("stiffness", "damping", "friction", "node_thickness", "segment_th
 @dataclass(frozen=True)
 class ContactTable:
     names: tuple[str, ...]          # the interfaces, in scene order
-    slave_elements: tuple[int, ...]   # elements of each interface's slave and master sets
+    slave_elements: tuple[int, ...]   # elements of each interface's slave and master sets (0: a node side)
+    slave_nodes: tuple[int, ...]      # nodes of each interface's slave side
     master_elements: tuple[int, ...]
     node_role: np.ndarray           # (n,) int32 direction bits of each node
     segment_role: np.ndarray        # (m,) int32 direction bits of each face
@@ -82,15 +84,20 @@ def contact_table(scene: Scene, mesh, points: np.ndarray, elements: np.ndarray, 
             tf = (t_face, t_face) if t_face else (element_thickness[faces].min(), element_thickness[faces].max())
             reach.append((0.5 * (tn[0] + tf[0]), 0.5 * (tn[1] + tf[1]), parameters[0]))
 
-    slaves, masters = [], []
+    slaves, slave_counts, masters = [], [], []
     for k, pair in enumerate(scene.contact_pairs):
         path = f"[[contact_pair]][{k}]"
-        slave = _side(scene, mesh, points, elements, pair.slave, f"{path}.slave")
+        if pair.slave_nodes is not None:         # a node side (one-way): no faces
+            slave = np.zeros(0, np.int64)
+            slave_nodes = np.asarray(select_nodes(scene.nodeset(pair.slave_nodes), points), np.int64)
+        else:
+            slave = _side(scene, mesh, points, elements, pair.slave, f"{path}.slave")
+            slave_nodes = np.unique(elements[slave][elements[slave] >= 0])
         master = _side(scene, mesh, points, elements, pair.master, f"{path}.master")
         slaves.append(len(slave))
+        slave_counts.append(len(slave_nodes))
         masters.append(len(master))
         parameters = (pair.stiffness, pair.damping, pair.friction)
-        slave_nodes = np.unique(elements[slave][elements[slave] >= 0])
         master_nodes = np.unique(elements[master][elements[master] >= 0])
         direction(2 * k, slave_nodes, master, parameters, pair.slave_thickness, pair.master_thickness, 1.0, k)
         if pair.symmetric:
@@ -104,7 +111,7 @@ def contact_table(scene: Scene, mesh, points: np.ndarray, elements: np.ndarray, 
         raise SceneError(f"{scene.source.name}: [[contact_pair]]: no interface has both a node and a face")
     return ContactTable(
         names=tuple(p.name for p in scene.contact_pairs), slave_elements=tuple(slaves),
-        master_elements=tuple(masters), node_role=node_role.astype(np.int32), segment_role=segment_role.astype(np.int32),
+        slave_nodes=tuple(slave_counts), master_elements=tuple(masters), node_role=node_role.astype(np.int32), segment_role=segment_role.astype(np.int32),
         law=law, law_interface=law_interface, thickness_max=float(max(r[1] for r in reach)),
         thickness_min=float(min(r[0] for r in reach)),
         step_terms=tuple((float(r[2]), float(r[0])) for r in reach),

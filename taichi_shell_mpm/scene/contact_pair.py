@@ -1,12 +1,13 @@
-"""[[contact_pair]]: penalty contact between two element sets (an interface), each with its
-own force in force.csv; LS-DYNA's *CONTACT_AUTOMATIC_SURFACE_TO_SURFACE (symmetric) and
-*CONTACT_AUTOMATIC_NODES_TO_SURFACE (one-way)."""
+"""[[contact_pair]]: penalty contact between two element sets (an interface), or a node set
+and an element set, each with its own force in force.csv; LS-DYNA's
+*CONTACT_AUTOMATIC_SURFACE_TO_SURFACE (symmetric) and *CONTACT_AUTOMATIC_NODES_TO_SURFACE
+(one-way; its slave side a node set with SSTYP = 4)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
 from typing import Any
 
-from ..keys import boolean, identifier, key, keys_of, non_negative, nonempty, number, positive, unit_interval
+from ..keys import boolean, identifier, key, keys_of, node_set, non_negative, nonempty, number, positive, unit_interval
 from .contact import check_penalty_damping
 from .parts import check_element_set
 from .reader import Reader
@@ -25,9 +26,14 @@ class ContactPair:
     (stages/contact.py) and its own parameters; touching at the distance (t_node + t_segment) / 2."""
     name: str = key(identifier, "force.csv columns `<name>.force_x/y/z` (the force on the slave side)",
                     allowed="an identifier, unique")
-    slave: str = key(nonempty, "the slave side: its nodes (and, symmetric, its faces)", allowed=SETS)
     master: str = key(nonempty, "the master side: its faces (and, symmetric, its nodes)", allowed=SETS)
+    slave: str | None = key(nonempty, "the slave side: its nodes (and, symmetric, its faces)", default=None,
+        allowed=SETS + "; one of `slave`, `slave_nodes`", default_text="none")
+    slave_nodes: str | None = key(node_set, default=None, default_text="none",
+        allowed="a defined node set or `all`; one of `slave`, `slave_nodes`; not `symmetric`",
+        doc="the slave side as nodes (LS-DYNA's SSTYP = 4): they touch the master faces, one-way")
     symmetric: bool = key(boolean, default=True,
+        default_text="`true`; `false` with `slave_nodes`",
         doc="both directions (LS-DYNA's automatic surface to surface); false: the slave nodes against the master "
             "faces only (nodes to surface)")
     stiffness: float = key(number(0, 1, lo_open=True), default=0.1,
@@ -50,6 +56,13 @@ def read_contact_pair(r: Reader, path: str, data: Any, mesh, elementsets) -> Con
     if v is None:
         return None
     names = [s.name for s in elementsets]
+    if isinstance(data, dict) and ("slave" in data) == ("slave_nodes" in data):
+        r.error(f"{path}.slave", "give one of slave (an element set) or slave_nodes (a node set)")
+    if isinstance(data, dict) and "slave_nodes" in data:
+        if data.get("symmetric") is True:
+            r.error(f"{path}.symmetric", "a slave side of nodes has no faces: the interface is one-way "
+                                         "(symmetric = false)")
+        v["symmetric"] = False
     for side in ("slave", "master"):
         if side in v:
             check_element_set(r, f"{path}.{side}", v[side], names, mesh)
