@@ -401,10 +401,10 @@ class State:
         g.table("wall_point", ti.Vector.field(3, f64), (MAX_WALLS,), nw)
         g.table("wall_normal", ti.Vector.field(3, f64), (MAX_WALLS,), nw)
         g.table("wall_body", ti.field(i32), (MAX_WALLS,), nw)          # -1: fixed
-        # each node's impulse on each wall-carrying body, summed in node order (threads, stages/bodies.py)
-        g.entity("node_wall_impulse", ti.Vector.field(3, f64), n, (MAX_BODIES,),
+        # each node's impulse on each moving wall's body, summed in node order (threads, stages/bodies.py)
+        g.entity("node_wall_impulse", ti.Vector.field(3, f64), n, (MAX_WALLS,),
                  used=fx.launch == "threads" and fx.moving_walls)
-        g.entity("node_wall_moment", ti.Vector.field(3, f64), n, (MAX_BODIES,),
+        g.entity("node_wall_moment", ti.Vector.field(3, f64), n, (MAX_WALLS,),
                  used=fx.launch == "threads" and fx.moving_walls and fx.body_rotation)
 
         # --- time curves, loads beyond the plain nodal ones, prescribed motion (stages/loads.py,

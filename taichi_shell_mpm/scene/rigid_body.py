@@ -20,7 +20,8 @@ from ..keys import (
 )
 from .reader import Reader
 
-MAX_BODIES = 16          # [[rigid_body]] entries of a scene (state.bodies tables)
+MAX_BODIES = 256         # [[rigid_body]] entries of a scene (state.bodies tables; a deck may hold many
+#                          *CONSTRAINED_NODAL_RIGID_BODY cards)
 
 
 @dataclass(frozen=True)

@@ -392,9 +392,9 @@ class RigidBodies:
                     if ti.static(self.cfg.moving_walls):
                         impulse = -m * dv * n
                         if ti.static(self.impulses_in_node_order):   # summed by apply_impulses
-                            self.s.bodies.node_wall_impulse[c, b] += impulse
+                            self.s.bodies.node_wall_impulse[c, k] += impulse
                             if ti.static(self.cfg.body_rotation):
-                                self.s.bodies.node_wall_moment[c, b] += (
+                                self.s.bodies.node_wall_moment[c, k] += (
                                     self.s.nodes.position[c] + dt * out - self.center(b)).cross(impulse)
                         else:
                             self.add_impulse(b, impulse, self.s.nodes.position[c] + dt * out)
@@ -412,12 +412,14 @@ class RigidBodies:
         if ti.static(self.impulses_in_node_order):         # no atomics, the serial sum's bits
             ti.loop_config(serialize=True)
             for c in range(self.s.nodes.count[None]):
-                for b in range(self.s.bodies.count[None]):
-                    self.s.bodies.impulse[b] += self.s.bodies.node_wall_impulse[c, b]
-                    self.s.bodies.node_wall_impulse[c, b] = ti.Vector([0.0, 0.0, 0.0])
-                    if ti.static(self.cfg.body_rotation):
-                        self.s.bodies.angular_impulse[b] += self.s.bodies.node_wall_moment[c, b]
-                        self.s.bodies.node_wall_moment[c, b] = ti.Vector([0.0, 0.0, 0.0])
+                for k in range(self.s.bodies.wall_count[None]):
+                    b = self.s.bodies.wall_body[k]
+                    if b >= 0:
+                        self.s.bodies.impulse[b] += self.s.bodies.node_wall_impulse[c, k]
+                        self.s.bodies.node_wall_impulse[c, k] = ti.Vector([0.0, 0.0, 0.0])
+                        if ti.static(self.cfg.body_rotation):
+                            self.s.bodies.angular_impulse[b] += self.s.bodies.node_wall_moment[c, k]
+                            self.s.bodies.node_wall_moment[c, k] = ti.Vector([0.0, 0.0, 0.0])
         ti.loop_config(serialize=True)
         for b in range(self.s.bodies.count[None]):
             impulse = self.s.bodies.impulse[b]
