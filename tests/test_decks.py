@@ -270,6 +270,20 @@ SNIPPETS = [
     ("*CONSTRAINED_NODAL_RIGID_BODY_SPC\n5,0,7\n1,7,0\n*SET_NODE_LIST\n7\n113,114,115\n",
      "[nodesets.body_nrb_5]\nids = [12, 13, 14]\n"
      "[[rigid_body]]\nname = \"nrb_5\"\nnodes = \"body_nrb_5\"\nfixed = [\"ux\", \"uy\", \"uz\"]\n"),
+    ("*CONSTRAINED_NODAL_RIGID_BODY_INERTIA\n5,0,7\n20.0,10.0,0.0,4.0e-6\n1.0,0.1,0.2,2.0,0.3,3.0\n"
+     "0.0,0.0,-2.0,0.0,0.5,0.0\n*SET_NODE_LIST\n7\n113,114,115\n",
+     "[nodesets.body_nrb_5]\nids = [12, 13, 14]\n"
+     "[[rigid_body]]\nname = \"nrb_5\"\nnodes = \"body_nrb_5\"\nmass_from_nodes = false\nmass = 4.0e-6\n"
+     "center = [20.0, 10.0, 0.0]\ninertia = [1.0, 2.0, 3.0, 0.1, 0.3, 0.2]\nvelocity = [0.0, 0.0, -2.0]\n"
+     "spin = [0.0, 0.5, 0.0]\n"),
+    ("*CONSTRAINED_NODAL_RIGID_BODY_INERTIA\n5,0,7\n20.0,10.0,0.0,4.0e-6\n1.0,0.0,0.0,2.0,0.0,3.0\n\n"
+     "6,0,8\n0.0,0.0,0.0,1.0e-6\n1.0,0.0,0.0,1.0,0.0,1.0\n"
+     "*SET_NODE_LIST\n7\n113,114,115\n*SET_NODE_LIST\n8\n101\n",
+     "[nodesets.body_nrb_5]\nids = [12, 13, 14]\n[nodesets.body_nrb_6]\nids = [0]\n"
+     "[[rigid_body]]\nname = \"nrb_5\"\nnodes = \"body_nrb_5\"\nmass_from_nodes = false\nmass = 4.0e-6\n"
+     "center = [20.0, 10.0, 0.0]\ninertia = [1.0, 2.0, 3.0, 0.0, 0.0, 0.0]\n"
+     "[[rigid_body]]\nname = \"nrb_6\"\nnodes = \"body_nrb_6\"\nmass_from_nodes = false\nmass = 1.0e-6\n"
+     "center = [0.0, 0.0, 0.0]\ninertia = [1.0, 1.0, 1.0, 0.0, 0.0, 0.0]\n"),
     ("*ELEMENT_MASS\n1,101,2.0e-6\n2,102,1.0e-6\n3,102,1.0e-6\n4,103,3.0e-6\n",
      "[nodesets.mass_0]\nids = [0, 1]\n[nodesets.mass_1]\nids = [2]\n"
      "[[point_mass]]\nname = \"mass_0\"\nnodes = \"mass_0\"\nmass = 2.0e-6\n"
@@ -532,3 +546,22 @@ def test_a_moving_wall_is_a_body_without_nodes(tmp_path, method):
     assert body["velocity"][2] < speed and plate_momentum > 0.0
     assert abs(total - mass * speed) <= 1e-12 * mass * speed
     assert abs(energy["balance_error"][-1]) <= 1e-9 * involved
+
+
+def test_part_inertia_gives_a_rigid_part_its_own_mass_and_inertia(tmp_path):
+    """*PART_INERTIA on the *MAT_RIGID impactor: its body takes TM at XC, YC, ZC, the tensor
+    IXX..IZZ and the initial velocities (mass_from_nodes = false); on a deformable part the
+    cards are listed as not read (they mean nothing there), which stops the run."""
+    inertia = "15.0,10.0,3.0,1.0e-5,0,0\n1.0,0.1,0.2,2.0,0.3,3.0\n0.0,0.0,-2.0,0.5,0.0,0.0\n"
+    text = mesh_deck().replace("*PART\nimpactor\n2,1,2\n", "*PART_INERTIA\nimpactor\n2,1,2\n" + inertia)
+    scene = load_scene(write(tmp_path, "inertia.k", text + "*CONTROL_TERMINATION\n1.0e-4\n*END\n"))
+    (body,) = scene.rigid_bodies
+    assert (body.name, body.mass_from_nodes, body.mass, body.center) == ("part_2", False, 1.0e-5, (15.0, 10.0, 3.0))
+    assert body.inertia == (1.0, 2.0, 3.0, 0.1, 0.3, 0.2)
+    assert body.velocity == (0.0, 0.0, -2.0) and body.spin == (0.5, 0.0, 0.0)
+    text = mesh_deck().replace("*PART\nplate\n1,1,1\n", "*PART_INERTIA\nplate\n1,1,1\n" + inertia)
+    deck = write(tmp_path, "deformable.k", text + "*CONTROL_TERMINATION\n1.0e-4\n*END\n")
+    r = cli_run("validate", str(deck))
+    print(r.err)
+    assert r.code == 2 and "part 1 is not rigid: *PART_INERTIA's mass, inertia and velocities are read for *MAT_RIGID" \
+        in r.err and "deformable.k:" in r.err

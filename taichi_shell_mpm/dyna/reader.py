@@ -9,7 +9,7 @@ piecewise linear plasticity) and load curves, with the deck's own node and eleme
 Read: ``*KEYWORD``, ``*TITLE``, ``*END`` (ends the file it is in), ``*INCLUDE`` (a path
 relative to the including file's folder, else the main deck's), ``*COMMENT``, comment lines
 (``$``), ``*NODE``, ``*ELEMENT_SHELL`` (also ``_THICKNESS``, ``_BETA``, ``_MCID`` and their
-``_OFFSET`` forms), ``*PART`` (and ``*PART_CONTACT``), ``*SECTION_SHELL[_TITLE]``,
+``_OFFSET`` forms), ``*PART`` (and ``*PART_CONTACT``, ``*PART_INERTIA``), ``*SECTION_SHELL[_TITLE]``,
 ``*MAT_ELASTIC`` / ``*MAT_001``, ``*MAT_PLASTIC_KINEMATIC`` / ``*MAT_003``, ``*MAT_RIGID`` / ``*MAT_020``,
 ``*MAT_PIECEWISE_LINEAR_PLASTICITY`` / ``*MAT_024``,
 ``*MAT_TRANSVERSELY_ANISOTROPIC_ELASTIC_PLASTIC`` / ``*MAT_037`` (each also ``_TITLE``) and
@@ -57,6 +57,9 @@ class DeckPart:
     mid: int
     hgid: int = 0
     """*HOURGLASS id (0: *CONTROL_HOURGLASS's, dyna/scene.py)."""
+    inertia: dict | None = None
+    """*PART_INERTIA's cards 3-5 (XC YC ZC TM IRCS NODEID, IXX..IZZ, VTX..VRZ) and ``where``:
+    a rigid part's own mass and inertia (dyna/scene.py)."""
 
 
 @dataclass(frozen=True)
@@ -146,6 +149,9 @@ _SHELL = columns("eid pid n1 n2 n3 n4 n5 n6 n7 n8", 8, "i")
 _SHELL_THICKNESS = columns("thic1 thic2 thic3 thic4 beta", 16)
 _SHELL_OFFSET = columns("offset", 16)
 _PART = columns("pid secid mid eosid hgid grav adpopt tmid", 10, "i")
+_PART_INERTIA = columns("xc yc zc tm", 10) + columns("ircs nodeid", 10, "i")
+INERTIA_TENSOR = columns("ixx ixy ixz iyy iyz izz", 10)
+INERTIA_VELOCITY = columns("vtx vty vtz vrx vry vrz", 10)
 _PART_CONTACT = columns("fs fd dc vc optt sft ssf", 10)
 _SECTION_1 = [("secid", 10, "i"), ("elform", 10, "i"), ("shrf", 10, "f"), ("nip", 10, "f"),
               ("propt", 10, "f"), ("qr", 10, "f"), ("icomp", 10, "i"), ("setyp", 10, "i")]
@@ -454,6 +460,21 @@ def _read_blocks(path: Path, blocks: list, title: str, parameters: dict):
                 heading = group[0].text.strip()
                 v = read_card(group[1], _PART, name)
                 _unique(parts, v["pid"], DeckPart(v["pid"], heading, v["secid"], v["mid"], v["hgid"]), group[1], name, "part")
+        elif name == "PART_INERTIA":
+            cards, k = data_cards(block), 0         # heading, *PART card, cards 3-5 (+ 6 with IRCS = 1)
+            while k < len(cards):
+                group = cards[k:k + 5]
+                if len(group) < 4:
+                    raise SceneError(f"{location(group[-1], name)}: incomplete card group ({len(group)} of 5 cards)")
+                v = read_card(group[1], _PART, name)
+                values = read_card(group[2], _PART_INERTIA, name)
+                values.update(read_card(group[3], INERTIA_TENSOR, name))
+                values.update(read_card(group[4], INERTIA_VELOCITY, name) if len(group) > 4 else
+                              dict.fromkeys(("vtx", "vty", "vtz", "vrx", "vry", "vrz"), 0.0))
+                values["where"] = location(group[2], name)
+                _unique(parts, v["pid"], DeckPart(v["pid"], group[0].text.strip(), v["secid"], v["mid"], v["hgid"],
+                                                  values), group[1], name, "part")
+                k += 5 + (values["ircs"] == 1)
         elif base == "SECTION_SHELL":
             _read_sections(block, titled, sections)
         elif _material_kind(base) is not None:

@@ -23,8 +23,9 @@ deck's file, line and keyword (:attr:`DeckDocument.origins`).  What is read, and
 ``*LOAD_BODY_X/Y/Z``                       ``[gravity]`` (the base acceleration, reversed)
 ``*RIGIDWALL_PLANAR``                      ``[[wall]]``; ``_FINITE``: a rectangle ``[[tool]]``;
                                            ``_MOVING``: moving with a ``[[rigid_body]]`` without nodes
-``*MAT_RIGID`` parts                       ``[[rigid_body]]`` (CMO = 1: CON1, CON2 -> ``fixed``)
-``*CONSTRAINED_NODAL_RIGID_BODY(_SPC)``    ``[[rigid_body]]``
+``*MAT_RIGID`` parts                       ``[[rigid_body]]`` (CMO = 1: CON1, CON2 -> ``fixed``;
+                                           ``*PART_INERTIA``: its own mass and inertia)
+``*CONSTRAINED_NODAL_RIGID_BODY(_SPC)``    ``[[rigid_body]]`` (``_INERTIA``: its own mass and inertia)
 ``*CONSTRAINED_EXTRA_NODES_NODE/_SET``     nodes added to the rigid part's body
 ``*ELEMENT_MASS``, ``*ELEMENT_MASS_PART``  ``[[point_mass]]``
 ``*SET_NODE/_SHELL/_PART/_SEGMENT``        the sets the cards above name (``_LIST``,
@@ -57,7 +58,18 @@ from pathlib import Path
 import numpy as np
 
 from ..problems import SceneError
-from .reader import Block, Deck, Line, columns, data_cards, location, read_card, read_deck
+from .reader import (
+    INERTIA_TENSOR,
+    INERTIA_VELOCITY,
+    Block,
+    Deck,
+    Line,
+    columns,
+    data_cards,
+    location,
+    read_card,
+    read_deck,
+)
 from .parameters import using
 
 DOF_NAMES = {1: "ux", 2: "uy", 3: "uz", 5: "rx", 6: "ry", 7: "rz"}
@@ -139,6 +151,7 @@ _WALL_FINITE = columns("xhev yhev zhev lenl lenm", 10)
 _WALL_MOVING = columns("mass v0", 10)
 _NODAL_RIGID = _ints("pid cid nsid pnode iprt drflag rrflag")
 _RIGID_SPC = columns("cmo con1 con2", 10)
+_RIGID_INERTIA = columns("xc yc zc tm", 10) + _ints("nodeid")
 _EXTRA_NODES = _ints("pid id")
 _ELEMENT_MASS = [("eid", 8, "i"), ("nid", 8, "i"), ("mass", 16, "f"), ("pid", 8, "i")]
 _ELEMENT_MASS_PART = [("pid", 8, "i"), ("addmass", 16, "f"), ("finmass", 16, "f")]
@@ -358,6 +371,7 @@ class _Translator:
             "RIGIDWALL_PLANAR": self._wall, "RIGIDWALL_PLANAR_FINITE": self._wall,
             "RIGIDWALL_PLANAR_MOVING": self._wall, "RIGIDWALL_PLANAR_FINITE_MOVING": self._wall,
             "CONSTRAINED_NODAL_RIGID_BODY": self._nodal_rigid, "CONSTRAINED_NODAL_RIGID_BODY_SPC": self._nodal_rigid,
+            "CONSTRAINED_NODAL_RIGID_BODY_INERTIA": self._nodal_rigid,
             "CONSTRAINED_EXTRA_NODES_NODE": self._extra_nodes, "CONSTRAINED_EXTRA_NODES_SET": self._extra_nodes,
             "ELEMENT_MASS": self._element_mass, "ELEMENT_MASS_PART": self._element_mass_part,
             "CONTACT_AUTOMATIC_SINGLE_SURFACE": self._single_surface,
@@ -877,6 +891,9 @@ class _Translator:
         for pid, part in sorted(deck.parts.items()):
             mat = deck.materials.get(part.mid)
             if mat is None or mat.kind != "rigid" or not np.any(deck.element_parts == pid):
+                if part.inertia is not None:
+                    self.unread(part.inertia["where"], f"part {pid} is not rigid: *PART_INERTIA's mass, inertia and "
+                                                       "velocities are read for *MAT_RIGID parts only")
                 continue
             name = f"part_{pid}"
             where = mat.where
@@ -890,6 +907,8 @@ class _Translator:
             for key in ("n", "couple", "m", "alias"):
                 if mat.values.get(key):
                     self.unread(where, f"{key.upper()}: coupling fields of *MAT_RIGID are not read")
+            if part.inertia is not None:
+                self._own_inertia(body, part.inertia, part.inertia["where"])
             self.rigid_parts[pid] = name
             self.bodies[name] = body
 
@@ -902,19 +921,29 @@ class _Translator:
         return fixed
 
     def _nodal_rigid(self, block: Block) -> None:
+        """*CONSTRAINED_NODAL_RIGID_BODY (_SPC, _INERTIA) as a [[rigid_body]] over NSID; _SPC's
+        CMO/CON1/CON2 -> fixed; _INERTIA's own mass TM at (XC, YC, ZC), inertia tensor and
+        initial velocities -> mass_from_nodes = false, mass, center, inertia, velocity, spin."""
         spc = block.name.startswith("CONSTRAINED_NODAL_RIGID_BODY_SPC")
-        if "INERTIA" in block.name:
-            self.unread(location(block.line, block.name), "a nodal rigid body with its own inertia")
-            return
+        inertia = "INERTIA" in block.name
         cards = self._titled(block)
-        size = 2 if spc else 1
-        for group in (cards[k:k + size] for k in range(0, len(cards), size)):
-            v = read_card(group[0], _NODAL_RIGID, block.name)
-            where = location(group[0], block.name)
+        if inertia:             # a blank card is a card of defaults here (a velocity card left blank)
+            cards = data_cards(block)[1 if block.name.endswith(("_ID", "_TITLE")) else 0:]
+        start = 0
+        while start < len(cards):
+            v = read_card(cards[start], _NODAL_RIGID, block.name)
+            where = location(cards[start], block.name)
+            # _INERTIA: cards 2-3, the velocity card 4 and, with a CID, card 5 (the last body's
+            # trailing blank cards may be left out)
+            size = 4 + bool(v["cid"]) if inertia else 1 + spc
+            group = cards[start:start + size]
+            start += size
             name = f"nrb_{v['pid']}"
             if name in self.bodies:
                 raise SceneError(f"{where}: nodal rigid body {v['pid']} is defined twice")
-            if v["cid"] or v["pnode"]:
+            if v["cid"] and inertia:
+                self.unread(where, "CID: an inertia tensor in a local system is not read (give it in global axes)")
+            elif v["cid"] or v["pnode"]:
                 self.note(where, "CID, PNODE (output and local axes) are not read")
             body = {"name": name, "_where": where, "_extra": [],
                     "_nodes": self.positions(self.node_sets.get(v["nsid"], ([], ""))[0], where, "NSID")
@@ -927,7 +956,30 @@ class _Translator:
                     body["fixed"] = self._constrained(s["con1"], s["con2"], where)
                 elif int(s["cmo"]) != 0:
                     self.unread(where, f"CMO = {s['cmo']:g}: constraints in a local system are not read")
+            if inertia:
+                if len(group) < 3:
+                    raise SceneError(f"{where}: incomplete card group ({len(group)} of 3 cards: XC..TM, IXX..IZZ)")
+                values = read_card(group[1], _RIGID_INERTIA, block.name)
+                values.update(read_card(group[2], INERTIA_TENSOR, block.name))
+                if len(group) >= 4:
+                    values.update(read_card(group[3], INERTIA_VELOCITY, block.name))
+                self._own_inertia(body, values, where)
             self.bodies[name] = body
+
+    def _own_inertia(self, body: dict, v: dict, where: str) -> None:
+        """A body's own mass TM at (XC, YC, ZC), inertia tensor (its entries IXX..IZZ, global
+        axes) and, when not all zero, initial velocities VTX..VRZ (*PART_INERTIA,
+        *CONSTRAINED_NODAL_RIGID_BODY_INERTIA): the slaves' nodal masses do not count."""
+        if v.get("nodeid"):
+            self.unread(where, f"NODEID = {v['nodeid']}: the centre is read from XC, YC, ZC only")
+        if v.get("ircs"):
+            self.unread(where, "IRCS = 1: an inertia tensor in a local system is not read (give it in global axes)")
+        body.update({"mass_from_nodes": False, "mass": v["tm"], "center": [v["xc"], v["yc"], v["zc"]],
+                     "inertia": [v["ixx"], v["iyy"], v["izz"], v["ixy"], v["iyz"], v["ixz"]]})
+        if any(v.get(k) for k in ("vtx", "vty", "vtz")):
+            body["velocity"] = [v["vtx"], v["vty"], v["vtz"]]
+        if any(v.get(k) for k in ("vrx", "vry", "vrz")):
+            body["spin"] = [v["vrx"], v["vry"], v["vrz"]]
 
     def _missing_set(self, sid: int, where: str):
         raise SceneError(f"{where}: NSID {sid} is not a *SET_NODE of this deck")
