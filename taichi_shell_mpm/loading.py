@@ -255,9 +255,13 @@ def assemble_loading(scene: Scene, points: np.ndarray, elements: np.ndarray, nod
                 raise SceneError(f"{where}: a body's prescribed rotation needs its other rotations fixed or "
                                  "prescribed too (fixed = [...] or dofs), got "
                                  + ", ".join(d for i, d in enumerate(DOFS[3:]) if (turned >> i) & 1))
+            if (mo.start > 0.0 or mo.end is not None) and bits >> 3:
+                raise SceneError(f"{where}: start / end (a time window) hold a body's translations only: its "
+                                 "rotations are held or free for the whole run")
             body_motion[b, [DOFS.index(d) for d in mo.dofs]] = k
             motions.append(MotionSpec(mo.name, np.zeros(0, np.int64), mo.dofs, MOTION_KINDS.index(mo.kind),
-                                      index[mo.curve] if mo.curve is not None else -1, value, b))
+                                      index[mo.curve] if mo.curve is not None else -1, value, b,
+                                      window=(mo.start, mo.end if mo.end is not None else float("inf"))))
             continue
         ids = nodes_of(mo.nodes)
         if (mo.start > 0.0 or mo.end is not None) and scene.method.kind == "mpm":

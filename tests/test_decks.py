@@ -565,3 +565,18 @@ def test_part_inertia_gives_a_rigid_part_its_own_mass_and_inertia(tmp_path):
     print(r.err)
     assert r.code == 2 and "part 1 is not rigid: *PART_INERTIA's mass, inertia and velocities are read for *MAT_RIGID" \
         in r.err and "deformable.k:" in r.err
+
+
+def test_a_rigid_part_motion_window(tmp_path):
+    """*BOUNDARY_PRESCRIBED_MOTION_RIGID with BIRTH/DEATH: on a translation, a [[motion]] of the
+    part's body with start/end; on a rotation, listed as not read (a body's rotations have no
+    window)."""
+    motion = "*BOUNDARY_PRESCRIBED_MOTION_RIGID\n2,3,0,1,-2.0,0,0.5,0.1\n*DEFINE_CURVE\n1\n0.0,1.0\n1.0,1.0\n"
+    deck = write(tmp_path, "window.k", mesh_deck() + motion + "*CONTROL_TERMINATION\n1.0\n*END\n")
+    (m,) = load_scene(deck, ["method.kind=fem"]).motions
+    assert (m.body, m.dofs, m.kind, m.value, m.start, m.end) == ("part_2", ("uz",), "velocity", (-2.0,), 0.1, 0.5)
+    turned = write(tmp_path, "turned.k", mesh_deck() + motion.replace("2,3,0,1", "2,7,0,1")
+                   + "*CONTROL_TERMINATION\n1.0\n*END\n")
+    r = cli_run("validate", str(turned), "--set", "method.kind=fem")
+    print(r.err)
+    assert r.code == 2 and "a rigid part's prescribed rotation holds over the whole run" in r.err

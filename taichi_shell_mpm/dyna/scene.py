@@ -194,7 +194,7 @@ class _Translator:
         self.rigid_parts: dict[int, str] = {}
         self.bodies: dict[str, dict] = {}
         self.windows: list[tuple] = []
-        """(where, BIRTH, DEATH) of each rigid part's prescribed motion with a window (not read)."""
+        """(where, BIRTH, DEATH) of each rigid part's prescribed rotation with a window (not read)."""
         self.npltc = None
 
     # -- ids -> mesh positions (built when a keyword first needs them: a deck of mesh cards only
@@ -617,9 +617,9 @@ class _Translator:
             death = v["death"] if 0.0 < v["death"] < NEVER else None
             key = (DOF_NAMES[dof], ("velocity", "acceleration", "displacement")[vad], v["lcid"], sf, v["birth"], death)
             if rigid:
-                if v["birth"] > 0.0 or death is not None:
-                    self.windows.append((where, v["birth"], death))
-                key = key[:4] + (0.0, None)
+                if DOF_NAMES[dof].startswith("r") and (v["birth"] > 0.0 or death is not None):
+                    self.windows.append((where, v["birth"], death))     # a body's rotation has no window
+                    key = key[:4] + (0.0, None)
                 pid = v["id"]
                 if pid not in self.rigid_parts:
                     raise SceneError(f"{where}: PID {pid} is not a part of *MAT_RIGID material")
@@ -632,7 +632,8 @@ class _Translator:
                         lambda key, nodes, where: self._add_motion(key, {"nodes": nodes}, where))
 
     def _add_motion(self, key: tuple, target: dict, where: str) -> None:
-        """A [[motion]]; BIRTH > 0 and a DEATH are its window (start, end: fem, node sets)."""
+        """A [[motion]]; BIRTH > 0 and a DEATH are its window (start, end: node sets in fem, a
+        body's translations)."""
         dof, kind, lcid, sf, birth, death = key
         k = len(self.doc.raw.get("motion", []))
         entry = {"name": f"motion_{k}", "dofs": [dof], "kind": kind, "value": sf, **target}
@@ -1257,10 +1258,10 @@ class _Translator:
         elif endmas:
             self.unread(endmas[1], f"ENDMAS = {endmas[0]:g}: no conventional mass scaling to limit", physics=False)
         end = self.doc.raw.get("solve", {}).get("end_time", math.inf)
-        for where, birth, death in self.windows:          # a rigid body's motion has no window
+        for where, birth, death in self.windows:          # a rigid body's rotation has no window
             if birth > 0.0 or (death is not None and death < end):
-                self.unread(where, f"BIRTH = {birth:g}, DEATH = {death:g}: a rigid part's motion is prescribed over "
-                                   "the whole run (a window is for node sets)")
+                self.unread(where, f"BIRTH = {birth:g}, DEATH = {death:g}: a rigid part's prescribed rotation holds "
+                                   "over the whole run (a window is for node sets and a body's translations)")
         if self.npltc and end < math.inf:
             npltc, where = self.npltc
             self.set_value("output", "frame_interval", end / npltc, where)

@@ -48,10 +48,10 @@ class Motion:
         identifier, default=None, allowed="a `[[rigid_body]]` without `direction`; dynamic runs", default_text="one of `nodes`, `body`",
         doc="the body whose DOFs (global axes, rotations about its centre) are moved: its prescribed rotations "
             "need its other rotations fixed or prescribed too")
-    start: float = key(non_negative, default=0.0, unit="time", allowed=">= 0, < `end`; dynamic runs of node sets",
+    start: float = key(non_negative, default=0.0, unit="time", allowed=">= 0, < `end`; dynamic runs: node sets in fem, a body's translations",
         doc="the DOFs are prescribed from this time on; before it they move freely (LS-DYNA's BIRTH)")
     end: float | None = key(positive, default=None, unit="time", default_text="never",
-        allowed="> `start`; dynamic runs of node sets",
+        allowed="> `start`; dynamic runs: node sets in fem, a body's translations",
         doc="the DOFs are released at this time and move freely after it, with the velocity they had (LS-DYNA's "
             "DEATH)")
 
@@ -75,9 +75,8 @@ def read_motion(r: Reader, path: str, data: Any, solve: Solve | None, curves: di
                                     "a body with a prescribed motion has six DOFs (leave out direction)")
         if solve is not None and solve.kind == "static":
             r.error(f"{path}.body", "a body's motion is prescribed in dynamic runs only")
-    if ("start" in data or "end" in data) and (v.get("body") is not None or (solve is not None and solve.kind == "static")):
-        r.error(f"{path}.start" if "start" in data else f"{path}.end",
-                "a time window (start, end) is for node sets in dynamic runs")
+    if ("start" in data or "end" in data) and solve is not None and solve.kind == "static":
+        r.error(f"{path}.start" if "start" in data else f"{path}.end", "a time window (start, end) is for dynamic runs")
     if v.get("end") is not None and v.get("end") <= v.get("start", 0.0):
         r.error(f"{path}.end", f"expected a time > start = {v.get('start', 0.0):g}, got {v['end']:g}")
     chosen, value, kind, curve = v.get("dofs"), v.get("value"), v.get("kind"), v.get("curve")

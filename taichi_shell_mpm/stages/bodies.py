@@ -59,7 +59,7 @@ import taichi as ti
 
 from ..state import ROTATION_CONSTRAINED, ROTATION_FREE, ROTATION_HELD, STATUS_BODY_ROTATION, STATUS_OK
 from .accumulate import Accumulator
-from .motion import ACCELERATION, DISPLACEMENT
+from .motion import ACCELERATION, DISPLACEMENT, held_bits
 from .rotation import cayley_velocity, quaternion_exp, quaternion_matrix, quaternion_product, rotate_vector
 from .timestep import MAX_TURN, impulse_time
 from .tools import RigidTools
@@ -245,13 +245,23 @@ class RigidBodies:
         return out
 
     @ti.func
+    def held(self, b):
+        """DOF bits of body b its motions hold this step (stages/motion.held_bits: with time
+        windows, translations only)."""
+        return held_bits(self.s, self.cfg, self.s.bodies.motion_mask[b], self.s.bodies.motion[b])
+
+    @ti.func
     def prescribe_translation(self, b, force):
         """The prescribed components of V, the reaction R = M (V - V_start) / dt_k - F of each
-        and its time-centred work (stages/motion.py's), per body and DOF."""
-        mask = self.s.bodies.motion_mask[b]
+        and its time-centred work (stages/motion.py's), per body and DOF; a DOF released by its
+        motion's time window moves freely and has no reaction."""
+        mask = self.held(b)
         kick = impulse_time(self.s.step)
         start = self.s.bodies.velocity_start[b]
         for d in ti.static(range(3)):
+            if ti.static(self.cfg.motion_windows):
+                if not (mask >> d) & 1:
+                    self.s.bodies.motion_reaction[b][d] = 0.0
             if (mask >> d) & 1:
                 v = self.prescribed_rate(b, d, start[d])
                 self.s.bodies.velocity[b][d] = v
@@ -425,7 +435,7 @@ class RigidBodies:
             impulse = self.s.bodies.impulse[b]
             change = self.s.bodies.translation_free[b] @ (impulse / self.s.bodies.total_mass[b])
             if ti.static(self.cfg.loads):     # a prescribed DOF keeps its velocity: its motion takes the impulse
-                mask = self.s.bodies.motion_mask[b]
+                mask = self.held(b)
                 v_mid = 0.5 * (self.s.bodies.velocity_start[b] + self.s.bodies.velocity[b])
                 kick = impulse_time(self.s.step)
                 for d in ti.static(range(3)):

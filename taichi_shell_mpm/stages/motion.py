@@ -42,6 +42,22 @@ from .timestep import impulse_time
 DISPLACEMENT, VELOCITY, ACCELERATION = 0, 1, 2      # scene.MOTION_KINDS
 
 
+@ti.func
+def held_bits(s: ti.template(), cfg: ti.template(), bits, motions):
+    """The DOF bits (of a node or a rigid body) its motions hold this step: all of `bits`, or
+    with time windows ([[motion]] start/end) those whose motion's window holds t^n
+    (loads.motion_active, set by PrescribedMotion.begin) [choice: a window's edge inside a step
+    takes effect at the next step; the steps do not land on it].  `motions`: the motion of each
+    DOF."""
+    m = bits
+    if ti.static(cfg.motion_windows):
+        for d in ti.static(range(6)):
+            if (m >> d) & 1:
+                if s.loads.motion_active[motions[d]] == 0:
+                    m &= ~(1 << d)
+    return m
+
+
 @ti.data_oriented
 class PrescribedMotion:
     def __init__(self, state, cfg, loads: ExternalLoads, energy):
@@ -86,16 +102,8 @@ class PrescribedMotion:
 
     @ti.func
     def mask(self, c):
-        """DOF bits of node c its motions hold this step: all of them, or with time windows
-        ([[motion]] start/end) those whose window holds t^n [choice: a window's edge inside a
-        step takes effect at the next step; the steps do not land on it]."""
-        m = self.s.nodes.motion_mask[c]
-        if ti.static(self.cfg.motion_windows):
-            for d in ti.static(range(6)):
-                if (m >> d) & 1:
-                    if self.s.loads.motion_active[self.s.nodes.motion[c][d]] == 0:
-                        m &= ~(1 << d)
-        return m
+        """DOF bits of node c its motions hold this step (:func:`held_bits`)."""
+        return held_bits(self.s, self.cfg, self.s.nodes.motion_mask[c], self.s.nodes.motion[c])
 
     @ti.func
     def prescribed(self, c, vec, start, first_bit: ti.template()):
