@@ -512,6 +512,19 @@ def test_the_top_hat_deck_runs(tmp_path):
     assert balance < 1e-3
 
 
+MOVING_WALL = (3.0e-5, 5000.0)      # the wall's MASS (5 x the plate's) and V0
+
+
+def moving_wall_deck(tmp_path: Path) -> Path:
+    """The plate of mesh_deck (part 1 alone, at rest) and a *RIGIDWALL_PLANAR_MOVING 2 mm below
+    it moving up at V0."""
+    plate = mesh_deck(rigid=False).split("*PART\nimpactor")[0].replace("\n9,2,201,202,203,204", "")
+    mass, speed = MOVING_WALL
+    return write(tmp_path, "wall.k", plate + "*SECTION_SHELL\n1,2,0.833,3\n1.0,1.0,1.0,1.0\n"
+                 "*MAT_ELASTIC\n1,7.85e-9,2.1e5,0.3\n*RIGIDWALL_PLANAR_MOVING\n0\n0.0,0.0,-2.0,0.0,0.0,-1.0\n"
+                 f"{mass},{speed}\n*CONTROL_TERMINATION\n1.0e-3\n*END\n")
+
+
 @pytest.mark.parametrize("method", ["fem", "mpm"])
 def test_a_moving_wall_is_a_body_without_nodes(tmp_path, method):
     """*RIGIDWALL_PLANAR_MOVING: a wall of mass MASS below the plate (part 1 alone, at rest)
@@ -519,11 +532,8 @@ def test_a_moving_wall_is_a_body_without_nodes(tmp_path, method):
     nodes that the [[wall]] moves with).  No external force: the plate's momentum plus the
     wall's stays M V0 (round-off), the balance closes, the plate leaves upwards, the wall
     slower than it came."""
-    plate = mesh_deck(rigid=False).split("*PART\nimpactor")[0].replace("\n9,2,201,202,203,204", "")
-    mass, speed = 3.0e-5, 5000.0
-    deck = write(tmp_path, "wall.k", plate + "*SECTION_SHELL\n1,2,0.833,3\n1.0,1.0,1.0,1.0\n"
-                 "*MAT_ELASTIC\n1,7.85e-9,2.1e5,0.3\n*RIGIDWALL_PLANAR_MOVING\n0\n0.0,0.0,-2.0,0.0,0.0,-1.0\n"
-                 f"{mass},{speed}\n*CONTROL_TERMINATION\n1.0e-3\n*END\n")
+    mass, speed = MOVING_WALL
+    deck = moving_wall_deck(tmp_path)
     out = tmp_path / method
     r = cli_run("run", str(deck), "--set", f"method.kind={method}", "--out", str(out), "--quiet")
     assert_clean_output(r)
@@ -580,3 +590,12 @@ def test_a_rigid_part_motion_window(tmp_path):
     r = cli_run("validate", str(turned), "--set", "method.kind=fem")
     print(r.err)
     assert r.code == 2 and "a rigid part's prescribed rotation holds over the whole run" in r.err
+
+
+def test_a_moving_wall_restarts_bit_for_bit(tmp_path, monkeypatch):
+    """The moving wall's body (no nodes) through tests/test_restart.py's round trip (mpm),
+    stopped after the strike."""
+    from .test_restart import restart_roundtrip
+    stopped, _ = restart_roundtrip(tmp_path, monkeypatch, [str(moving_wall_deck(tmp_path)), "--set", "method.kind=mpm"],
+                                   stop_step=600, every=400, batch_element_steps=800)
+    assert stopped["started"]           # (the strike is at step ~400)
