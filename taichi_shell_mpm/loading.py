@@ -264,9 +264,6 @@ def assemble_loading(scene: Scene, points: np.ndarray, elements: np.ndarray, nod
                                       window=(mo.start, mo.end if mo.end is not None else float("inf"))))
             continue
         ids = nodes_of(mo.nodes)
-        if (mo.start > 0.0 or mo.end is not None) and scene.method.kind == "mpm":
-            raise SceneError(f"{where}: start / end (a time window) need [method].kind = \"fem\": in mpm a node "
-                             "released from a motion would rejoin the grid without its affine velocity field")
         for label, clash in (("fixed by a [[boundary]]", fix_mask[ids] & bits),
                              ("prescribed by another [[motion]]", motion_mask[ids] & bits)):
             if np.any(clash):

@@ -774,14 +774,17 @@ history_interval = 0.05
 """
 
 
-def test_a_motion_holds_its_dofs_only_in_its_time_window(tmp_path):
+@pytest.mark.parametrize("method", ["fem", "mpm"])
+def test_a_motion_holds_its_dofs_only_in_its_time_window(tmp_path, method):
     """[[motion]] start/end (LS-DYNA BIRTH/DEATH): a free plate drifting at 0.5 along x is held
     to (0, 0, 1) from t = 0.1 to 0.3, then released: it keeps that velocity.  Positions to
     round-off at every record (the window's edges fall on steps: landing on the records);
-    the released DOFs do no work (balance); in mpm the window is refused (one line)."""
+    the released DOFs do no work (balance).  In mpm too: a held node is off the grid and
+    carries the velocity it moves with, and rejoins the grid with it (no stale affine field,
+    its grid slots looked up again)."""
     from .conftest import run_scene
     scene = tmp_path / "window.toml"
-    scene.write_text(WINDOW.format(method="fem"))
+    scene.write_text(WINDOW.format(method=method))
     proc = run_scene(scene, tmp_path / "out")
     assert proc.returncode == 0, proc.stderr
     rows = np.genfromtxt(tmp_path / "out" / "probes.csv", delimiter=",", names=True)
@@ -790,11 +793,8 @@ def test_a_motion_holds_its_dofs_only_in_its_time_window(tmp_path):
     uz = np.clip(t - 0.1, 0.0, None)
     error = max(np.abs(rows["pux"] - ux).max(), np.abs(rows["puz"] - uz).max())
     balance = proc.summary["energies"]["balance_error"]
-    print(f"\nwindowed motion: position error {error:.1e}, balance {balance:.1e}")
+    print(f"\nwindowed motion ({method}): position error {error:.1e}, balance {balance:.1e}")
     assert error < 1e-12 and abs(balance) < 1e-12
-    scene.write_text(WINDOW.format(method="mpm"))
-    proc = run_scene(scene, tmp_path / "mpm")
-    assert proc.returncode == 2 and "start / end (a time window) need [method].kind = \"fem\"" in proc.stderr
 
 
 @pytest.mark.parametrize("method", ["fem", "mpm"])
@@ -821,3 +821,63 @@ def test_a_body_motion_holds_its_translations_only_in_its_time_window(tmp_path, 
                                                           'nodes = "all"\nfixed = ["rx", "ry"]\n[[motion]]'))
     proc = run_scene(scene, tmp_path / "rotation")
     assert proc.returncode == 2 and "start / end (a time window) hold a body's translations only" in proc.stderr
+
+
+EDGE_WINDOW = """
+[scene]
+name = "edge"
+units = "consistent"
+[mesh]
+kind = "plate"
+lx = 4.0
+ly = 1.0
+nx = 8
+ny = 2
+[material]
+E = 1.0e4
+nu = 0.3
+density = 1.0
+[section]
+thickness = 0.1
+[method]
+kind = "{method}"
+[nodesets.edge]
+plane = {{ point = [0.0, 0.0, 0.0], normal = [1.0, 0.0, 0.0] }}
+[[motion]]
+name = "lift"
+nodes = "edge"
+dofs = ["ux", "uy", "uz"]
+kind = "velocity"
+value = [0.0, 0.0, 1.0]
+start = 0.05
+end = 0.15
+[solve]
+kind = "dynamic"
+end_time = 0.5
+[output]
+history_interval = 0.05
+"""
+# measured (balance / the motion's work 3.6e-2): fem -2.7e-5 (the time integration); mpm 1.34e-3,
+# of which 1.24e-3 at the step the edge leaves the grid (its nodes' momentum leaves the grid nodes
+# it shared with its neighbours: the same with a window that never ends) and 1.1e-4 after the
+# release, when it rejoins.  Bounds 1.5x.
+EDGE_BALANCE = {"fem": 4.0e-5, "mpm": 2.0e-3}
+
+
+@pytest.mark.parametrize("method", ["fem", "mpm"])
+def test_an_edge_lifted_in_a_window_then_released(tmp_path, method):
+    """A strip at rest whose edge x = 0 is lifted at 1 from t = 0.05 to 0.15 and then released
+    (it swings on): the motion's work goes into the strip's kinetic and strain energy, the
+    balance closes (bounds above), the released edge has no reaction."""
+    from .conftest import run_scene
+    scene = tmp_path / "edge.toml"
+    scene.write_text(EDGE_WINDOW.format(method=method))
+    proc = run_scene(scene, tmp_path / "out")
+    assert proc.returncode == 0, proc.stderr
+    e = proc.summary["energies"]
+    share = e["balance_error"] / e["motion_work"]
+    print(f"\nedge window ({method}): motion work {e['motion_work']:.4e}, kinetic {e['kinetic']:.4e}, internal "
+          f"{e['internal']:.4e}, balance {share:.2e} of the work")
+    assert e["motion_work"] > 0.03 and e["kinetic"] > 0.0 and e["internal"] > 0.0
+    assert abs(share) <= EDGE_BALANCE[method]
+    assert proc.summary["motions"][0]["reaction"] == {"ux": 0.0, "uy": 0.0, "uz": 0.0}

@@ -48,10 +48,10 @@ class Motion:
         identifier, default=None, allowed="a `[[rigid_body]]` without `direction`; dynamic runs", default_text="one of `nodes`, `body`",
         doc="the body whose DOFs (global axes, rotations about its centre) are moved: its prescribed rotations "
             "need its other rotations fixed or prescribed too")
-    start: float = key(non_negative, default=0.0, unit="time", allowed=">= 0, < `end`; dynamic runs: node sets in fem, a body's translations",
+    start: float = key(non_negative, default=0.0, unit="time", allowed=">= 0, < `end`; dynamic runs; of a body: its translations only",
         doc="the DOFs are prescribed from this time on; before it they move freely (LS-DYNA's BIRTH)")
     end: float | None = key(positive, default=None, unit="time", default_text="never",
-        allowed="> `start`; dynamic runs: node sets in fem, a body's translations",
+        allowed="> `start`; dynamic runs; of a body: its translations only",
         doc="the DOFs are released at this time and move freely after it, with the velocity they had (LS-DYNA's "
             "DEATH)")
 

@@ -189,6 +189,9 @@ class NodeUpdate:
             # the carried velocity gets the same BC/wall correction, else P2G would feed the
             # removed velocity back to the grid every step
             self.s.nodes.velocity[c] += vg - v_grid
+            if ti.static(self.cfg.motion_windows):
+                if self.s.grid.on_grid[c] == 0:     # held off the grid: it carries the velocity it moves
+                    self.s.nodes.velocity[c] = vg   # with, which it keeps when its motion releases it
         self.s.nodes.position[c] += dt * vg
         if ti.static(self.cfg.body_rotation):
             if rigid:

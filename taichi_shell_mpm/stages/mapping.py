@@ -32,7 +32,7 @@ instead of alternating single planes gained nothing (note of issue 4).
 
 import taichi as ti
 
-from ..state import MAX_SLAB_PLANES, STATUS_LEFT_GRID, State
+from ..state import MAX_SLAB_PLANES, NO_CELL, STATUS_LEFT_GRID, State
 from .accumulate import Accumulator
 from .constraints import NodeUpdate
 from .grid import GridUpdate
@@ -118,6 +118,13 @@ class Mapping:
                     self.s.step.status[None] = STATUS_LEFT_GRID
                     self.s.step.status_index[None] = c
             self.s.grid.on_grid[c] = on
+            if ti.static(self.cfg.motion_windows):
+                if on == 0:     # held: on release it looks its grid slots up again and rejoins with its
+                    self.s.grid.node_base[c] = ti.Vector([NO_CELL, NO_CELL, NO_CELL])   # own velocity only
+                    if ti.static(self.cfg.affine_transfer):
+                        self.s.nodes.affine[c] = ti.Matrix.zero(ti.f64, 3, 3)
+                    if ti.static(self.cfg.velocity_modes):
+                        self.s.nodes.velocity_modes[c] = ti.Matrix.zero(ti.f64, 3, 4)
         self.grid.assign_slots()
 
     @ti.func
