@@ -129,11 +129,13 @@ def test_plan_names():
     full = bench.plan(quick=False, peers=False)
     names = [c.name for c in full]
     # per static mesh: mpm at two grid ratios, fem relaxation and fem Newton (issue 19)
-    assert len(names) == len(set(names)) == (4 * 4 + 3 * 4 + len(bench.RELAXATION) + 7 + len(bench.SCALING_FLAT)
+    # and the hemisphere in triangles (issue 33): per mesh and triangle element mpm, fem and Newton
+    assert len(names) == len(set(names)) == (4 * 4 + 3 * 4 + 3 * 3 * len(bench.TRIANGLE_ELEMENTS)
+                                             + len(bench.RELAXATION) + 7 + len(bench.SCALING_FLAT)
                                              + 2 * bench.EMPTY_GRID_PAIRS)
     assert {"cantilever_40x4_mpm_r1", "hemisphere_32x32_fem", "hemisphere_32x32_newton", "tube_2.5mm_mpm", "tube_5mm_fem",
             "tube_5mm_fem_sms10", "tube_5mm_fem_sms20", "tube_5mm_mpm_h5_multi_polypic", "scaling_60",
-            "empty_grid_scene_1", "empty_grid_wide_3"} <= set(names)
+            "empty_grid_scene_1", "empty_grid_wide_3", "hemisphere_tri_c0_32x32_newton"} <= set(names)
     # the relaxation variants: their default row's overrides plus their own, on scene keys of their own
     by_name = {c.name: c for c in full}
     for default, extra in bench.RELAXATION:
@@ -149,7 +151,7 @@ def test_plan_names():
     quick = bench.plan(quick=True, peers=False)
     assert [c.name for c in quick] == QUICK_CASES
     with_peers = bench.plan(quick=False, peers=True)
-    assert len([c for c in with_peers if c.mode == "kratos"]) == 4 + 3
+    assert len([c for c in with_peers if c.mode == "kratos"]) == 4 + 3 + 3       # (+ the triangle series)
     tube = next(c for c in full if c.name == "tube_2.5mm_mpm")
     assert {"mesh.n_flat=20", "mesh.n_corner=4", "mesh.n_length=120", "method.cell_size=1.25"} <= set(tube.overrides)
     c = next(c for c in full if c.name == "cantilever_20x2_mpm_r1")

@@ -53,8 +53,9 @@ The names below are re-exported from those modules.
 # ruff: noqa: F401
 from .cases import (CANTILEVER_NX, EMPTY_GRID_END_TIME, EMPTY_GRID_PAIRS, HEMISPHERE_N, QUICK_LOAD_STEPS, RATIOS,
                     RELAXATION, RELAXATION_VARIANTS, ROOT, SCALING_END_TIME, SCALING_FLAT, SCENE_FILES, SCENES,
-                    WIDE_GRID, Case, cantilever_cases, empty_grid_cases, hemisphere_cases, peers_available, plan,
-                    relaxation_cases, relaxation_default, scaling_cases, select, tube_cases)
+                    STATIC_SCENES, TRIANGLE_ELEMENTS, WIDE_GRID, Case, cantilever_cases, empty_grid_cases,
+                    hemisphere_cases, hemisphere_triangle_cases, peers_available, plan, relaxation_cases,
+                    relaxation_default, scaling_cases, select, triangle_element, tube_cases)
 from .cli import add_arguments, command_line, default_out, default_report, main
 from .fit import ORDER_COLUMNS, group_key, observed_orders, series_label, write_orders
 from .machine import machine_info, machine_tag

@@ -17,7 +17,16 @@ ROOT = Path(__file__).resolve().parents[2]     # the checkout: scenes/ and the r
 SCENES = ROOT / "scenes"
 SCENE_FILES = {"cantilever": "cantilever.toml", "hemisphere": "hemisphere.toml", "tube": "square_tube.toml",
                "scaling": "square_tube.toml", "empty_grid": "square_tube.toml",
-               "relaxation_cantilever": "cantilever.toml", "relaxation_hemisphere": "hemisphere.toml"}
+               "relaxation_cantilever": "cantilever.toml", "relaxation_hemisphere": "hemisphere.toml",
+               "hemisphere_tri": "hemisphere.toml"}
+TRIANGLE_ELEMENTS = {"c0": ()}
+"""The 3-node shells of the triangle series (issue 33): each name, its ``--set`` overrides."""
+STATIC_SCENES = {"cantilever": "Cantilever strip under end shear (Sze), 20 load steps",
+                 "hemisphere": "Quarter hemisphere with an 18° hole (Sze)",
+                 "hemisphere_tri": "Quarter hemisphere with an 18° hole (Sze), each quad cut into two triangles "
+                                   "(checkerboard diagonals; series per triangle element, `kratos`: its thin "
+                                   "DKT-type triangle ShellThinElementCorotational3D3N)"}
+"""The refinement studies against Sze's tables: their tables, plots and observed orders."""
 CANTILEVER_NX = (5, 10, 20, 40)
 HEMISPHERE_N = (8, 16, 32)
 RATIOS = (1.0, 0.5)                 # grid cell / element size in mpm mode
@@ -98,6 +107,31 @@ def hemisphere_cases(ns=HEMISPHERE_N, ratios=RATIOS, fem=True, peers=False, load
             tag = f"_ls{load_steps}"
         out += _mode_cases("hemisphere", f"hemisphere_{n}x{n}", mesh, ell, base, ratios, fem, peers, tag, newton)
     return out
+
+
+def hemisphere_triangle_cases(ns=HEMISPHERE_N, elements=tuple(TRIANGLE_ELEMENTS), peers=False) -> list[Case]:
+    """The quarter hemisphere in triangles (`mesh.triangles = "all"`), each triangle element in
+    fem (relaxation), Newton and mpm (h = l/2), and the peer's triangle once per mesh: the
+    triangle's error against run time beside the quad's (issue 33)."""
+    out = []
+    for n in ns:
+        ell = 8.0 / n
+        mesh = f"{n}x{n}t"
+        base = (f"mesh.n_around={n}", f"mesh.n_meridian={n}", "mesh.triangles=all",
+                f"solve.max_steps_per_load_step={int(400_000 * max(1.0, n / 16))}")
+        for name in elements:
+            out += _mode_cases("hemisphere_tri", f"hemisphere_tri_{name}_{n}x{n}", mesh, ell,
+                               base + TRIANGLE_ELEMENTS[name], (0.5,), True, False)
+        if peers:
+            out.append(Case(f"hemisphere_tri_{n}x{n}_kratos", "hemisphere_tri", mesh, "kratos", None, ell, base))
+    return out
+
+
+def triangle_element(case: str) -> str | None:
+    """The triangle element of a hemisphere_triangle_cases name (None: another case, or the
+    peer's row)."""
+    parts = case.split("_")
+    return parts[2] if case.startswith("hemisphere_tri_") and parts[2] in TRIANGLE_ELEMENTS else None
 
 
 def tube_cases(end_time: float | None = None) -> list[Case]:
@@ -194,8 +228,8 @@ def plan(quick: bool, peers: bool) -> list[Case]:
         return (cantilever_cases((5,), ratios=(0.5,), fem=False, peers=peers)
                 + cantilever_cases((10,), ratios=(0.5,), peers=peers, newton=False)
                 + hemisphere_cases((8,), ratios=(0.5,), peers=peers, load_steps=QUICK_LOAD_STEPS, newton=False))
-    return (cantilever_cases(peers=peers) + hemisphere_cases(peers=peers) + relaxation_cases() + tube_cases()
-            + scaling_cases() + empty_grid_cases())
+    return (cantilever_cases(peers=peers) + hemisphere_cases(peers=peers) + hemisphere_triangle_cases(peers=peers)
+            + relaxation_cases() + tube_cases() + scaling_cases() + empty_grid_cases())
 
 
 def select(planned: list[Case], patterns: list[str]) -> list[Case]:

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from ..tables import write_table
+from .cases import STATIC_SCENES, triangle_element
 from .results import num
 
 ORDER_COLUMNS = ["scene", "series", "meshes", "comp1", "order1", "points1", "comp2", "order2", "points2"]
@@ -19,7 +20,7 @@ def observed_orders(rows: list[dict]) -> list[dict]:
     """Least-squares slope of log(mean error) vs log(element size), per scene/series/component."""
     groups: dict[tuple, list[dict]] = {}
     for r in rows:
-        if r.get("status") != "ok" or r["scene"] not in ("cantilever", "hemisphere"):
+        if r.get("status") != "ok" or r["scene"] not in STATIC_SCENES:
             continue
         groups.setdefault((r["scene"], group_key(r)), []).append(r)
     out = []
@@ -47,9 +48,12 @@ def series_label(row: dict) -> str:
 
 
 def group_key(row: dict) -> str:
-    """Series label plus any load-step tag of the case name (quick runs use fewer steps)."""
+    """Series label plus any load-step tag of the case name (quick runs use fewer steps), after
+    the triangle element of a triangle series."""
     tag = row["case"].rsplit("_", 1)[-1]
-    return series_label(row) + (f" ({tag})" if tag.startswith("ls") else "")
+    element = triangle_element(row["case"])
+    return ((f"{element} " if element else "") + series_label(row)
+            + (f" ({tag})" if tag.startswith("ls") else ""))
 
 
 def write_orders(path: Path, orders: list[dict]) -> None:

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .cases import STATIC_SCENES
 from .fit import group_key
 from .results import atomic_write, num
 
@@ -146,7 +147,7 @@ def _error_panels(rows: list[dict], x_key: str, x_label: str, title: str, mean_l
     error of each series against the column `x_key`; `mean_label(scene, series, k)` adds to
     the mean curve's label, `notes` writes the mesh beside each mean point."""
     panels = []
-    for scene in ("cantilever", "hemisphere"):
+    for scene in STATIC_SCENES:
         groups = _static_rows(rows, scene)
         if not groups:
             continue

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .cases import EMPTY_GRID_END_TIME, EMPTY_GRID_PAIRS, SCALING_END_TIME, Case, plan, relaxation_default
+from .cases import EMPTY_GRID_END_TIME, EMPTY_GRID_PAIRS, SCALING_END_TIME, STATIC_SCENES, Case, plan, relaxation_default
 from .fit import observed_orders, series_label, write_orders
 from .machine import machine_tag
 from .plot import plot_all
@@ -173,8 +173,7 @@ def write_report(path: Path, out: Path, rows: list[dict], planned: list[Case], c
           "peer): compile s = model set-up, run s = Newton solve, steps = Newton iterations.  For `newton` "
           "rows (`[solve].solver = \"newton\"`, fem, issue 19): steps = Newton iterations, run s includes, as for "
           "every row of ours, recording each load step (probes, energies, a frame), which the peer does not.", ""]
-    for scene, title in (("cantilever", "Cantilever strip under end shear (Sze), 20 load steps"),
-                         ("hemisphere", "Quarter hemisphere with an 18° hole (Sze)")):
+    for scene, title in STATIC_SCENES.items():
         rs = [r for r in rows if r["scene"] == scene]
         if rs:
             L += [f"## {title}", ""] + _static_table(rs) + [""]

@@ -1,9 +1,10 @@
 """The static benchmark scenes solved by KratosMultiphysics (implicit, Newton-Raphson).
 
 The Kratos model is written here from our own scene, not from Kratos input files: the mesh
-(nodes and quads of :func:`taichi_shell_mpm.mesh.build_mesh`) becomes
+(nodes, quads and triangles of :func:`taichi_shell_mpm.mesh.build_mesh`) becomes
 ``ShellThinElementCorotational3D4N`` elements (corotational DKQ-type thin quad of the
-StructuralMechanicsApplication) with E, nu and the thickness of the scene
+StructuralMechanicsApplication) and ``ShellThinElementCorotational3D3N`` (its DKT-type thin
+triangle, the peer of issue 33) with E, nu and the thickness of the scene
 (``LinearElasticPlaneStress2DLaw``); the fixed-DOF masks of
 :func:`taichi_shell_mpm.assembly.assemble` (clamps, symmetry planes, single restraints) fix
 ``DISPLACEMENT_*``/``ROTATION_*``; the reference nodal forces of the model (the same
@@ -32,6 +33,7 @@ import time
 import numpy as np
 
 ELEMENT = "ShellThinElementCorotational3D4N"
+TRIANGLE = "ShellThinElementCorotational3D3N"
 CONDITION = "PointLoadCondition3D1N"
 COMPONENTS = ("ux", "uy", "uz", "rx", "ry", "rz")
 _MODULES = ("KratosMultiphysics", "KratosMultiphysics.StructuralMechanicsApplication",
@@ -150,8 +152,11 @@ def _build(KM, SMA, scene, model, linear_solver: str, rel_tol: float, abs_tol: f
             (KM.ROTATION_Y, KM.REACTION_MOMENT_Y), (KM.ROTATION_Z, KM.REACTION_MOMENT_Z)]
     for var, reaction in dofs:
         KM.VariableUtils().AddDof(var, reaction, mp)
-    for e, quad in enumerate(model.elements):
-        mp.CreateNewElement(ELEMENT, e + 1, [int(c) + 1 for c in quad], prop)
+    for e, corners in enumerate(model.elements):
+        if corners[3] < 0:       # a triangle (-1 as its fourth corner)
+            mp.CreateNewElement(TRIANGLE, e + 1, [int(c) + 1 for c in corners[:3]], prop)
+        else:
+            mp.CreateNewElement(ELEMENT, e + 1, [int(c) + 1 for c in corners], prop)
 
     # Dirichlet: bit d of fix_mask = DOF d of (ux uy uz rx ry rz); prescribed value 0.
     for i in np.flatnonzero(model.fix_mask):
@@ -248,7 +253,9 @@ def solve_static(scene, mesh=None, model=None, *, load_steps: int | None = None,
     del kmodel
     return {"probes": np.array(rows, dtype=float).reshape(len(rows), -1), "header": probe_header(model),
             "load_factors": np.array(lambdas), "solve_seconds": solve_seconds, "setup_seconds": setup_seconds,
-            "newton_iterations": int(sum(iterations)), "iterations_per_step": iterations, "element": ELEMENT,
+            "newton_iterations": int(sum(iterations)), "iterations_per_step": iterations,
+            "element": " + ".join(n for n, used in ((ELEMENT, (model.elements[:, 3] >= 0).any()),
+                                                    (TRIANGLE, (model.elements[:, 3] < 0).any())) if used),
             "linear_solver": linear_solver, "nodes": int(len(model.points)), "elements": int(len(model.elements)),
             "kratos_version": version()}
 
