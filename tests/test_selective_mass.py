@@ -273,3 +273,12 @@ def test_a_step_set_by_a_tool_keeps_the_balance(tmp_path, tool):
     if tool == "tool_sphere":
         assert e["contact"] > 0.0                    # the ball acts (the cube only sets the step: it stays clear)
     assert abs(e["balance_error"]) < {"tool_sphere": 0.0071, "tool_mesh": 0.0118}[tool]    # 1.5 x measured
+
+
+def test_restart_through_a_step_set_by_a_tool_is_bit_for_bit(tmp_path, monkeypatch):
+    """The step-change term reads the last step (step.dt_last, checkpointed): the sphere tool's
+    case stopped at step 10 (after the first cut) and restarted gives byte-identical tables."""
+    from .test_matrix import HOURGLASS_OFF, write_case
+    scene = write_case(tmp_path, ("selective", "tool_sphere"))
+    restart_roundtrip(tmp_path, monkeypatch, [str(scene), *HOURGLASS_OFF], stop_step=10, every=5,
+                      batch_element_steps=16)
