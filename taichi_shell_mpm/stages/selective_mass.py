@@ -356,7 +356,12 @@ class SelectiveMass:
     @ti.func
     def body_precondition(self):
         """Each body's block of the preconditioner, its own mass and inertia on its free DOFs:
-        sms_step = P_t res / M_tot, (P_r I P_r)^+ res_moment; returns their res . P^-1 res."""
+        sms_step = P_t res / M_tot, (P_r I P_r)^+ res_moment; returns their res . P^-1 res.
+        [choice, measured on the matrix's sheet with a spinning bar: 23.7 iterations per step,
+        the sheet alone 13.7; the body's exact diagonal block P^T (M + M_add) P, with the added
+        mass its slaves meet moving alone, took 49: the body moves with its neighbours, whose
+        joint rigid motion the added mass does not see, so the block that charges it is the
+        worse guess.]"""
         out = 0.0
         for b in range(self.s.bodies.count[None]):
             z = self.s.bodies.translation_free[b] @ self.s.bodies.sms_residual[b] / self.s.bodies.total_mass[b]
