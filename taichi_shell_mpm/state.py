@@ -394,6 +394,18 @@ class State:
         # (model/bodies.body_step); inertia_min: the smallest principal J about its free axes (the
         # step's turn limit); omega_mid, center_start: the kick's (omega^- + omega^+) / 2 and x_c^n of
         # this step (the tools moving with it book their work with them)
+        # selective mass scaling with bodies (stages/selective_mass.py, Bodies): each body's
+        # solved acceleration and angular acceleration (the next step's first guess, so
+        # checkpointed), its rows of the solve (right-hand side, residual, preconditioned
+        # residual, search direction, M times it: translation, rotation) and the added mass's
+        # inertial force at its slaves and its moment, which its kick takes
+        coupled = fx.selective_mass and fx.bodies
+        g.table("sms_acceleration", ti.Vector.field(3, f64), (MAX_BODIES,), nb, used=coupled)
+        g.table("sms_angular_acceleration", ti.Vector.field(3, f64), (MAX_BODIES,), nb, used=coupled)
+        for name in ("sms_force", "sms_torque", "sms_residual", "sms_residual_moment", "sms_step", "sms_step_moment",
+                     "sms_search", "sms_search_moment", "sms_product", "sms_moment", "sms_added_force",
+                     "sms_added_moment"):
+            g.table(name, ti.Vector.field(3, f64), (MAX_BODIES,), nb, persistent=False, used=coupled)
         g.table("direction", ti.Vector.field(3, f64), (MAX_BODIES,), nb)
         g.table("first_slave", ti.field(i32), (MAX_BODIES,), nb)
         g.table("slave_count", ti.field(i32), (MAX_BODIES,), nb)

@@ -65,7 +65,7 @@ class Stepper:
         self.contact = SelfContact(state, cfg, model) if cfg.contact else None
         self.shell = ShellElement(state, cfg, self.energy)
         self.timestep = TimeStep(state, cfg)
-        self.selective = SelectiveMass(state, cfg, self.shell.masses, self.nodes) if cfg.selective_mass else None
+        self.selective = SelectiveMass(state, cfg, self.shell.masses, self.nodes, self.bodies) if cfg.selective_mass else None
         self.acc = Accumulator(cfg.serial)
         self.mpm = cfg.method == "mpm"
         if self.mpm:
@@ -99,13 +99,17 @@ class Stepper:
         if ti.static(self.cfg.joints):
             self.joints.distribute()
         if ti.static(self.cfg.bodies):
+            if ti.static(self.cfg.selective_mass):      # the bodies' DOFs are in its solve (stages/selective_mass.py)
+                self.selective.prepare()
             self.bodies.update()
         if ti.static(self.mpm):
             self.mapping.particles_to_grid()
             self.mapping.grid_to_particles()
             self.mapping.clear_grid()
         else:
-            if ti.static(self.cfg.selective_mass):
+            if ti.static(self.cfg.selective_mass and self.cfg.bodies):
+                self.selective.advance()
+            elif ti.static(self.cfg.selective_mass):
                 self.selective.explicit_fe()
             else:
                 self.nodes.explicit_fe()

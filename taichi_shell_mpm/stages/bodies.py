@@ -99,6 +99,8 @@ class RigidBodies:
         # threads launch: wall impulses summed in node order instead of by atomics (serial
         # and gpu launches add them directly)
         self.impulses_in_node_order = cfg.launch == "threads" and cfg.moving_walls
+        # selective mass scaling: the bodies' DOFs are in its solve (stages/selective_mass.py)
+        self.coupled = cfg.bodies and cfg.selective_mass
 
     # ------------------------------------------------------------ the step's interface
     @ti.func
@@ -159,48 +161,62 @@ class RigidBodies:
 
     # ------------------------------------------------------------ the step
     @ti.func
+    def loads_on(self, b, x_c):
+        """Body b's load at t^n, read only (:meth:`update`; the selective mass scaling's solve,
+        stages/selective_mass.py, takes it as the body's right-hand side): the force F (the added
+        mass's weight, the slaves' f_ext - f_int + f_con, the tools moving with it, the applied
+        force), its moment about x_c without the applied moment, the added mass's weight, and
+        (rotating body) the slaves' loads and contact forces with their moments apart."""
+        force = ti.Vector([0.0, 0.0, 0.0])
+        moment = ti.Vector([0.0, 0.0, 0.0])
+        weight = ti.Vector([0.0, 0.0, 0.0])
+        if ti.static(self.cfg.loads):
+            weight = self.s.bodies.added_mass[b] * self.s.loads.gravity_now[None]
+            force = weight
+        # a rotating body's loads and contact forces at its slaves, apart (their work is booked here)
+        slave_loads = ti.Vector([0.0, 0.0, 0.0])
+        slave_load_moment = ti.Vector([0.0, 0.0, 0.0])
+        contact = ti.Vector([0.0, 0.0, 0.0])
+        contact_moment = ti.Vector([0.0, 0.0, 0.0])
+        for i in range(self.s.bodies.first_slave[b], self.s.bodies.first_slave[b] + self.s.bodies.slave_count[b]):
+            c = self.s.bodies.slave_nodes[i]
+            external, external_moment = self.loads.at_node(c)
+            f = external - self.s.nodes.force_int[c]
+            if ti.static(self.cfg.contact):
+                f += self.s.contact.force[c]
+            if ti.static(self.cfg.tools):
+                f += self.s.tools.total_force[c]
+            force += f
+            if ti.static(self.cfg.body_rotation):
+                r = self.s.nodes.position[c] - x_c
+                moment += r.cross(f) + external_moment - self.s.nodes.moment_int[c]
+                slave_loads += external
+                slave_load_moment += r.cross(external) + external_moment
+                if ti.static(self.cfg.contact):
+                    contact += self.s.contact.force[c]
+                    contact_moment += r.cross(self.s.contact.force[c])
+        if ti.static(self.cfg.tools):        # the tools moving with it are pushed back
+            reaction, reaction_moment = self.tools.on_body(b, x_c)
+            force += reaction
+            if ti.static(self.cfg.body_rotation):
+                moment += reaction_moment
+        force += self.s.bodies.applied_force[b]
+        return force, moment, weight, slave_loads, slave_load_moment, contact, contact_moment
+
+    @ti.func
     def update(self):
         """F (and M) from the slaves' f_ext - f_int + f_con (and their moments), the added
-        mass's weight and the applied loads; then the kick and drift of the module docstring."""
+        mass's weight and the applied loads; then the kick and drift of the module docstring.
+        Under selective mass scaling (``coupled``) the kick takes the body's acceleration from
+        the solve that holds its DOFs (stages/selective_mass.py, Bodies): M_tot A on its free
+        translations, F less the added mass's inertial force at its slaves on the others (a
+        prescribed DOF's reaction), and M less that force's moment for the rotation."""
         for b in range(self.s.bodies.count[None]):
-            force = ti.Vector([0.0, 0.0, 0.0])
-            moment = ti.Vector([0.0, 0.0, 0.0])
-            weight = ti.Vector([0.0, 0.0, 0.0])
-            if ti.static(self.cfg.loads):
-                weight = self.s.bodies.added_mass[b] * self.s.loads.gravity_now[None]
-                force = weight
             x_c = self.center(b)
             if ti.static(self.cfg.body_rotation):
                 self.s.bodies.center_start[b] = x_c
-            # a rotating body's loads and contact forces at its slaves, apart (their work is booked here)
-            slave_loads = ti.Vector([0.0, 0.0, 0.0])
-            slave_load_moment = ti.Vector([0.0, 0.0, 0.0])
-            contact = ti.Vector([0.0, 0.0, 0.0])
-            contact_moment = ti.Vector([0.0, 0.0, 0.0])
-            for i in range(self.s.bodies.first_slave[b], self.s.bodies.first_slave[b] + self.s.bodies.slave_count[b]):
-                c = self.s.bodies.slave_nodes[i]
-                external, external_moment = self.loads.at_node(c)
-                f = external - self.s.nodes.force_int[c]
-                if ti.static(self.cfg.contact):
-                    f += self.s.contact.force[c]
-                if ti.static(self.cfg.tools):
-                    f += self.s.tools.total_force[c]
-                force += f
-                if ti.static(self.cfg.body_rotation):
-                    r = self.s.nodes.position[c] - x_c
-                    moment += r.cross(f) + external_moment - self.s.nodes.moment_int[c]
-                    slave_loads += external
-                    slave_load_moment += r.cross(external) + external_moment
-                    if ti.static(self.cfg.contact):
-                        contact += self.s.contact.force[c]
-                        contact_moment += r.cross(self.s.contact.force[c])
-            if ti.static(self.cfg.tools):        # the tools moving with it are pushed back
-                reaction, reaction_moment = self.tools.on_body(b, x_c)
-                force += reaction
-                if ti.static(self.cfg.body_rotation):
-                    moment += reaction_moment
+            force, moment, weight, slave_loads, slave_load_moment, contact, contact_moment = self.loads_on(b, x_c)
             applied = self.s.bodies.applied_force[b]
-            force += applied
             self.s.bodies.applied_force[b] = ti.Vector([0.0, 0.0, 0.0])
             self.s.bodies.force[b] = force
             free = self.s.bodies.translation_free[b]
@@ -209,6 +225,10 @@ class RigidBodies:
             kick = impulse_time(self.s.step)
             keep = self.s.step.velocity_keep[None]
             self.s.bodies.velocity_start[b] = keep * self.s.bodies.velocity[b]
+            if ti.static(self.coupled):
+                force = (self.s.bodies.total_mass[b] * self.s.bodies.sms_acceleration[b]
+                         + (ti.Matrix.identity(ti.f64, 3) - free) @ (force - self.s.bodies.sms_added_force[b]))
+                moment -= self.s.bodies.sms_added_moment[b]
             self.s.bodies.velocity[b] = free @ (keep * self.s.bodies.velocity[b]
                                                 + kick * force / self.s.bodies.total_mass[b])
             if ti.static(self.cfg.loads):

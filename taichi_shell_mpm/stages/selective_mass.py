@@ -40,12 +40,49 @@ energy (energy put in, like the kinetic energy given to beta_e as it grows), so 
 closes (:meth:`SelectiveMass.geometry`).
 
 Constraints.  The solve runs over the free DOFs: a DOF held by a [[boundary]] or a
-[[motion]], a rigid body's slave node and a node without mass are left out, and a node's
+[[motion]] and a node without mass are left out, and a node's
 rotation is kept normal to its drilling normal where the drilling projection applies
 (P M P, P the orthogonal projection on the free DOFs).  A held node's support reaction takes
 the added mass's inertial force too (state.nodes.sms_product), so reactions use the scaled
-mass matrix.  A rigid body is not given the added mass's force at its slaves (the body moves
-before the nodes); what that coupling does shows in the balance.
+mass matrix.  A rigid body's slaves are in the solve through their body (Bodies, below).
+
+Bodies [choice, measured in docs/mass_scaling.md].  With rigid bodies (Features.bodies) each
+body's translation A and rotation Alpha are unknowns of the same solve: a slave's rows are
+its body's rigid field, a_s = A + Alpha x r_s and alpha_s = Alpha (r_s = x_s - x_c at t^n;
+:meth:`SelectiveMass.spread`), so the matrix is P^T (M + M_add) P with P that map, whose body
+rows are M_tot A + sum_s (M_add a)_s and I Alpha + sum_s (r_s x (M_add a)_s + (M_add alpha)_s)
+on the body's free DOFs (its projectors; :meth:`SelectiveMass.body_product`) against its
+load F, M at t^n (RigidBodies.loads_on); the preconditioner's body block is M_tot and I (the
+slaves' lumped masses are in them).  The solve runs before RigidBodies.update
+(:meth:`SelectiveMass.prepare`), whose kick takes M_tot A on the free translations (so the
+momentum correction below, which moves the bodies with the nodes, makes
+sum m a + sum M_tot A = sum f exact) and M less the added mass's inertial moment at the
+slaves for the rotation (the body's own integrator keeps its gyroscopic terms, which the
+solve's linear rows leave out: the slaves' actual velocities differ from v_s + dt a_s by
+them, and constraint_work books that difference).  The slaves are then free DOFs for
+constraint_work (their added mass's work is in the body's kick).  Leaving the slaves out of
+the solve let the momentum of the feature matrix's sheet with a spinning bar on one edge
+drift 0.026 m/s per unit mass; the added mass's force at the slaves given to the body as an
+impulse at the end of the step (a partitioned coupling, one step late) kept the momentum but
+sent the balance to 61 % (the added-mass instability).  In the solve: momentum to 1e-15,
+balance 2.3e-5 (tests/test_selective_mass.py).
+
+A step that changes [choice, measured in docs/mass_scaling.md].  With the averaged kick
+h = (dt^(n-1/2) + dt^(n+1/2)) / 2 (stages/timestep.impulse_time) and linear forces, the
+balance's conserved quantity E^n = 1/2 v^(n+1/2) M v^(n+1/2) + 1/2 x^n K x^(n+1) (the kinetic
+energy, the stored energy and energy.py's stagger term) changes in a step by exactly
+(dt^(n+1/2) - dt^(n-1/2)) h / 4 f_int . a (f_int = K x^n the internal forces, a the step's
+solved accelerations; M the scaled mass matrix): zero at a constant step, and where a tool or
+contact shortens the step, a jump of the balance by an (omega dt)^2-sized share of the
+energy of the modes at omega dt ~ 1, where selective scaling puts the low modes (the feature
+matrix's sheet with a sphere tool: a step cut by 30 % read +5 % of the absorbed energy as
+created, and the guard stopped it).  :meth:`SelectiveMass.step_change` books it as
+mass-scaling energy, so the balance stays a check on instabilities and bookkeeping.  What
+it does not hide: the motion's own energy does change at a step change (a harmonic
+oscillator at omega dt = 0.78 cut to 0.55: its amplitude^2 by -0.7 to -7.4 % with the
+phase; -4.3 % when the step is ramped down over 10 to 1000 steps, the adiabatic invariant
+being E / omega~, not E), so a step that changes slowly would not remove the jump, only its
+phase dependence.
 
 Solve [choice, measured in docs/mass_scaling.md].  Conjugate gradients preconditioned with
 the element blocks' exact inverses (additive, element by element): each live element takes
@@ -72,6 +109,7 @@ import taichi as ti
 
 from ..state import STATUS_OK, STATUS_SMS_SOLVE
 from .accumulate import Accumulator
+from .bodies import constrained_omega
 from .timestep import impulse_time
 
 
@@ -83,11 +121,14 @@ def zero3():
 
 @ti.data_oriented
 class SelectiveMass:
-    def __init__(self, state, cfg, masses, nodes):
+    def __init__(self, state, cfg, masses, nodes, bodies):
         self.s = state
         self.cfg = cfg
         self.masses = masses            # stages/masses.MassUpdate: f_e and alive_e
         self.nodes = nodes              # stages/constraints.NodeUpdate: held DOFs, forces
+        self.bodies = bodies            # stages/bodies.RigidBodies: the rigid bodies' DOFs join the solve
+        self.coupled = cfg.bodies       # (module docstring, Bodies)
+        self.rows = state.bodies        # the bodies' rows of the solve (placed in every run; used when coupled)
         self.acc = Accumulator(cfg.serial)
 
     # ------------------------------------------------------------------ one element
@@ -221,13 +262,132 @@ class SelectiveMass:
         return out - out.dot(n) * n
 
     @ti.func
-    def product(self, p: ti.template(), q: ti.template()):
-        """sms_product, sms_moment = P (M + M_add) P [p, q] (p, q already free)."""
+    def product(self, p: ti.template(), q: ti.template(), bp: ti.template(), bq: ti.template()):
+        """sms_product, sms_moment = P (M + M_add) P [p, q] (p, q already free); with bodies
+        (``coupled``) the slaves' rows of p, q are first set from their bodies' bp, bq, and
+        the bodies' rows of the product are formed (:meth:`body_product`)."""
+        if ti.static(self.coupled):
+            self.spread(p, q, bp, bq)
         self.rigid_fit(p, q)
         for c in range(self.s.nodes.count[None]):
             force, moment = self.added_at(c, p, q)
             self.s.nodes.sms_product[c] = self.free_translation(c, self.s.nodes.mass[c] * p[c] + force)
             self.s.nodes.sms_moment[c] = self.free_rotation(c, self.s.nodes.inertia[c] * q[c] + moment)
+        if ti.static(self.coupled):
+            self.body_product(p, q, bp, bq)
+
+    # ------------------------------------------------------------------ rigid bodies in the solve
+    @ti.func
+    def body_copy(self, out: ti.template(), a: ti.template(), scale, b: ti.template(), keep=1.0):
+        """out = keep a + scale b over the bodies' rows (the solve's vector updates)."""
+        for k in range(self.s.bodies.count[None]):
+            out[k] = keep * a[k] + scale * b[k]
+
+    @ti.func
+    def body_inertia(self, b):
+        """Body b's rotary inertia about its centre in space axes at t^n, R J R^T."""
+        r = self.bodies.rotation_matrix(b)
+        return r @ self.s.bodies.inertia[b] @ r.transpose()
+
+    @ti.func
+    def spread(self, p: ti.template(), q: ti.template(), bp: ti.template(), bq: ti.template()):
+        """The slaves' rows of [p, q] from their bodies' [bp, bq]: p_s = P_b + Q_b x r_s,
+        q_s = Q_b (0 for a body that does not turn), r_s = x_s - x_c at t^n."""
+        for b in range(self.s.bodies.count[None]):
+            x_c = self.bodies.center(b)
+            turn = zero3()
+            if ti.static(self.cfg.body_rotation):
+                turn = bq[b]
+            for i in range(self.s.bodies.first_slave[b], self.s.bodies.first_slave[b] + self.s.bodies.slave_count[b]):
+                c = self.s.bodies.slave_nodes[i]
+                p[c] = bp[b] + turn.cross(self.s.nodes.position[c] - x_c)
+                q[c] = turn
+
+    @ti.func
+    def slave_sum(self, b, force: ti.template(), moment: ti.template()):
+        """sum_s force_s and sum_s (r_s x force_s + moment_s) over body b's slaves (the
+        transpose of :meth:`spread`; the moment 0 for a body that does not turn)."""
+        x_c = self.bodies.center(b)
+        total, turn = zero3(), zero3()
+        for i in range(self.s.bodies.first_slave[b], self.s.bodies.first_slave[b] + self.s.bodies.slave_count[b]):
+            c = self.s.bodies.slave_nodes[i]
+            total += force[c]
+            if ti.static(self.cfg.body_rotation):
+                turn += (self.s.nodes.position[c] - x_c).cross(force[c]) + moment[c]
+        return total, turn
+
+    @ti.func
+    def body_product(self, p: ti.template(), q: ti.template(), bp: ti.template(), bq: ti.template()):
+        """Each body's rows of P^T (M + M_add) P: M_tot P_b + sum_s (M_add [p, q])_s and
+        I Q_b + sum_s (r_s x (M_add [p, q])_s + its moment_s), on the body's free DOFs (its
+        projectors; rigid_fit holds the fits of p, q).  The slaves' own lumped masses are in
+        M_tot and I (model/bodies.py), not added again."""
+        for b in range(self.s.bodies.count[None]):
+            x_c = self.bodies.center(b)
+            force = self.s.bodies.total_mass[b] * bp[b]
+            torque = zero3()
+            if ti.static(self.cfg.body_rotation):
+                torque = self.body_inertia(b) @ bq[b]
+            for i in range(self.s.bodies.first_slave[b], self.s.bodies.first_slave[b] + self.s.bodies.slave_count[b]):
+                c = self.s.bodies.slave_nodes[i]
+                f, moment = self.added_at(c, p, q)
+                force += f
+                if ti.static(self.cfg.body_rotation):
+                    torque += (self.s.nodes.position[c] - x_c).cross(f) + moment
+            self.s.bodies.sms_product[b] = self.s.bodies.translation_free[b] @ force
+            self.s.bodies.sms_moment[b] = self.s.bodies.rotation_free[b] @ torque
+
+    @ti.func
+    def body_forces(self):
+        """Each body's right-hand side, its load F and moment M at t^n on its free DOFs
+        (RigidBodies.loads_on, with the applied moment), and its first guess, the last step's
+        accelerations."""
+        for b in range(self.s.bodies.count[None]):
+            force, moment, _w, _l, _lm, _c, _cm = self.bodies.loads_on(b, self.bodies.center(b))
+            free, turn = self.s.bodies.translation_free[b], self.s.bodies.rotation_free[b]
+            self.s.bodies.sms_force[b] = free @ force
+            self.s.bodies.sms_acceleration[b] = free @ self.s.bodies.sms_acceleration[b]
+            torque = zero3()
+            if ti.static(self.cfg.body_rotation):
+                torque = turn @ (moment + self.s.bodies.applied_moment[b])
+                self.s.bodies.sms_angular_acceleration[b] = turn @ self.s.bodies.sms_angular_acceleration[b]
+            self.s.bodies.sms_torque[b] = torque
+
+    @ti.func
+    def body_precondition(self):
+        """Each body's block of the preconditioner, its own mass and inertia on its free DOFs:
+        sms_step = P_t res / M_tot, (P_r I P_r)^+ res_moment; returns their res . P^-1 res.
+        [choice, measured on the matrix's sheet with a spinning bar: 23.7 iterations per step,
+        the sheet alone 13.7; the body's exact diagonal block P^T (M + M_add) P, with the added
+        mass its slaves meet moving alone, took 49: the body moves with its neighbours, whose
+        joint rigid motion the added mass does not see, so the block that charges it is the
+        worse guess.]"""
+        out = 0.0
+        for b in range(self.s.bodies.count[None]):
+            z = self.s.bodies.translation_free[b] @ self.s.bodies.sms_residual[b] / self.s.bodies.total_mass[b]
+            zr = zero3()
+            if ti.static(self.cfg.body_rotation):
+                zr = constrained_omega(self.body_inertia(b), self.s.bodies.rotation_free[b],
+                                       self.s.bodies.sms_residual_moment[b])
+            self.s.bodies.sms_step[b] = z
+            self.s.bodies.sms_step_moment[b] = zr
+            out += z.dot(self.s.bodies.sms_residual[b]) + zr.dot(self.s.bodies.sms_residual_moment[b])
+        return out
+
+    @ti.func
+    def body_added(self):
+        """After the solve: the added mass's inertial force at each body's slaves, summed on the
+        body (its kick takes it: RigidBodies.update), and the slaves taken as free DOFs for
+        constraint_work (they are the body's, which books their added mass's work)."""
+        for b in range(self.s.bodies.count[None]):
+            force, moment = self.slave_sum(b, self.s.nodes.sms_product, self.s.nodes.sms_moment)
+            self.s.bodies.sms_added_force[b] = force
+            self.s.bodies.sms_added_moment[b] = moment
+            for i in range(self.s.bodies.first_slave[b], self.s.bodies.first_slave[b] + self.s.bodies.slave_count[b]):
+                c = self.s.bodies.slave_nodes[i]
+                self.s.nodes.free_dofs[c] = ti.Vector([1.0, 1.0, 1.0])
+                if ti.static(self.cfg.body_rotation):
+                    self.s.nodes.free_rotations[c] = ti.Vector([1.0, 1.0, 1.0])
 
     # ------------------------------------------------------------------ the solve
     @ti.func
@@ -266,6 +426,8 @@ class SelectiveMass:
                 self.s.nodes.sms_share[c] = share
             self.s.nodes.acceleration[c] = self.free_translation(c, self.s.nodes.acceleration[c])
             self.s.nodes.angular_acceleration[c] = self.free_rotation(c, self.s.nodes.angular_acceleration[c])
+        if ti.static(self.coupled):
+            self.body_forces()
 
     @ti.func
     def element_block_inverse(self, e):
@@ -345,6 +507,8 @@ class SelectiveMass:
             self.s.nodes.sms_step[c] = z
             self.s.nodes.sms_step_moment[c] = zr
             out += z.dot(self.s.nodes.sms_residual[c]) + zr.dot(self.s.nodes.sms_residual_moment[c])
+        if ti.static(self.coupled):
+            out += self.body_precondition()
         return out
 
     @ti.func
@@ -356,11 +520,18 @@ class SelectiveMass:
             for c in range(n):
                 self.s.nodes.sms_residual[c] = self.s.nodes.sms_force[c]
                 self.s.nodes.sms_residual_moment[c] = self.s.nodes.sms_torque[c]
+            if ti.static(self.coupled):
+                self.body_copy(self.rows.sms_residual, self.rows.sms_force, 0.0, self.rows.sms_force)
+                self.body_copy(self.rows.sms_residual_moment, self.rows.sms_torque, 0.0, self.rows.sms_torque)
             bz = self.precondition()
-            self.product(self.s.nodes.acceleration, self.s.nodes.angular_acceleration)
+            self.product(self.s.nodes.acceleration, self.s.nodes.angular_acceleration,
+                         self.rows.sms_acceleration, self.rows.sms_angular_acceleration)
             for c in range(n):
                 self.s.nodes.sms_residual[c] = self.s.nodes.sms_force[c] - self.s.nodes.sms_product[c]
                 self.s.nodes.sms_residual_moment[c] = self.s.nodes.sms_torque[c] - self.s.nodes.sms_moment[c]
+            if ti.static(self.coupled):
+                self.body_copy(self.rows.sms_residual, self.rows.sms_force, -1.0, self.rows.sms_product)
+                self.body_copy(self.rows.sms_residual_moment, self.rows.sms_torque, -1.0, self.rows.sms_moment)
             rz = self.precondition()
             if rz > bz:             # the last accelerations are a worse guess than zero: start from 0
                 for c in range(n):
@@ -368,30 +539,53 @@ class SelectiveMass:
                     self.s.nodes.angular_acceleration[c] = zero3()
                     self.s.nodes.sms_residual[c] = self.s.nodes.sms_force[c]
                     self.s.nodes.sms_residual_moment[c] = self.s.nodes.sms_torque[c]
+                if ti.static(self.coupled):
+                    self.body_copy(self.rows.sms_acceleration, self.rows.sms_force, 0.0, self.rows.sms_force, 0.0)
+                    self.body_copy(self.rows.sms_angular_acceleration, self.rows.sms_torque, 0.0, self.rows.sms_torque, 0.0)
+                    self.body_copy(self.rows.sms_residual, self.rows.sms_force, 0.0, self.rows.sms_force)
+                    self.body_copy(self.rows.sms_residual_moment, self.rows.sms_torque, 0.0, self.rows.sms_torque)
                 rz = self.precondition()
             for c in range(n):
                 self.s.nodes.sms_search[c] = self.s.nodes.sms_step[c]
                 self.s.nodes.sms_search_moment[c] = self.s.nodes.sms_step_moment[c]
+            if ti.static(self.coupled):
+                self.body_copy(self.rows.sms_search, self.rows.sms_step, 0.0, self.rows.sms_step)
+                self.body_copy(self.rows.sms_search_moment, self.rows.sms_step_moment, 0.0, self.rows.sms_step_moment)
             goal = self.s.step.sms_tolerance[None] ** 2 * bz
             iterations = 0
             limit = self.s.step.sms_max_iterations[None]
             while rz > goal and iterations < limit:
-                self.product(self.s.nodes.sms_search, self.s.nodes.sms_search_moment)
+                self.product(self.s.nodes.sms_search, self.s.nodes.sms_search_moment,
+                             self.rows.sms_search, self.rows.sms_search_moment)
                 curvature = 0.0
                 for c in range(n):
                     curvature += (self.s.nodes.sms_search[c].dot(self.s.nodes.sms_product[c])
                                   + self.s.nodes.sms_search_moment[c].dot(self.s.nodes.sms_moment[c]))
+                if ti.static(self.coupled):
+                    for b in range(self.s.bodies.count[None]):
+                        curvature += (self.rows.sms_search[b].dot(self.rows.sms_product[b])
+                                      + self.rows.sms_search_moment[b].dot(self.rows.sms_moment[b]))
                 alpha = rz / curvature
                 for c in range(n):
                     self.s.nodes.acceleration[c] += alpha * self.s.nodes.sms_search[c]
                     self.s.nodes.angular_acceleration[c] += alpha * self.s.nodes.sms_search_moment[c]
                     self.s.nodes.sms_residual[c] -= alpha * self.s.nodes.sms_product[c]
                     self.s.nodes.sms_residual_moment[c] -= alpha * self.s.nodes.sms_moment[c]
+                if ti.static(self.coupled):
+                    self.body_copy(self.rows.sms_acceleration, self.rows.sms_acceleration, alpha, self.rows.sms_search)
+                    self.body_copy(self.rows.sms_angular_acceleration, self.rows.sms_angular_acceleration, alpha,
+                                   self.rows.sms_search_moment)
+                    self.body_copy(self.rows.sms_residual, self.rows.sms_residual, -alpha, self.rows.sms_product)
+                    self.body_copy(self.rows.sms_residual_moment, self.rows.sms_residual_moment, -alpha, self.rows.sms_moment)
                 rz_new = self.precondition()
                 for c in range(n):
                     self.s.nodes.sms_search[c] = self.s.nodes.sms_step[c] + (rz_new / rz) * self.s.nodes.sms_search[c]
                     self.s.nodes.sms_search_moment[c] = (self.s.nodes.sms_step_moment[c]
                                                          + (rz_new / rz) * self.s.nodes.sms_search_moment[c])
+                if ti.static(self.coupled):
+                    self.body_copy(self.rows.sms_search, self.rows.sms_step, rz_new / rz, self.rows.sms_search)
+                    self.body_copy(self.rows.sms_search_moment, self.rows.sms_step_moment, rz_new / rz,
+                                   self.rows.sms_search_moment)
                 rz = rz_new
                 iterations += 1
             if rz > goal and self.s.step.status[None] == STATUS_OK:
@@ -403,9 +597,19 @@ class SelectiveMass:
             for c in range(n):
                 residual_sum += self.s.nodes.sms_residual[c]
                 mass_sum += self.s.nodes.mass[c] * self.s.nodes.free_dofs[c]
+            if ti.static(self.coupled):     # the bodies' rows too: the shift moves them with the nodes
+                for b in range(self.s.bodies.count[None]):
+                    free = self.s.bodies.translation_free[b]
+                    residual_sum += self.rows.sms_residual[b]
+                    mass_sum += self.s.bodies.total_mass[b] * ti.Vector([free[0, 0], free[1, 1], free[2, 2]])
             shift = residual_sum / ti.max(mass_sum, 1e-300)
             for c in range(n):
                 self.s.nodes.acceleration[c] += self.s.nodes.free_dofs[c] * shift
+            if ti.static(self.coupled):
+                for b in range(self.s.bodies.count[None]):
+                    self.rows.sms_acceleration[b] += self.s.bodies.translation_free[b] @ shift
+                self.spread(self.s.nodes.acceleration, self.s.nodes.angular_acceleration,
+                            self.rows.sms_acceleration, self.rows.sms_angular_acceleration)
             self.s.step.sms_iterations[None] += iterations
             self.s.step.sms_solves[None] += 1
             self.s.step.sms_iterations_max[None] = ti.max(self.s.step.sms_iterations_max[None], iterations)
@@ -453,10 +657,47 @@ class SelectiveMass:
         rest) with (M + M_add) [a, alpha] = [f, mu] on the free DOFs; then each node as
         NodeUpdate.explicit_fe (its rotation from alpha, NodeUpdate.finish; a held node's
         reaction adds M_add a), and the added mass's kinetic energy."""
+        self.prepare()
+        self.advance()
+
+    @ti.func
+    def prepare(self):
+        """The solve of explicit_fe (with rigid bodies it runs before RigidBodies.update, whose
+        kick takes the bodies' solved accelerations: module docstring, Bodies)."""
         self.geometry()
         self.forces()
         self.solve()
         self.inertial_forces()
+        if ti.static(self.coupled):
+            self.body_added()
+        self.step_change()
+
+    @ti.func
+    def step_change(self):
+        """The balance term of a step that changes (module docstring, A step that changes):
+        E_ms += (dt^(n+1/2) - dt^(n-1/2)) h / 4 sum_c (f_int,c . a_c + m_int,c . alpha_c), h the
+        kick, booked on each live element in its corners' mass shares (zero at a constant step)."""
+        change = self.s.step.dt[None] - self.s.step.dt_last[None]
+        scale = 0.25 * change * impulse_time(self.s.step)
+        for e in range(self.s.elements.count[None]):
+            if change != 0.0 and self.masses.alive(e) > 0.0:
+                c = self.s.elements.corners[e]
+                m = self.s.elements.corner_mass[e]
+                total = 0.0
+                for a in ti.static(range(4)):
+                    if c[a] >= 0:
+                        share = self.s.nodes.sms_share[c[a]][0]
+                        if share > 0.0:
+                            total += m[a] / share * (
+                                self.s.nodes.force_int[c[a]].dot(self.s.nodes.acceleration[c[a]])
+                                + self.s.nodes.moment_int[c[a]].dot(self.s.nodes.angular_acceleration[c[a]]))
+                work = scale * total
+                self.s.elements.mass_energy[e][1] += work
+                self.acc.total(self.s.step.mass_scaling_energy, work)
+
+    @ti.func
+    def advance(self):
+        """The nodes' update of explicit_fe after the solve."""
         for c in range(self.s.nodes.count[None]):
             keep = self.s.step.velocity_keep[None]
             start, start_turn = keep * self.s.nodes.grid_velocity[c], keep * self.s.nodes.omega[c]
