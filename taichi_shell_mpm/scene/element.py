@@ -27,6 +27,13 @@ class ElementOptions:
         doc="α of the drilling spring k = α D A β / 4 (α = 1: the bending stiffness one corner rotation meets; "
             "never sets the time step; its energy is reported as `drilling`, apart from the hourglass energy, and"
             " the two together are guarded against the internal energy)")
+    triangle: Literal["c0", "opt"] = key(
+        choice("c0", "opt"), default="c0", allowed="`c0`, `opt`",
+        doc="the 3-node shell: `c0` is the one-point C0 triangle of Belytschko, Stolarski & Carpenter "
+            "(constant-strain membrane; `stages/triangle.py`); `opt` replaces its membrane by Felippa's optimal "
+            "ANDES membrane with corner drilling rotations (`stages/opt_membrane.py`), which bends in its plane "
+            "and so does not lock on curved shells (Sze's hemisphere in triangles, 16×16: see "
+            "[element.md](element.md), \"The OPT triangle\"); needs `drilling = \"penalty\"`")
     warping: Literal["none", "bwc"] = key(choice("none", "bwc"), default="none",
         doc="warped quads: `none` is the flat-facet BT element (the paper's); `bwc` adds the "
             "Belytschko–Wong–Chiang (1992) curvature rate that in-plane motion gives a warped quad (element spin "
