@@ -36,7 +36,8 @@ class ElementData:
     hourglass_bending: np.ndarray           # (m,) r E t^3 / 192  (x A beta -> C1)
     hourglass_transverse: np.ndarray        # (m,) r kappa G t^3 / 12 (x beta -> C2)
     drilling_factor: np.ndarray             # (m,) alpha E t^3 / 48 (stages/drilling.py: x A beta -> k)
-    opt_modulus: np.ndarray                 # (m,) 3/4 beta_0 E t / (1 - nu^2) (stages/opt_membrane.py)
+    opt_modulus: np.ndarray                 # (m,) 3/4 beta_0 E t / (1 - nu^2) (stages/opt_membrane.py); 0
+    #                                         unless [element].triangle = "opt" (assembly.element_steps)
     opt_poisson: np.ndarray                 # (m,) its nu
     density: np.ndarray                     # (m,) mass per volume over the thickness (laminate.Layup)
     rotary_density: np.ndarray              # (m,) 12 I / t^3, I = int rho z^2 dz (= density for one material)
@@ -320,8 +321,9 @@ def tables(scene: Scene, parts, material_specs: dict, section_specs: dict, frame
                   "hourglass_transverse": r * kappa * lay.transverse_shear_modulus * t ** 3 / 12.0,
                   "drilling_factor": alpha * lay.bending_modulus * t ** 3 / 48.0 if el.drilling == "penalty" else 0.0,
                   "density": lay.density, "rotary_density": lay.rotary_density}
-        values["opt_modulus"], values["opt_poisson"] = opt_higher_order(sec, material_specs, part.material,
-                                                                        lay.membrane_modulus, t)
+        if el.triangle == "opt":
+            values["opt_modulus"], values["opt_poisson"] = opt_higher_order(sec, material_specs, part.material,
+                                                                            lay.membrane_modulus, t)
         for name, value in values.items():
             columns[name][ids] = value
         if lay.oriented and sec.reference_direction is not None:
