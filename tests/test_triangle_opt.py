@@ -321,3 +321,13 @@ def test_sze_cantilever_on_80_triangles(tmp_path):
         print(f"\nSze cantilever, 80 OPT triangles (fem): {column} mean {100 * r['mean_rel_error']:.4f} % max "
               f"{100 * r['max_rel_error']:.4f} % (bound {100 * bound:.3f} %)")
         assert r["mean_rel_error"] <= bound, column
+
+
+def test_restart_is_bit_for_bit(tmp_path, monkeypatch):
+    """tests/test_restart.py's static round trip on the cantilever cut into 8 OPT triangles (the
+    higher-order resultants live in elements.drilling_moment, which the checkpoint carries)."""
+    from .test_restart import CANTILEVER, restart_roundtrip
+    stopped, _ = restart_roundtrip(tmp_path, monkeypatch, [*CANTILEVER, "--set", "mesh.triangles=all", "--set",
+                                                           "element.triangle=opt"],
+                                   stop_step=7000, every=5000, batch_element_steps=8000)
+    assert stopped["started"] and 0 < stopped["steps"]
