@@ -296,7 +296,7 @@ class State:
         # hourglass_*: r E t / 8, r E t^3 / 192, r kappa G t^3 / 12 (stages/hourglass.py);
         # drilling_factor: alpha E t^3 / 48 (stages/drilling.py)
         g.entity("section", ti.field(i32), m)
-        for name in ("opt_modulus", "opt_poisson"):       # the OPT triangle (stages/opt_membrane.py)
+        for name in ("opt_modulus", "opt_poisson", "opt_floor"):       # the OPT triangle (stages/opt_membrane.py)
             g.entity(name, ti.field(f64), m, used=fx.triangle_opt)
         # cos, sin of the angle from e1 to the section's material axis (docs/laminates.md)
         g.entity("material_axis", ti.Vector.field(2, f64), m, used=fx.oriented)
@@ -704,7 +704,7 @@ class State:
                      "hourglass_bending", "hourglass_transverse", "drilling_factor", "section"):
             w(getattr(sec, name), getattr(data, name))
         if self.features.triangle_opt:
-            for name in ("opt_modulus", "opt_poisson"):
+            for name in ("opt_modulus", "opt_poisson", "opt_floor"):
                 w(getattr(sec, name), getattr(data, name))
         tables = model.sections
         ns = len(tables.names)

@@ -350,3 +350,27 @@ def test_cantilever_in_mpm(tmp_path):
         print(f"\ncantilever, 20 OPT triangles (mpm): {column} mean {100 * r['mean_rel_error']:.4f} % "
               f"(bound {100 * bound:.4f} %)")
         assert r["mean_rel_error"] <= bound, column
+
+
+def test_yielded_section_keeps_the_hourglass_share_of_the_higher_order_part(tmp_path):
+    """J2: one step of a triangle with a stretch that yields every point and a drilling rate
+    (theta_z' - Omega != 0): the higher-order resultant q is r = [element].hourglass (0.05)
+    times the elastic material's (the same rates, yield stress out of reach), to round-off."""
+    x = np.array([[0.0, 0.0, 0.0], [1.0, 0.1, 0.0], [0.3, 0.8, 0.0]])
+    v = np.array([[0.0, 0.0, 0.0], [0.3, 0.0, 0.0], [0.0, 0.2, 0.0]])
+    w = np.array([[0.0, 0.0, 0.4], [0.0, 0.0, -0.3], [0.0, 0.0, 0.1]])
+    dt = 1e-2
+    q = {}
+    for name, yield_stress in (("elastic", 1e9), ("yielded", 1.0)):
+        (tmp_path / name).mkdir()
+        sim = element_simulation(tmp_path / name, x, E=E, nu=NU, t=T, triangles=[[0, 1, 2]], element=OPT,
+                                 material=f'model = "j2"\nyield_stress = {yield_stress}\nhardening = 10.0')
+        stress, _, _, _, drill = element_stage(sim, x + 0.5 * dt * v, v, w, dt)
+        q[name] = drill[0, :3]
+        plastic = sim.state.fetch("points.plastic_strain")[0]
+        print(f"\n{name}: q {q[name]}, plastic strain {plastic}")
+        assert (plastic > 0).all() == (name == "yielded")
+    ratio = q["yielded"] / q["elastic"]
+    print(f"q yielded / elastic {ratio}")
+    assert np.abs(q["elastic"]).min() > 0
+    assert np.allclose(ratio, 0.05, rtol=1e-12, atol=0)

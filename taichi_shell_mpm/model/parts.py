@@ -39,6 +39,7 @@ class ElementData:
     opt_modulus: np.ndarray                 # (m,) 3/4 beta_0 E t / (1 - nu^2) (stages/opt_membrane.py); 0
     #                                         unless [element].triangle = "opt" (assembly.element_steps)
     opt_poisson: np.ndarray                 # (m,) its nu
+    opt_floor: np.ndarray                   # (m,) the hourglass coefficient r: what a yielded section keeps
     density: np.ndarray                     # (m,) mass per volume over the thickness (laminate.Layup)
     rotary_density: np.ndarray              # (m,) 12 I / t^3, I = int rho z^2 dz (= density for one material)
     material_axis: np.ndarray               # (m, 2) cos, sin of the angle from e1 to the section's material axis
@@ -293,7 +294,7 @@ def tables(scene: Scene, parts, material_specs: dict, section_specs: dict, frame
     el = scene.element
     columns = {name: np.zeros(m) for name in ("thickness", "shear_factor", "wave_speed", "rotational_frequency",
                                               "hourglass_membrane", "hourglass_bending", "hourglass_transverse",
-                                              "drilling_factor", "opt_modulus", "opt_poisson", "density",
+                                              "drilling_factor", "opt_modulus", "opt_poisson", "opt_floor", "density",
                                               "rotary_density")}
     material_axis = np.tile([1.0, 0.0], (m, 1))
     part_of = np.zeros(m, dtype=np.int32)
@@ -324,6 +325,7 @@ def tables(scene: Scene, parts, material_specs: dict, section_specs: dict, frame
         if el.triangle == "opt":
             values["opt_modulus"], values["opt_poisson"] = opt_higher_order(sec, material_specs, part.material,
                                                                             lay.membrane_modulus, t)
+            values["opt_floor"] = r
         for name, value in values.items():
             columns[name][ids] = value
         if lay.oriented and sec.reference_direction is not None:

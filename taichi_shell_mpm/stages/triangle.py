@@ -238,6 +238,10 @@ class TriangleElement:
         if self.s.step.status[None] == STATUS_OK and normal.dot(normal_m) <= 0.0:
             self.s.step.status[None] = STATUS_INVERTED
             self.s.step.status_index[None] = e
+        yield_before = ti.Vector.zero(ti.f64, self.cfg.points)
+        if ti.static(self.cfg.triangle_opt and self.cfg.plastic):     # OPT's elastic fraction, below
+            for k in ti.static(range(self.cfg.points)):
+                yield_before[k] = self.s.points.plastic_strain[e, k]
         n_res, m_res, q_res, power, plastic_work = self.quad.section_response(e, t, kappa, dt, membrane_rate,
                                                                               curvature_rate, shear_rate)
         f, m = resultant_loads(xh, yh, area, b1, b2, n_res, m_res, shear_scale * q_res, kappa)
@@ -252,7 +256,20 @@ class TriangleElement:
                                                         self.s.sections.opt_poisson[e])
             stored = self.s.elements.drilling_moment[e]
             q_old = ti.Vector([stored[0], stored[1], stored[2]])
-            q_new = q_old + dt * (stiff @ rate)
+            elastic = 1.0
+            if ti.static(self.cfg.plastic):         # the section's elastic fraction (opt_membrane, "Plasticity")
+                section = self.s.sections.section[e]
+                total = 0.0
+                kept = 0.0
+                for k in ti.static(range(self.cfg.points)):
+                    if k < self.s.sections.point_count[section]:
+                        weight = self.s.sections.weight[section, k]
+                        total += weight
+                        if self.s.points.plastic_strain[e, k] <= yield_before[k]:
+                            kept += weight
+                floor = self.s.sections.opt_floor[e]
+                elastic = floor + (1.0 - floor) * kept / total
+            q_new = q_old + dt * elastic * (stiff @ rate)
             self.s.elements.drilling_moment[e] = ti.Vector([q_new[0], q_new[1], q_new[2], 0.0])
             fd, md = drilling.nodal_loads(q_new, b1, b2)
             for a in ti.static(range(3)):
