@@ -61,6 +61,8 @@ class Features:
     pair_thickness: bool = False  # contact pairs touch at different thicknesses (several sections without
     #                             [contact].thickness, or interfaces): stages/contact.law_of; else at t_c
     joints: bool = False        # [[tie]] or [[spotweld]] (stages/joints.py)
+    triangle_opt: bool = False  # the triangles' membrane is OPT ([element].triangle = "opt";
+    #                             stages/opt_membrane.py); else the constant-strain one
     finite_increment: bool = False  # the step is one large increment (Newton's trial,
     #                             solvers/tangent.py): mid-step shape from the end shapes
     #                             (stages/shell.mid_geometry)
@@ -138,6 +140,7 @@ class Features:
             kirchhoff_w_hourglass=el.w_hourglass == "kirchhoff", drilling_spring=el.drilling == "penalty",
             warping_correction=el.warping == "bwc",
             triangles=bool((model.elements[:, 3] < 0).any()),
+            triangle_opt=el.triangle == "opt" and bool((model.elements[:, 3] < 0).any()),
             physical_rotary_inertia=scene.solve.physical_rotary_inertia,
             grid_rule=scene.solve.dt_rule == "both" and scene.method.kind == "mpm",
             grid_planes=model.grid is not None and bool(model.grid.planes),

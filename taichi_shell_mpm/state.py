@@ -296,6 +296,8 @@ class State:
         # hourglass_*: r E t / 8, r E t^3 / 192, r kappa G t^3 / 12 (stages/hourglass.py);
         # drilling_factor: alpha E t^3 / 48 (stages/drilling.py)
         g.entity("section", ti.field(i32), m)
+        for name in ("opt_modulus", "opt_poisson", "opt_floor"):       # the OPT triangle (stages/opt_membrane.py)
+            g.entity(name, ti.field(f64), m, used=fx.triangle_opt)
         # cos, sin of the angle from e1 to the section's material axis (docs/laminates.md)
         g.entity("material_axis", ti.Vector.field(2, f64), m, used=fx.oriented)
         g.table("point_count", ti.field(i32), (MAX_SECTIONS,))                 # points of each section's rule
@@ -713,6 +715,9 @@ class State:
         for name in ("thickness", "shear_factor", "wave_speed", "rotational_frequency", "hourglass_membrane",
                      "hourglass_bending", "hourglass_transverse", "drilling_factor", "section"):
             w(getattr(sec, name), getattr(data, name))
+        if self.features.triangle_opt:
+            for name in ("opt_modulus", "opt_poisson", "opt_floor"):
+                w(getattr(sec, name), getattr(data, name))
         tables = model.sections
         ns = len(tables.names)
         pad = np.zeros((MAX_SECTIONS - ns, tables.points))

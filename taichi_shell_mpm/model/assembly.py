@@ -227,7 +227,9 @@ def element_steps(points: np.ndarray, elements: np.ndarray, element: "ElementDat
     if tri.any():
         tri_area = 0.5 * np.linalg.norm(np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), axis=1)
         inv_tri = element.wave_speed / element_length(points, elements, np.where(tri, tri_area, 1.0))
-        inv_tri = np.sqrt(inv_tri ** 2 + triangle_shear_gain(points, elements) * (0.5 * element.rotational_frequency) ** 2)
+        gain = triangle_shear_gain(points, elements)
+        inv_tri *= np.sqrt(np.where(element.opt_modulus > 0.0, 1.0 + 0.5 * gain, 1.0))   # OPT (stages/triangle.py)
+        inv_tri = np.sqrt(inv_tri ** 2 + gain * (0.5 * element.rotational_frequency) ** 2)
         inv = np.where(tri, inv_tri, inv)
     return dt_safety / inv
 

@@ -36,9 +36,24 @@ class ElementData:
     hourglass_bending: np.ndarray           # (m,) r E t^3 / 192  (x A beta -> C1)
     hourglass_transverse: np.ndarray        # (m,) r kappa G t^3 / 12 (x beta -> C2)
     drilling_factor: np.ndarray             # (m,) alpha E t^3 / 48 (stages/drilling.py: x A beta -> k)
+    opt_modulus: np.ndarray                 # (m,) 3/4 beta_0 E t / (1 - nu^2) (stages/opt_membrane.py); 0
+    #                                         unless [element].triangle = "opt" (assembly.element_steps)
+    opt_poisson: np.ndarray                 # (m,) its nu
+    opt_floor: np.ndarray                   # (m,) the hourglass coefficient r: what a yielded section keeps
     density: np.ndarray                     # (m,) mass per volume over the thickness (laminate.Layup)
     rotary_density: np.ndarray              # (m,) 12 I / t^3, I = int rho z^2 dz (= density for one material)
     material_axis: np.ndarray               # (m, 2) cos, sin of the angle from e1 to the section's material axis
+
+
+def opt_higher_order(section, specs: dict, material: str | None, modulus: float, t):
+    """3/4 beta_0 E t / (1 - nu^2) and nu of the OPT triangle's higher-order membrane stiffness
+    (stages/opt_membrane.py), beta_0 = max(1/2 (1 - 4 nu^2), 0.01) (Felippa 2003, isotropic):
+    E the section's membrane modulus (laminate.Layup), nu the material's; 0.3 for a layered
+    section or an orthotropic material [choice: the part is a stabilisation; their effective
+    isotropic E is already an approximation]."""
+    spec = None if section.layered else specs[material]
+    nu = spec.nu if spec is not None and spec.model != "orthotropic" else 0.3
+    return 0.75 * max(0.5 * (1.0 - 4.0 * nu * nu), 0.01) * modulus * t / (1.0 - nu * nu), nu
 
 
 @dataclass(frozen=True)
@@ -279,7 +294,8 @@ def tables(scene: Scene, parts, material_specs: dict, section_specs: dict, frame
     el = scene.element
     columns = {name: np.zeros(m) for name in ("thickness", "shear_factor", "wave_speed", "rotational_frequency",
                                               "hourglass_membrane", "hourglass_bending", "hourglass_transverse",
-                                              "drilling_factor", "density", "rotary_density")}
+                                              "drilling_factor", "opt_modulus", "opt_poisson", "opt_floor", "density",
+                                              "rotary_density")}
     material_axis = np.tile([1.0, 0.0], (m, 1))
     part_of = np.zeros(m, dtype=np.int32)
     section_of = np.zeros(m, dtype=np.int32)
@@ -306,6 +322,10 @@ def tables(scene: Scene, parts, material_specs: dict, section_specs: dict, frame
                   "hourglass_transverse": r * kappa * lay.transverse_shear_modulus * t ** 3 / 12.0,
                   "drilling_factor": alpha * lay.bending_modulus * t ** 3 / 48.0 if el.drilling == "penalty" else 0.0,
                   "density": lay.density, "rotary_density": lay.rotary_density}
+        if el.triangle == "opt":
+            values["opt_modulus"], values["opt_poisson"] = opt_higher_order(sec, material_specs, part.material,
+                                                                            lay.membrane_modulus, t)
+            values["opt_floor"] = r
         for name, value in values.items():
             columns[name][ids] = value
         if lay.oriented and sec.reference_direction is not None:

@@ -296,6 +296,9 @@ def read_scene(r: Reader) -> Scene:
     mesh = r.part("mesh", lambda data: read_mesh(r, data))
     material, section, materials, sections, elementsets, parts = read_parts(r, mesh)
     element = plain(r, "element", ElementOptions)
+    if element is not None and element.triangle == "opt" and element.drilling == "projection":
+        r.error("[element].triangle", '"opt" needs the drilling rotations ([element].drilling = "penalty"): the '
+                "projection removes them")
     method = r.part("method", lambda data: read_method(r, data))
     nodesets = r.part("nodesets", lambda data: read_nodesets(r, data))
     boundaries = r.array("boundary", lambda path, data: read_boundary(r, path, data))
@@ -307,6 +310,9 @@ def read_scene(r: Reader) -> Scene:
     probes = r.array("probe", lambda path, data: read_probe(r, path, data))            # before [reference], which refers to them
     reference = read_reference(r, r.raw["reference"]) if "reference" in r.raw else None
     solve = r.part("solve", lambda data: read_solve(r, data))
+    if element is not None and solve is not None and element.triangle == "opt" and solve.physical_rotary_inertia:
+        r.error("[element].triangle", '"opt" keeps the scaled rotary inertia: its drilling modes would set the step '
+                'with the physical one ([solve].rotary_inertia = "physical")')
     output = plain(r, "output", Output)
     bodies = r.array("rigid_body", lambda path, data: read_rigid_body(r, path, data))
     if len(bodies) > MAX_BODIES:

@@ -76,6 +76,7 @@ one-point quadrature", IJNME 20 (1984) 787-802.
 import taichi as ti
 
 from ..state import STATUS_INVERTED, STATUS_OK
+from . import opt_membrane
 from .rotation import mid_step, rotation_vector
 from .timestep import triangle_limit
 
@@ -206,9 +207,12 @@ class TriangleElement:
         edges_sq = ((corner(x, 1) - corner(x, 0)).norm_sqr() + (corner(x, 2) - corner(x, 1)).norm_sqr()
                     + (corner(x, 0) - corner(x, 2)).norm_sqr())
         gain = 1.0
-        if ti.static(self.cfg.physical_rotary_inertia):
+        if ti.static(self.cfg.physical_rotary_inertia or self.cfg.triangle_opt):
             gain = shear_gain(xh, yh, area)
-        return triangle_limit(self.s, self.cfg, e, 4.0 * area / ti.sqrt(3.0 * edges_sq), gain)
+        length = 4.0 * area / ti.sqrt(3.0 * edges_sq)
+        if ti.static(self.cfg.triangle_opt):        # OPT's drilling modes (stages/opt_membrane.py, "Time step")
+            length /= ti.sqrt(1.0 + 0.5 * gain)
+        return triangle_limit(self.s, self.cfg, e, length, gain)
 
     @ti.func
     def update(self, e):
@@ -223,17 +227,57 @@ class TriangleElement:
         tx, ty, tz = column(wl, 0), column(wl, 1), column(wl, 2)
         area_m, g1, g2 = gradient_operators(xm, ym)
         membrane_rate, curvature_rate, shear_rate = strain_rates(xm, ym, area_m, g1, g2, vx, vy, vz, tx, ty)
+        shear_scale = 1.0
+        if ti.static(self.cfg.triangle_opt):        # OPT's basic membrane: Allman's drilling share
+            membrane_rate += opt_membrane.basic_drilling_rate(xm, ym, area_m, tz)
+            shear_scale = opt_membrane.shear_scale(x, t)
+            shear_rate *= shear_scale
         # --- geometry at x^(n+1) for the loads; a normal reversed within the step: inside out
         rot, xh, yh, normal = triangle_geometry(x)
         area, b1, b2 = gradient_operators(xh, yh)
         if self.s.step.status[None] == STATUS_OK and normal.dot(normal_m) <= 0.0:
             self.s.step.status[None] = STATUS_INVERTED
             self.s.step.status_index[None] = e
+        yield_before = ti.Vector.zero(ti.f64, self.cfg.points)
+        if ti.static(self.cfg.triangle_opt and self.cfg.plastic):     # OPT's elastic fraction, below
+            for k in ti.static(range(self.cfg.points)):
+                yield_before[k] = self.s.points.plastic_strain[e, k]
         n_res, m_res, q_res, power, plastic_work = self.quad.section_response(e, t, kappa, dt, membrane_rate,
                                                                               curvature_rate, shear_rate)
-        f, m = resultant_loads(xh, yh, area, b1, b2, n_res, m_res, q_res, kappa)
+        f, m = resultant_loads(xh, yh, area, b1, b2, n_res, m_res, shear_scale * q_res, kappa)
         drill_energy = 0.0
-        if ti.static(self.cfg.drilling_spring):      # stages/drilling.py, corners 1-3 of the 4 slots
+        higher_energy = 0.0
+        if ti.static(self.cfg.triangle_opt):        # OPT (stages/opt_membrane.py): basic drilling moments,
+            # and the higher-order part as a 3x3 drilling spring on theta_z - Omega (elastic)
+            mz = opt_membrane.basic_drilling_moments(xh, yh, n_res)
+            drilling = self.quad.drilling
+            rate = drilling.rates(g1, g2, vx, vy, tz)
+            stiff = opt_membrane.higher_order_stiffness(xm, ym, area_m, self.s.sections.opt_modulus[e],
+                                                        self.s.sections.opt_poisson[e])
+            stored = self.s.elements.drilling_moment[e]
+            q_old = ti.Vector([stored[0], stored[1], stored[2]])
+            elastic = 1.0
+            if ti.static(self.cfg.plastic):         # the section's elastic fraction (opt_membrane, "Plasticity")
+                section = self.s.sections.section[e]
+                total = 0.0
+                kept = 0.0
+                for k in ti.static(range(self.cfg.points)):
+                    if k < self.s.sections.point_count[section]:
+                        weight = self.s.sections.weight[section, k]
+                        total += weight
+                        if self.s.points.plastic_strain[e, k] <= yield_before[k]:
+                            kept += weight
+                floor = self.s.sections.opt_floor[e]
+                elastic = floor + (1.0 - floor) * kept / total
+            q_new = q_old + dt * elastic * (stiff @ rate)
+            self.s.elements.drilling_moment[e] = ti.Vector([q_new[0], q_new[1], q_new[2], 0.0])
+            fd, md = drilling.nodal_loads(q_new, b1, b2)
+            for a in ti.static(range(3)):
+                md[a, 2] += mz[a]
+            f += fd
+            m += md
+            higher_energy = dt * 0.5 * (q_old + q_new).dot(rate)
+        elif ti.static(self.cfg.drilling_spring):    # stages/drilling.py, corners 1-3 of the 4 slots
             drilling = self.quad.drilling
             drill_rate = drilling.rates(g1, g2, vx, vy, tz)
             stored = self.s.elements.drilling_moment[e]
@@ -244,7 +288,7 @@ class TriangleElement:
             f += fd
             m += md
             drill_energy = dt * 0.5 * (drill_old + drill_new).dot(drill_rate)
-        internal = dt * area_m * 0.5 * t * power
+        internal = dt * area_m * 0.5 * t * power + higher_energy
         if ti.static(self.cfg.erosion):              # erosion: before the scatter (ShellElement.update)
             if self.quad.step_limit(e, c, v, w, self.limit(e, x, xh, yh, area), 3):
                 internal += self.quad.failing_stagger(f @ rot, m @ rot, v, w, dt, 3)
