@@ -62,8 +62,8 @@ def test_quick_results(quick):
         assert int(r["elements"]) == ELEMENTS["_".join(name.split("_")[:2])], name
         assert r["mode"] in ("mpm", "fem", "kratos") and r["mode"] in name
         assert int(r["steps"]) > (0 if r["mode"] == "kratos" else 1000), name
-        for key in ("wall_s", "compile_s", "run_s", "us_per_element_step"):
-            assert 0.0 < float(r[key]) < 1e4, (name, key, r[key])
+        for key in ("wall_s", "compile_s", "run_s") + (() if r["mode"] == "kratos" else ("us_per_element_step",)):
+            assert 0.0 < float(r[key]) < 1e4, (name, key, r[key])     # (the peer's Newton: ~2e4 us per element-step)
         assert float(r["compile_s"]) + float(r["run_s"]) < float(r["wall_s"]), name
         assert 20.0 < float(r["peak_mem_MB"]) < 16_000, (name, r["peak_mem_MB"])
         assert int(r["rows_compared"]) == (10 if name.endswith("_ls10") else 20), name
@@ -92,7 +92,8 @@ def test_quick_orders_plots_report(quick):
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
     orders = read_csv(out / "orders.csv")
     cantilever = [o for o in orders if o["scene"] == "cantilever"]
-    assert {o["series"] for o in cantilever} == {"mpm h=0.5l"}      # fem has one mesh in --quick
+    peers = {"kratos"} if bench.peers_available() else set()       # the peer's rows with the extra
+    assert {o["series"] for o in cantilever} == {"mpm h=0.5l"} | peers      # fem has one mesh in --quick
     for o in cantilever:
         for k in (1, 2):
             assert 0.5 < float(o[f"order{k}"]) < 5.0, o
