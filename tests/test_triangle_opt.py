@@ -8,8 +8,7 @@ hemisphere in 512 triangles (fem, Newton) against the Sze table, the Sze cantile
 triangles, and the scene errors."""
 from __future__ import annotations
 
-import subprocess
-import sys
+import json
 
 import numpy as np
 import pytest
@@ -17,7 +16,8 @@ import pytest
 from taichi_shell_mpm.model.assembly import triangle_shear_gain
 
 from .conftest import ROOT, element_simulation, element_stage
-from .test_triangles import (E, KAPPA, NU, SHAPES, T, cli, in_frame, mixed_patch, resultants, rotation_matrix,
+from .test_reliability import cli_run
+from .test_triangles import (E, KAPPA, NU, SHAPES, T, in_frame, mixed_patch, resultants, rotation_matrix, run_summary,
                              stiffness, triangle_kinematics)
 
 OPT = 'triangle = "opt"'
@@ -280,8 +280,8 @@ HEMISPHERE_BOUNDS = {"radial_disp_outward_loaded_point": 1.5 * 0.0436,
 
 
 def test_pinched_hemisphere_in_triangles(tmp_path):
-    summary = cli(tmp_path / "run", ROOT / "scenes" / "hemisphere.toml", "method.kind=fem", "solve.solver=newton",
-                          "mesh.triangles=all", "element.triangle=opt")
+    summary = run_summary(tmp_path / "run", ROOT / "scenes" / "hemisphere.toml", "method.kind=fem", "solve.solver=newton",
+                                  "mesh.triangles=all", "element.triangle=opt")
     ref = summary["reference"]
     assert summary["elements"] == 512 and ref["missing_levels"] == []
     for column, bound in HEMISPHERE_BOUNDS.items():
@@ -297,11 +297,10 @@ def test_scene_errors(tmp_path):
                              (['solve.kind=dynamic', "solve.end_time=1e-3", "solve.rotary_inertia=physical"],
                               "rotary_inertia")):
         sets = [a for o in ["element.triangle=opt", "mesh.triangles=all", *overrides] for a in ("--set", o)]
-        proc = subprocess.run([sys.executable, "-m", "taichi_shell_mpm", "run", str(ROOT / "scenes" / "cantilever.toml"),
-                               *sets, "--out", str(tmp_path / "x"), "--quiet"], capture_output=True, text=True)
-        print(proc.stderr.strip())
-        assert proc.returncode == 2
-        assert "[element].triangle" in proc.stderr and words in proc.stderr and "Traceback" not in proc.stderr
+        proc = cli_run("run", str(ROOT / "scenes" / "cantilever.toml"), *sets, "--out", str(tmp_path / "x"), "--quiet")
+        print(proc.err.strip())
+        assert proc.code == 2 and len(proc.err.strip().splitlines()) == 1
+        assert "[element].triangle" in proc.err and words in proc.err and "Traceback" not in proc.err
 
 
 # Measured (`python -m taichi_shell_mpm run scenes/cantilever.toml --set mesh.nx=20 --set mesh.ny=2
@@ -312,7 +311,7 @@ SZE_BOUNDS = {"W_tip": 1.5 * 0.000455, "minus_U_tip": 1.5 * 0.001003}
 
 
 def test_sze_cantilever_on_80_triangles(tmp_path):
-    summary = cli(tmp_path / "run", ROOT / "scenes" / "cantilever.toml", "mesh.nx=20", "mesh.ny=2",
+    summary = run_summary(tmp_path / "run", ROOT / "scenes" / "cantilever.toml", "mesh.nx=20", "mesh.ny=2",
                   "mesh.triangles=all", "element.triangle=opt", "method.kind=fem")
     ref = summary["reference"]
     assert summary["elements"] == 80 and ref["missing_levels"] == []
@@ -341,8 +340,10 @@ MPM_BOUNDS = {"W_tip": 1.5 * 0.000253, "minus_U_tip": 1.5 * 0.000862}
 
 def test_cantilever_in_mpm(tmp_path):
     """The same element kernel in mpm: a triangle is a 3-corner CPDI domain."""
-    summary = cli(tmp_path / "run", ROOT / "scenes" / "cantilever.toml", "mesh.triangles=all",
-                  "element.triangle=opt")
+    r = cli_run("run", str(ROOT / "scenes" / "cantilever.toml"), "--set", "mesh.triangles=all", "--set",
+                "element.triangle=opt", "--out", str(tmp_path / "run"), "--quiet")      # through the command line
+    assert r.code == 0, r.err
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
     ref = summary["reference"]
     assert summary["method"] == "mpm" and summary["elements"] == 20 and ref["missing_levels"] == []
     for column, bound in MPM_BOUNDS.items():
