@@ -18,7 +18,7 @@ from taichi_shell_mpm.model.assembly import triangle_shear_gain
 from .conftest import ROOT, element_simulation, element_stage
 from .test_reliability import cli_run
 from .test_triangles import (E, KAPPA, NU, SHAPES, T, in_frame, mixed_patch, resultants, rotation_matrix, run_summary,
-                             stiffness, triangle_kinematics)
+                             stiffness, triangle_kinematics, zero_energy_modes)
 
 OPT = 'triangle = "opt"'
 ALL_TRIANGLES = dict(split=lambda i, j: True)
@@ -206,15 +206,7 @@ def test_zero_energy_modes(tmp_path, patch, zero_modes):
     triangles = [[0, 1, 2]] if patch == "one triangle" else [[0, 1, 2], [1, 3, 2]]
     points = points[:3] if patch == "one triangle" else points
     sim = element_simulation(tmp_path, points, E=E, nu=NU, t=T, triangles=triangles, element=OPT)
-    k = stiffness(sim, points)
-    size = np.sqrt(np.mean(sim.model.area0))
-    scale = np.tile([1.0, 1.0, 1.0, 1.0 / size, 1.0 / size, 1.0 / size], len(points))
-    ratio = np.linalg.svd(k * scale[:, None] * scale[None, :], compute_uv=False)
-    ratio = ratio / ratio[0]
-    found = int(np.sum(ratio < 1e-9))
-    print(f"\n{patch}: smallest singular values / largest "
-          f"{', '.join(f'{r:.1e}' for r in np.sort(ratio)[:zero_modes + 1])}: {found} zero-energy modes")
-    assert found == zero_modes
+    assert zero_energy_modes(sim, points, patch, zero_modes) == zero_modes
 
 
 def test_stable_step_holds_on_slivers(tmp_path):
@@ -259,14 +251,7 @@ def test_newton_tangent_against_finite_differences(tmp_path):
     d = np.concatenate([rng.normal(0, 0.02, (9, 3)), rng.normal(0, 0.15, (9, 3))], axis=1).ravel()[eq.free]
     f, K, message = eq.evaluate(d, True)
     assert f is not None, message
-    errors = []
-    for _ in range(6):
-        v = rng.normal(0, 1, eq.ndof) / eq.weight * 0.01
-        eps = 1e-5
-        fp, _, _ = eq.evaluate(d + eps * v, False)
-        fm, _, _ = eq.evaluate(d - eps * v, False)
-        fd = (fp - fm) / (2 * eps)
-        errors.append(np.linalg.norm(K @ v - fd) / np.linalg.norm(fd))
+    errors = test_newton.tangent_errors(eq, d, K, rng)
     print(f"\nOPT triangles: tangent against the directional difference: max {max(errors):.2e}")
     assert max(errors) < 8e-10
 
