@@ -13,12 +13,10 @@ import json
 import numpy as np
 import pytest
 
-from taichi_shell_mpm.model.assembly import triangle_shear_gain
-
 from .conftest import ROOT, element_simulation, element_stage
 from .test_reliability import cli_run
-from .test_triangles import (E, KAPPA, NU, SHAPES, T, in_frame, mixed_patch, resultants, rotation_matrix, run_summary,
-                             stiffness, triangle_kinematics, zero_energy_modes)
+from .test_triangles import (E, KAPPA, NU, T, assert_stable_step_on_shapes, in_frame, mixed_patch, resultants,
+                             rotation_matrix, run_summary, stiffness, triangle_kinematics, zero_energy_modes)
 
 OPT = 'triangle = "opt"'
 ALL_TRIANGLES = dict(split=lambda i, j: True)
@@ -216,23 +214,7 @@ def test_stable_step_holds_on_slivers(tmp_path):
     (stages/triangle.py) came from 4000 random triangles in numpy (largest
     omega^2 / (3 c^2 beta (1 + g / 2)) = 0.9998); without the factor the drilling modes reach
     omega dt / 2 = 1.04 dt_safety (right isosceles) to 22 (1 deg sliver)."""
-    from taichi_shell_mpm.stages.timestep import initial_dt
-    for shape, x in SHAPES.items():
-        (tmp_path / shape).mkdir()
-        x = np.array(x)
-        sim = element_simulation(tmp_path / shape, x, E=E, nu=NU, t=0.05, triangles=[[0, 1, 2]], element=OPT)
-        k = stiffness(sim, x)
-        mass = np.column_stack([np.tile(sim.model.node_mass[:, None], 3), np.tile(sim.model.node_inertia[:, None], 3)])
-        scale = 1.0 / np.sqrt(mass.ravel())
-        omega = np.sqrt(np.linalg.eigvalsh(0.5 * (k + k.T) * scale[:, None] * scale[None, :]).max())
-        dt = initial_dt(sim.model, np.zeros_like(x), sim.cfg)
-        kernel_dt = float(sim.state.step.dt_next[None])
-        ratio = omega * dt / 2 / sim.model.parameters.dt_safety
-        gain = float(triangle_shear_gain(x, np.array([[0, 1, 2, -1]]))[0])
-        print(f"\n{shape}: shear gain {gain:.2f}, dt {dt:.4e} (element stage {kernel_dt:.4e}), "
-              f"omega_max dt / 2 = {ratio:.5f} dt_safety")
-        assert kernel_dt == pytest.approx(dt, rel=1e-6)
-        assert ratio <= 1.0 + 1e-9
+    assert_stable_step_on_shapes(tmp_path, "OPT", element=OPT)
 
 
 def test_newton_tangent_against_finite_differences(tmp_path):

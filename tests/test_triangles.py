@@ -317,12 +317,19 @@ def test_stable_step_holds_on_slivers(tmp_path, inertia):
     in the rotary inertia (scaled) and in the step (physical, then the quad's minimum of the
     two limits) the plate part alone, in numpy, gives omega dt / 2 = 2.28 and 5.58 dt_safety
     on that sliver, 0.95 and 3.69 at 9 deg, and 1.12 (physical) on the equilateral one."""
+    assert_stable_step_on_shapes(tmp_path, inertia, solve=f'rotary_inertia = "{inertia}"')
+
+
+def assert_stable_step_on_shapes(tmp_path, label: str, **options) -> None:
+    """On each of SHAPES, one triangle (t = 0.05 of its longest edge; `options` to
+    element_simulation): omega_max of its element-stage stiffness against its lumped masses and
+    rotary inertias, times the step the host (initial_dt) and the element stage (dt_next) both
+    take, over 2, at most dt_safety."""
     from taichi_shell_mpm.stages.timestep import initial_dt
     for shape, x in SHAPES.items():
         (tmp_path / shape).mkdir()
         x = np.array(x)
-        sim = element_simulation(tmp_path / shape, x, E=E, nu=NU, t=0.05, triangles=[[0, 1, 2]],
-                                 solve=f'rotary_inertia = "{inertia}"')
+        sim = element_simulation(tmp_path / shape, x, E=E, nu=NU, t=0.05, triangles=[[0, 1, 2]], **options)
         k = stiffness(sim, x)
         mass = np.column_stack([np.tile(sim.model.node_mass[:, None], 3), np.tile(sim.model.node_inertia[:, None], 3)])
         scale = 1.0 / np.sqrt(mass.ravel())
@@ -331,7 +338,7 @@ def test_stable_step_holds_on_slivers(tmp_path, inertia):
         kernel_dt = float(sim.state.step.dt_next[None])
         ratio = omega * dt / 2 / sim.model.parameters.dt_safety
         gain = float(triangle_shear_gain(x, np.array([[0, 1, 2, -1]]))[0])
-        print(f"\n{inertia} {shape}: shear gain {gain:.2f}, dt {dt:.4e} (element stage {kernel_dt:.4e}), "
+        print(f"\n{label} {shape}: shear gain {gain:.2f}, dt {dt:.4e} (element stage {kernel_dt:.4e}), "
               f"omega_max dt / 2 = {ratio:.5f} dt_safety")
         assert kernel_dt == pytest.approx(dt, rel=1e-6)
         assert ratio <= 1.0 + 1e-9          # a sliver's membrane reaches the bound 3 c^2 beta (stages/triangle.py)
