@@ -87,6 +87,8 @@ FEATURES = {
     "point_mass": Feature({"point_mass": [{"name": "tip", "nodes": "poke", "mass": 0.05}]}),
     "body": Feature({"rigid_body": [{"name": "bar", "nodes": "edge", "spin": [0.0, 0.0, 0.5]}]}),
     "triangles": Feature({"mesh": {"triangles": "all"}}),
+    # the OPT triangle (issue 33): ANDES membrane with drilling rotations
+    "opt_triangles": Feature({"mesh": {"triangles": "all"}, "element": {"triangle": "opt"}}),
     "layered": Feature({"sections": {"sheet": {"plies": [{"material": "steel", "thickness": 0.01, "angle": 0.0},
                                                          {"material": "steel", "thickness": 0.01, "angle": 90.0}]}}}),
     "contact": Feature({"contact": {"stiffness": 0.1}}),
@@ -131,7 +133,9 @@ def scene_doc(names: tuple[str, ...]) -> dict:
 def compatible(names: tuple[str, ...]) -> bool:
     fem = "fem" in names or "selective" in names
     return not (fem and any(FEATURES[n].mpm_only for n in names)) and \
-        not ("tool_sphere" in names and "tool_mesh" in names) and not ("selective" in names and "mass_scaling" in names)
+        not ("tool_sphere" in names and "tool_mesh" in names) and not ("selective" in names and "mass_scaling" in names) \
+        and not ("triangles" in names and "opt_triangles" in names) \
+        and not ("selective" in names and "opt_triangles" in names)      # refused (a scene error)
 
 
 def write_case(tmp_path, names: tuple[str, ...], values: dict | None = None):
