@@ -238,6 +238,7 @@ def assemble_loading(scene: Scene, points: np.ndarray, elements: np.ndarray, nod
     body_motion = np.full((len(body_names), 6), -1, np.int32)
     for k, mo in enumerate(scene.motions):
         where = f"{src}: [[motion]] '{mo.name}'"
+        window = (mo.start, mo.end if mo.end is not None else float("inf"))
         bits = sum(1 << DOFS.index(d) for d in mo.dofs)
         value = np.array([mo.value[mo.dofs.index(d)] if d in mo.dofs else 0.0 for d in DOFS])
         if mo.body is not None:       # a rigid body's DOFs (stages/bodies.py)
@@ -255,13 +256,12 @@ def assemble_loading(scene: Scene, points: np.ndarray, elements: np.ndarray, nod
                 raise SceneError(f"{where}: a body's prescribed rotation needs its other rotations fixed or "
                                  "prescribed too (fixed = [...] or dofs), got "
                                  + ", ".join(d for i, d in enumerate(DOFS[3:]) if (turned >> i) & 1))
-            if (mo.start > 0.0 or mo.end is not None) and bits >> 3:
+            if window != (0.0, float("inf")) and bits >> 3:
                 raise SceneError(f"{where}: start / end (a time window) hold a body's translations only: its "
                                  "rotations are held or free for the whole run")
             body_motion[b, [DOFS.index(d) for d in mo.dofs]] = k
             motions.append(MotionSpec(mo.name, np.zeros(0, np.int64), mo.dofs, MOTION_KINDS.index(mo.kind),
-                                      index[mo.curve] if mo.curve is not None else -1, value, b,
-                                      window=(mo.start, mo.end if mo.end is not None else float("inf"))))
+                                      index[mo.curve] if mo.curve is not None else -1, value, b, window))
             continue
         ids = nodes_of(mo.nodes)
         for label, clash in (("fixed by a [[boundary]]", fix_mask[ids] & bits),
@@ -277,8 +277,7 @@ def assemble_loading(scene: Scene, points: np.ndarray, elements: np.ndarray, nod
         for d in mo.dofs:
             node_motion[ids, DOFS.index(d)] = k
         motions.append(MotionSpec(mo.name, ids, mo.dofs, MOTION_KINDS.index(mo.kind),
-                                  index[mo.curve] if mo.curve is not None else -1, value,
-                                  window=(mo.start, mo.end if mo.end is not None else float("inf"))))
+                                  index[mo.curve] if mo.curve is not None else -1, value, window=window))
 
     loading = Loading(
         curves=_curve_table(scene), entry_start=entry_start, entry_node=nodes.astype(np.int32),

@@ -400,12 +400,13 @@ class _Translator:
         self.unread(where, "a keyword this reader has no counterpart for (it may change the physics)")
 
     @staticmethod
-    def _titled(block: Block) -> list[Line]:
-        """The data cards, a first *_ID / *_TITLE heading card dropped."""
+    def _titled(block: Block, keep_blank: bool = False) -> list[Line]:
+        """The data cards, a first *_ID / *_TITLE heading card dropped; blank lines dropped
+        too, or kept as cards of defaults (`keep_blank`)."""
         cards = data_cards(block)
         if block.name.endswith(("_ID", "_TITLE")) and cards:
             cards = cards[1:]
-        return [c for c in cards if c.text.strip()]
+        return cards if keep_blank else [c for c in cards if c.text.strip()]
 
     def _one(self, block: Block, layouts) -> tuple[dict, str]:
         """The fields of a keyword of one card group (later cards optional: defaults)."""
@@ -927,9 +928,7 @@ class _Translator:
         initial velocities -> mass_from_nodes = false, mass, center, inertia, velocity, spin."""
         spc = block.name.startswith("CONSTRAINED_NODAL_RIGID_BODY_SPC")
         inertia = "INERTIA" in block.name
-        cards = self._titled(block)
-        if inertia:             # a blank card is a card of defaults here (a velocity card left blank)
-            cards = data_cards(block)[1 if block.name.endswith(("_ID", "_TITLE")) else 0:]
+        cards = self._titled(block, keep_blank=inertia)     # _INERTIA: a velocity card may be left blank
         start = 0
         while start < len(cards):
             v = read_card(cards[start], _NODAL_RIGID, block.name)
