@@ -124,12 +124,18 @@ class NodeUpdate:
         return self.residual_torque_about(c, normal, project, moment)
 
     @ti.func
-    def residual_torque_about(self, c, normal, project, moment):
-        """residual_torque with the node's drilling normal and external moment already at hand
-        (finish has them)."""
+    def net_moment(self, c, moment):
+        """mu_ext - mu_int at node c (`moment`: mu_ext), with its joint slaves' moments lumped on
+        it (stages/joints.py)."""
         torque = moment - self.s.nodes.moment_int[c]
         if ti.static(self.cfg.joints):
             torque += self.s.joints.node_moment[c]
+        return torque
+
+    @ti.func
+    def residual_torque_about(self, c, normal, project, moment):
+        """residual_torque with the node's drilling normal and external moment already at hand."""
+        torque = self.net_moment(c, moment)
         if project:
             torque -= torque.dot(normal) * normal
         return drop_fixed(torque, self.held(c), 3)
@@ -198,9 +204,7 @@ class NodeUpdate:
                 self.s.nodes.position[c] = placed
         # rotations: J w' = mu_ext - mu_int, then remove the drilling component
         normal, project = self.drill_normal(c)
-        torque = moment_ext - self.s.nodes.moment_int[c]
-        if ti.static(self.cfg.joints):
-            torque += self.s.joints.node_moment[c]
+        torque = self.net_moment(c, moment_ext)
         w = w_start + self.velocity_gain(self.inertia_of(c)) * torque
         if ti.static(self.cfg.selective_mass):     # solved with the added mass (stages/selective_mass.py)
             w = w_start + impulse_time(self.s.step) * self.s.nodes.angular_acceleration[c]
