@@ -43,6 +43,7 @@ class Features:
     erosion: bool = False       # some material's elements fail (issue 18; stages/masses.py)
     mass_scaling: bool = False  # mass scaling to [solve].target_dt, either kind: the density factors (stages/masses.py)
     selective_mass: bool = False  # ... selective: the added mass matrix and its solve (stages/selective_mass.py)
+    reciprocal_mass: bool = False  # ... with sms_solve = "reciprocal": no solve, its inverse applied directly
     multi_field: bool = False   # a velocity field per shell layer at each grid node (stages/grid.py)
     grid_contact: bool = False  # the fields interact by the grid contact condition (stages/grid.py)
     launch: str = "batched"     # "batched" | "threads" | "gpu" (solvers/stepper.py)
@@ -155,6 +156,8 @@ class Features:
             erosion=model.materials.erosion,
             mass_scaling=scene.solve.kind == "dynamic" and scene.solve.mass_scaling in ("selective", "conventional"),
             selective_mass=scene.solve.kind == "dynamic" and scene.solve.mass_scaling == "selective",
+            reciprocal_mass=(scene.solve.kind == "dynamic" and scene.solve.mass_scaling == "selective"
+                             and scene.solve.sms_solve == "reciprocal"),
             multi_field=model.grid is not None and scene.method.fields == "multi",
             grid_contact=(model.grid is not None and scene.method.fields == "multi"
                           and scene.method.field_contact == "grid"),

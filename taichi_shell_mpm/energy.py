@@ -386,6 +386,8 @@ def added_kinetic(state, model) -> np.ndarray:
     sum_a m_a rho_e^2 |P_e (omega_a - Omega_e)|^2) with the geometry the step kept."""
     if not state.features.selective_mass:
         return np.zeros(state.n_elements)
+    if state.features.reciprocal_mass:       # the running sum the step keeps (no matrix to evaluate)
+        return state.read(state.elements.sms_excess, state.n_elements)
     m_e = state.n_elements
     beta = (mass_factors(state, model) - 1.0) * ~eroded_elements(state)
     arm = state.read(state.elements.sms_arm, m_e)

@@ -180,8 +180,10 @@ def summary_rows(summary: dict) -> list[tuple[str, str]]:
         if "solve" in ms:
             rows.append(("selective mass scaling", f"{ms['scaled_elements']} elements, deformation modes +"
                                                    f"{ms['deformation_mass_percent']:.3g} % of the shell's mass, "
-                                                   f"{ms['solve']['iterations_mean']:.3g} iterations per step "
-                                                   f"(max {ms['solve']['iterations_max']})"))
+                                                   + ("reciprocal mass matrix (no solve)"
+                                                      if ms["solve"].get("form") == "reciprocal" else
+                                                      f"{ms['solve']['iterations_mean']:.3g} iterations per step "
+                                                      f"(max {ms['solve']['iterations_max']})")))
         else:
             rows.append(("added mass", f"{_num(ms['added_mass'])} ({ms['added_mass_percent']:.3g} % of the shell, "
                                        f"{ms['scaled_elements']} elements)"))

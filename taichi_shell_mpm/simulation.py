@@ -701,7 +701,7 @@ class Simulation:
         solves = int(st.sms_solves[None])
         return {**out, "deformation_mass_percent": 100.0 * float(scaled.sum() / self.model.corner_mass.sum()),
                 "added_kinetic_energy": float(added_kinetic(self.state, self.model).sum()),
-                "solve": {"solves": solves,
+                "solve": {"form": self.scene.solve.sms_solve, "solves": solves,
                           "iterations_mean": float(st.sms_iterations[None]) / solves if solves else 0.0,
                           "iterations_max": int(st.sms_iterations_max[None]),
                           "tolerance": self.scene.solve.sms_tolerance,

@@ -285,6 +285,12 @@ class State:
                  host=False)      # (J_e + gamma P)^-1 of the preconditioner, with this step's beta
         for name in ("sms_mean", "sms_spin", "sms_coupling"):
             g.entity(name, ti.Vector.field(3, f64), m, persistent=False, used=fx.selective_mass, host=False)
+        # each element's block inverse of its shares of the vector in hand, per corner (translation,
+        # rotation), gathered at the nodes; and with the reciprocal mass matrix the kinetic energy
+        # its added mass carries, a running sum (stages/selective_mass.py)
+        for name in ("sms_corner_step", "sms_corner_turn"):
+            g.entity(name, ti.Vector.field(3, f64), m, (4,), persistent=False, used=fx.selective_mass, host=False)
+        g.entity("sms_excess", ti.field(f64), m, used=fx.reciprocal_mass)
 
         # --- section and material data of each element, and the tables they index
         g = self.sections = Group("sections")
@@ -296,6 +302,7 @@ class State:
         # hourglass_*: r E t / 8, r E t^3 / 192, r kappa G t^3 / 12 (stages/hourglass.py);
         # drilling_factor: alpha E t^3 / 48 (stages/drilling.py)
         g.entity("section", ti.field(i32), m)
+        g.entity("shear_wave_speed", ti.field(f64), m, used=fx.reciprocal_mass)   # sqrt(kappa G_max / rho)
         for name in ("opt_modulus", "opt_poisson", "opt_floor"):       # the OPT triangle (stages/opt_membrane.py)
             g.entity(name, ti.field(f64), m, used=fx.triangle_opt)
         # cos, sin of the angle from e1 to the section's material axis (docs/laminates.md)
@@ -715,6 +722,8 @@ class State:
         for name in ("thickness", "shear_factor", "wave_speed", "rotational_frequency", "hourglass_membrane",
                      "hourglass_bending", "hourglass_transverse", "drilling_factor", "section"):
             w(getattr(sec, name), getattr(data, name))
+        if self.features.reciprocal_mass:
+            w(sec.shear_wave_speed, data.shear_wave_speed)
         if self.features.triangle_opt:
             for name in ("opt_modulus", "opt_poisson", "opt_floor"):
                 w(getattr(sec, name), getattr(data, name))

@@ -1140,6 +1140,14 @@ def test_erosion_and_mass_scaling_parse(scene_dir):
      ["[solve].sms_max_iterations: expected an integer >= 1, got 0"]),
     ({"mass_scaling": "conventional", "target_dt": 1e-4, "sms_tolerance": 1e-3},
      ['[solve].sms_tolerance: only with mass_scaling = "selective"']),
+    ({"mass_scaling": "conventional", "target_dt": 1e-4, "sms_solve": "reciprocal"},
+     ['[solve].sms_solve: only with mass_scaling = "selective"']),
+    ({"mass_scaling": "selective", "target_dt": 1e-4, "sms_solve": "inverse"},
+     ["[solve].sms_solve: expected one of pcg, reciprocal, got 'inverse'"]),
+    ({"mass_scaling": "selective", "target_dt": 1e-4, "sms_solve": "reciprocal", "sms_tolerance": 1e-3,
+      "sms_max_iterations": 5},
+     ['[solve].sms_tolerance: only with sms_solve = "pcg" (the reciprocal mass matrix does not iterate)',
+      '[solve].sms_max_iterations: only with sms_solve = "pcg" (the reciprocal mass matrix does not iterate)']),
 ])
 def test_selective_mass_scaling_key_errors(scene_dir, solve, expected):
     """[solve] selective mass scaling keys (fem): one line per mistake, naming the key."""

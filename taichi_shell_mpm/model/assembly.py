@@ -263,18 +263,40 @@ box beam of the issue: 5 340 cycles against our 70 781 steps unscaled).  Measure
 force +1.1 %, its fold count unchanged."""
 
 
-def target_step(target_dt: float | str, steps: np.ndarray) -> float:
+def target_step(target_dt: float | str, steps: np.ndarray, cap: np.ndarray | None = None) -> float:
     """The target step of mass scaling: the scene's, or for "auto" AUTO_TARGET_FACTOR times the
-    smallest of `steps` (each element's stable step at the start)."""
-    return AUTO_TARGET_FACTOR * float(steps.min()) if target_dt == "auto" else float(target_dt)
+    smallest of `steps` (each element's stable step at the start); with the reciprocal mass
+    matrix's `cap` (each element's :func:`zigzag_steps`), "auto" is the largest step it
+    allows, min_e max(cap_e, dt_e)."""
+    if target_dt != "auto":
+        return float(target_dt)
+    return float(np.maximum(cap, steps).min()) if cap is not None else AUTO_TARGET_FACTOR * float(steps.min())
 
 
-def element_mass_factor(steps: np.ndarray, target_dt: float) -> np.ndarray:
+def zigzag_steps(points: np.ndarray, elements: np.ndarray, element: "ElementData", dt_safety: float) -> np.ndarray:
+    """(m,) each element's transverse-shear zigzag step alpha h / c_s, the most the reciprocal
+    mass matrix raises its step (host twin of stages/timestep.zigzag_limit: h = area / longest
+    side of a quad, 2 area / longest edge of a triangle)."""
+    x = points[np.where(elements >= 0, elements, elements[:, :1])]
+    tri = elements[:, 3] < 0
+    d13, d24 = x[:, 2] - x[:, 0], x[:, 3] - x[:, 1]
+    area = np.where(tri, 0.5 * np.linalg.norm(np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), axis=1),
+                    0.5 * np.linalg.norm(np.cross(d13, d24), axis=1))
+    sides = np.linalg.norm(np.roll(x, -1, axis=1) - x, axis=2)                    # 01, 12, 23, 30
+    sides[tri, 2] = np.linalg.norm(x[tri, 0] - x[tri, 2], axis=1)             # a triangle's 20
+    sides[tri, 3] = 0.0
+    width = np.where(tri, 2.0, 1.0) * area / sides.max(axis=1)
+    return dt_safety * width / element.shear_wave_speed
+
+
+def element_mass_factor(steps: np.ndarray, target_dt: float, cap: np.ndarray | None = None) -> np.ndarray:
     """Mass scaling [issue 18; conventional as LS-DYNA's DT2MS < 0]: the factor
     f_e = (target / dt_e)^2 of each element whose stable step dt_e is below the target (its
     step, which goes as 1/sqrt(mass), becomes the target), 1 for the others: the density
-    factor of conventional scaling, 1 + beta_e of selective scaling (stages/selective_mass.py)."""
-    return np.maximum(1.0, (target_dt / steps) ** 2)
+    factor of conventional scaling, 1 + beta_e of selective scaling (stages/selective_mass.py);
+    with the reciprocal mass matrix the step at most its zigzag step `cap` (:func:`zigzag_steps`)."""
+    target = np.minimum(target_dt, np.maximum(cap, steps)) if cap is not None else target_dt
+    return np.maximum(1.0, (target / steps) ** 2)
 
 
 def _grid_geometry(scene: Scene, points: np.ndarray, min_edge: float, planes_xyz, free_nodes: int) -> GridGeometry:
@@ -337,8 +359,10 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
     target_dt = 0.0
     if scaling in ("selective", "conventional"):
         steps = element_steps(points, elements, element, scene.solve.dt_safety)
-        target_dt = target_step(scene.solve.target_dt, steps)
-        mass_factor = element_mass_factor(steps, target_dt)
+        cap = (zigzag_steps(points, elements, element, scene.solve.dt_safety)
+               if scaling == "selective" and scene.solve.sms_solve == "reciprocal" else None)
+        target_dt = target_step(scene.solve.target_dt, steps, cap)
+        mass_factor = element_mass_factor(steps, target_dt, cap)
     node_mass = np.zeros(n)
     node_area = np.zeros(n)
     node_inertia = np.zeros(n)

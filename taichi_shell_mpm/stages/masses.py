@@ -23,7 +23,11 @@ booked (energy.py: mass_scaling, an energy put in, like external work).  With
 ``mass_scaling = "selective"`` f_e - 1 is instead the factor beta_e of the element's added
 mass matrix, which adds no mass (stages/selective_mass.py): the lumped masses and rotary
 inertias stay physical, and the kinetic energy given to the added mass as beta_e grows is
-booked alike.  Conventional scaling: the run stops
+booked alike.  With ``sms_solve = "reciprocal"`` an element's step is raised to at most its
+transverse-shear zigzag's step alpha h / c_s (stages/timestep.zigzag_limit; 2.6 times its own
+for a square steel element): the reciprocal mass matrix leaves an element's rigid tilt against
+its neighbours at the lumped mass, so that mode is then the highest (stages/selective_mass.py,
+Reciprocal; docs/mass_scaling.md).  Conventional scaling: the run stops
 once the total added mass exceeds ``[solve].added_mass_limit`` percent of the shell's
 physical mass (STATUS_MASS_ADDED).  The grid rule of ``dt_rule = "both"`` and the contact
 limit are not changed: mass scaling acts on the element rule only.
@@ -124,7 +128,12 @@ class MassUpdate:
         selective scaling (stages/selective_mass.py; it leaves the step's kinetic energy here)."""
         kinetic = 0.0
         if ti.static(self.cfg.selective_mass):
-            added = (self.factor(e) - 1.0) * self.unit_kinetic(e, v, w, corners)
+            added = 0.0
+            if ti.static(self.cfg.reciprocal_mass):     # its running sum (stages/selective_mass.py)
+                added = self.s.elements.sms_excess[e]
+                self.s.elements.sms_excess[e] = 0.0
+            else:
+                added = (self.factor(e) - 1.0) * self.unit_kinetic(e, v, w, corners)
             self.acc.total(self.s.step.kinetic, -added)
             kinetic = self.corner_kinetic(e, c, v, w, 1.0, corners) + added
         else:
@@ -134,17 +143,22 @@ class MassUpdate:
         self.acc.total(self.s.step.eroded_kinetic, kinetic)
 
     @ti.func
-    def scale(self, e, c, v, w, limit, corners: ti.template()):
-        """Selective mass scaling of element e whose stable step with its physical mass is
-        `limit`: raise f_e so that its step is at least the target; returns its step."""
+    def scale(self, e, c, v, w, limit, zigzag, corners: ti.template()):
+        """Mass scaling of element e whose stable step with its physical mass is `limit`: raise
+        f_e so that its step is at least the target (with the reciprocal mass matrix, at most
+        its zigzag step `zigzag`: module docstring); returns its step."""
         f_old = self.s.elements.mass_factor[e]
         target = self.s.step.target_dt[None]
+        if ti.static(self.cfg.reciprocal_mass):
+            target = ti.min(target, ti.max(zigzag, limit))
         step = limit * ti.sqrt(f_old)
         if step < target:
             f_new = (target / limit) ** 2
             self.s.elements.mass_factor[e] = f_new
             gain = 0.0
-            if ti.static(self.cfg.selective_mass):      # no mass added: beta grows (stages/selective_mass.py)
+            if ti.static(self.cfg.reciprocal_mass):     # its kinetic energy is a running sum (selective_mass.py)
+                pass
+            elif ti.static(self.cfg.selective_mass):    # no mass added: beta grows (stages/selective_mass.py)
                 added = (f_new - f_old) * self.unit_kinetic(e, v, w, corners)
                 self.acc.total(self.s.step.kinetic, added)
                 gain = added

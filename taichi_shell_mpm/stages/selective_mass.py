@@ -104,6 +104,29 @@ loop, and a launch per iteration from Python costs ~100 us against a few us of w
 the solve the translational accelerations get the uniform correction sum(res) / sum(m) per
 axis over the free DOFs, which makes sum m_c a_c = sum f_c (the linear momentum) exact
 whatever the tolerance, since M_add's translational rows sum to zero.
+
+Reciprocal [choice, measured in docs/mass_scaling.md; ``sms_solve = "reciprocal"``].  The
+preconditioner P^-1 above is itself a mass matrix's inverse: symmetric, positive definite,
+sparse (element blocks), and exact on rigid motions (an element block returns a rigid field
+as it is, and the shares sum to one at a node), so a = P^-1 f keeps the linear and angular
+momenta of the lumped masses to round-off (1^T M P^-1 = 1^T) while each element's
+deformation modes see (1 + beta_e) their mass: a reciprocal mass matrix (Tkachuk & Bischoff,
+IJNME 101, 2015, build such inverses directly), applied with no iterations
+(:meth:`apply_reciprocal`, parallel loops).  What it cannot see: an element tilted rigidly
+against its neighbours (a transverse zigzag with the nodes' rotations still) is a rigid motion
+of each block, so that mode keeps the lumped mass, and its frequency 2 c_s / h (c_s =
+sqrt(kappa G / rho), h the element's narrowest width) caps the step: stages/masses.py raises
+an element's step to at most alpha h / c_s (stages/timestep.zigzag_limit) [measured on the
+16 x 2 strip of square elements: stable at that cap, 2.63x the element's own step, period
++0.07 %, balance 1e-10; at 1.1x the cap the guard stopped it within 68 steps].  Kinetic
+energy: 1/2 v^T P v cannot be formed without a solve, so each element keeps the running sum
+of its share of the step's change of 1/2 v^T (P - M) v, h v_mid . (f - M a) at its corners
+(state.elements.sms_excess; :meth:`reciprocal_kinetic`): exact for a constant matrix, while
+the change of P with the geometry and with beta_e is not booked (the consistent matrix books
+it as mass-scaling energy).  A rigid body's slaves take no part in the element blocks' input
+(their loads are the body's); what the blocks hand them, m_s z_s, goes to the body within the
+step, which keeps the momentum exact and the balance closed (the tube's ram: balance -0.57 J
+of 480 J absorbed when the body took M_tot^-1 F alone; 1e-3 J with the hand-over).
 """
 import taichi as ti
 
@@ -128,6 +151,7 @@ class SelectiveMass:
         self.nodes = nodes              # stages/constraints.NodeUpdate: held DOFs, forces
         self.bodies = bodies            # stages/bodies.RigidBodies: the rigid bodies' DOFs join the solve
         self.coupled = cfg.bodies       # (module docstring, Bodies)
+        self.reciprocal = cfg.reciprocal_mass     # (module docstring, Reciprocal)
         self.rows = state.bodies        # the bodies' rows of the solve (placed in every run; used when coupled)
         self.acc = Accumulator(cfg.serial)
 
@@ -172,7 +196,9 @@ class SelectiveMass:
         for e in range(self.s.elements.count[None]):
             if self.masses.alive(e) > 0.0:
                 b = self.beta(e)
-                before = b * self.node_kinetic(e)
+                before = 0.0
+                if ti.static(not self.reciprocal):
+                    before = b * self.node_kinetic(e)
                 c = self.s.elements.corners[e]
                 m = self.s.elements.corner_mass[e]
                 mass, centre = self.corner_mean(e, self.s.nodes.position)
@@ -201,7 +227,7 @@ class SelectiveMass:
                         gamma += ja * self.s.elements.corner_inertia[e][a] / (self.s.elements.corner_inertia[e][a] + ja)
                 self.s.elements.sms_spin_block[e] = (inertia + gamma * (ti.Matrix.identity(ti.f64, 3)
                                                                         - unit.outer_product(unit))).inverse()
-                if b > 0.0:
+                if b > 0.0 and not ti.static(self.reciprocal):
                     change = b * self.node_kinetic(e) - before
                     self.s.elements.mass_energy[e][1] += change
                     self.acc.total(self.s.step.mass_scaling_energy, change)
@@ -430,9 +456,10 @@ class SelectiveMass:
             self.body_forces()
 
     @ti.func
-    def element_block_inverse(self, e):
-        """Scatter this element's block inverse of its shares of the residual into sms_step
-        (module docstring, Solve; serial).  With the shares f_a = (m_a / m_c) res_c and
+    def element_block_inverse(self, e, res: ti.template(), res_moment: ti.template()):
+        """This element's block inverse of its shares of the node vector (res, res_moment), per
+        corner in sms_corner_step, sms_corner_turn (module docstring, Solve; :meth:`inverse_at`
+        gathers them).  With the shares f_a = (m_a / m_c) res_c and
         t_a = (J_a / J_c) res_moment_c: the rigid translation sum f / m_e; the spin Omega from
         (J_e + gamma P) Omega = tau + sum_a beta j_a P t_a / (J_a + beta j_a), tau = sum r_a x f_a,
         gamma = sum_a beta j_a J_a / (J_a + beta j_a) (the inverse kept by geometry); the deformation (f_a - m_a (fbar + J^-1 tau x r_a))
@@ -451,8 +478,8 @@ class SelectiveMass:
         tau = zero3()
         for a in ti.static(range(4)):
             if c[a] >= 0:
-                fa = m[a] / self.s.nodes.mass[c[a]] * self.s.nodes.sms_residual[c[a]]
-                ta = inertia[a] / self.s.nodes.inertia[c[a]] * self.s.nodes.sms_residual_moment[c[a]]
+                fa = m[a] / self.s.nodes.mass[c[a]] * res[c[a]]
+                ta = inertia[a] / self.s.nodes.inertia[c[a]] * res_moment[c[a]]
                 for d in ti.static(range(3)):
                     f[a, d] = fa[d]
                     t[a, d] = ta[d]
@@ -479,31 +506,47 @@ class SelectiveMass:
                 ja = b * m[a] * rho2
                 normal_part = ta.dot(n) * n
                 w = (ta - normal_part + ja * self.masses.plane(e, spin)) / (inertia[a] + ja) + normal_part / inertia[a]
-                self.s.nodes.sms_step[c[a]] += m[a] / self.s.nodes.mass[c[a]] * z
-                self.s.nodes.sms_step_moment[c[a]] += inertia[a] / self.s.nodes.inertia[c[a]] * w
+                self.s.elements.sms_corner_step[e, a] = m[a] / self.s.nodes.mass[c[a]] * z
+                self.s.elements.sms_corner_turn[e, a] = inertia[a] / self.s.nodes.inertia[c[a]] * w
+
+    @ti.func
+    def gathered(self, c):
+        """The sums of node c's live elements' corner results (:meth:`element_block_inverse`), in
+        ascending element order."""
+        step, turn = zero3(), zero3()
+        for i in range(self.s.elements.node_slot_start[c], self.s.elements.node_slot_start[c + 1]):
+            slot = self.s.elements.node_slots[i]
+            e, a = slot // 4, slot % 4
+            if self.masses.alive(e) > 0.0:
+                step += self.s.elements.sms_corner_step[e, a]
+                turn += self.s.elements.sms_corner_turn[e, a]
+        return step, turn
+
+    @ti.func
+    def inverse_at(self, c, res: ti.template(), res_moment: ti.template()):
+        """(P^-1 [res, res_moment]) at node c: its live elements' corner results
+        (:meth:`element_block_inverse`, in ascending element order) and its point masses' part,
+        res / m_c in their share, on its free DOFs (0 at a node without mass)."""
+        z, zr = zero3(), zero3()
+        if self.s.nodes.mass[c] > 0.0:          # (a node without mass has no free DOF)
+            step, turn = self.gathered(c)
+            share = self.s.nodes.sms_share[c]
+            mass, inertia = self.s.nodes.mass[c], self.s.nodes.inertia[c]
+            z = self.free_translation(c, step + (mass - share[0]) / mass ** 2 * res[c])
+            zr = self.free_rotation(c, turn + (inertia - share[1]) / inertia ** 2 * res_moment[c])
+        return z, zr
 
     @ti.func
     def precondition(self):
         """sms_step = P^-1 residual; returns residual . P^-1 residual (serial; module
         docstring, Solve): the element blocks' inverses of their shares of the residual,
         summed in the same shares, plus the nodes' point masses' part."""
-        n = self.s.nodes.count[None]
-        for c in range(n):
-            self.s.nodes.sms_step[c] = zero3()
-            self.s.nodes.sms_step_moment[c] = zero3()
         for e in range(self.s.elements.count[None]):
             if self.masses.alive(e) > 0.0:
-                self.element_block_inverse(e)
+                self.element_block_inverse(e, self.s.nodes.sms_residual, self.s.nodes.sms_residual_moment)
         out = 0.0
-        for c in range(n):
-            z, zr = zero3(), zero3()
-            if self.s.nodes.mass[c] > 0.0:          # (a node without mass has no free DOF)
-                share = self.s.nodes.sms_share[c]
-                mass, inertia = self.s.nodes.mass[c], self.s.nodes.inertia[c]
-                z = self.free_translation(c, self.s.nodes.sms_step[c]
-                                          + (mass - share[0]) / mass ** 2 * self.s.nodes.sms_residual[c])
-                zr = self.free_rotation(c, self.s.nodes.sms_step_moment[c]
-                                        + (inertia - share[1]) / inertia ** 2 * self.s.nodes.sms_residual_moment[c])
+        for c in range(self.s.nodes.count[None]):
+            z, zr = self.inverse_at(c, self.s.nodes.sms_residual, self.s.nodes.sms_residual_moment)
             self.s.nodes.sms_step[c] = z
             self.s.nodes.sms_step_moment[c] = zr
             out += z.dot(self.s.nodes.sms_residual[c]) + zr.dot(self.s.nodes.sms_residual_moment[c])
@@ -615,6 +658,86 @@ class SelectiveMass:
             self.s.step.sms_iterations_max[None] = ti.max(self.s.step.sms_iterations_max[None], iterations)
 
     @ti.func
+    def apply_reciprocal(self):
+        """[a, alpha] = A [f, mu] with the reciprocal mass matrix A = P^-1 (module docstring,
+        Reciprocal), in parallel loops: the elements' block inverses of their shares of the
+        force, gathered at the nodes.  What the elements hand to a rigid body's slaves,
+        m_s z_s and J_s z^r_s (sms_product, sms_moment; zero elsewhere), goes to the body with
+        its load: its rows M_tot^-1 (F + sum m_s z_s) and the moment's likewise
+        (sms_added_force, sms_added_moment hold minus them for RigidBodies.update), so the
+        elements' momentum reaches it within the step.  The added mass's inertial forces are not
+        formed (a held DOF's reaction and a constraint's work take the lumped mass;
+        :meth:`reciprocal_kinetic`)."""
+        for e in range(self.s.elements.count[None]):
+            if self.masses.alive(e) > 0.0:
+                self.element_block_inverse(e, self.s.nodes.sms_force, self.s.nodes.sms_torque)
+        for c in range(self.s.nodes.count[None]):
+            z, zr = self.inverse_at(c, self.s.nodes.sms_force, self.s.nodes.sms_torque)
+            self.s.nodes.acceleration[c] = z
+            self.s.nodes.angular_acceleration[c] = zr
+            handed, handed_turn = zero3(), zero3()
+            if ti.static(self.coupled):
+                if self.s.nodes.body[c] >= 0:
+                    step, turn = self.gathered(c)
+                    handed, handed_turn = self.s.nodes.mass[c] * step, self.s.nodes.inertia[c] * turn
+            self.s.nodes.sms_product[c] = handed
+            self.s.nodes.sms_moment[c] = handed_turn
+        for _ in range(1):          # the bodies' rows (few; serial)
+            if ti.static(self.coupled):
+                for b in range(self.s.bodies.count[None]):
+                    force, moment = self.slave_sum(b, self.s.nodes.sms_product, self.s.nodes.sms_moment)
+                    self.s.bodies.sms_added_force[b] = -force
+                    self.s.bodies.sms_added_moment[b] = -moment
+                    self.rows.sms_residual[b] = self.rows.sms_force[b] + self.s.bodies.translation_free[b] @ force
+                    self.rows.sms_residual_moment[b] = self.rows.sms_torque[b] + self.s.bodies.rotation_free[b] @ moment
+                self.body_precondition()
+                self.body_copy(self.rows.sms_acceleration, self.rows.sms_step, 0.0, self.rows.sms_step)
+                self.body_copy(self.rows.sms_angular_acceleration, self.rows.sms_step_moment, 0.0,
+                               self.rows.sms_step_moment)
+            self.s.step.sms_solves[None] += 1
+        if ti.static(self.coupled):
+            self.spread(self.s.nodes.acceleration, self.s.nodes.angular_acceleration,
+                        self.rows.sms_acceleration, self.rows.sms_angular_acceleration)
+
+    @ti.func
+    def reciprocal_kinetic(self):
+        """After the nodes' update, each live element's share of the step's change of the added
+        mass's kinetic energy under the reciprocal mass matrix (module docstring, Reciprocal):
+        h v_mid . (f - m a) + h omega_mid . (mu - J alpha) at its free corners, in its shares of
+        their masses, v_mid = (v_s + v_f) / 2 the step's mean velocity after the constraints (so
+        a wall's velocity change costs the lumped kinetic energy it books, and no more); at a
+        rigid body's slave, minus what it handed the body, h v_mid . m_s z_ea + h omega_mid .
+        J_s z^r_ea (the body's kick books its work on the body)."""
+        kick = impulse_time(self.s.step)
+        for e in range(self.s.elements.count[None]):
+            if self.masses.alive(e) > 0.0:
+                c = self.s.elements.corners[e]
+                m = self.s.elements.corner_mass[e]
+                inertia = self.s.elements.corner_inertia[e]
+                change = 0.0
+                for a in ti.static(range(4)):
+                    if c[a] >= 0:
+                        v_mid = 0.5 * (self.s.nodes.sms_search[c[a]] + self.s.nodes.grid_velocity[c[a]])
+                        w_mid = 0.5 * (self.s.nodes.sms_search_moment[c[a]] + self.s.nodes.omega[c[a]])
+                        if not self.nodes.is_idle(c[a]):
+                            share = self.s.nodes.sms_share[c[a]]
+                            lin = self.free_translation(c[a], self.s.nodes.acceleration[c[a]])
+                            turn = self.free_rotation(c[a], self.s.nodes.angular_acceleration[c[a]])
+                            if share[0] > 0.0:
+                                change += m[a] / share[0] * v_mid.dot(
+                                    self.s.nodes.sms_force[c[a]] - self.s.nodes.mass[c[a]] * lin)
+                            if share[1] > 0.0:
+                                change += inertia[a] / share[1] * w_mid.dot(
+                                    self.s.nodes.sms_torque[c[a]] - self.s.nodes.inertia[c[a]] * turn)
+                        if ti.static(self.coupled):
+                            if self.s.nodes.body[c[a]] >= 0:
+                                change -= (self.s.nodes.mass[c[a]] * v_mid.dot(self.s.elements.sms_corner_step[e, a])
+                                           + self.s.nodes.inertia[c[a]]
+                                           * w_mid.dot(self.s.elements.sms_corner_turn[e, a]))
+                self.s.elements.sms_excess[e] += kick * change
+            self.acc.total(self.s.step.kinetic, self.s.elements.sms_excess[e])
+
+    @ti.func
     def inertial_forces(self):
         """sms_product, sms_moment = M_add [a, alpha] at every node (held ones included, for
         their reactions and constraint_work): parallel loops after the solve."""
@@ -666,10 +789,13 @@ class SelectiveMass:
         kick takes the bodies' solved accelerations: module docstring, Bodies)."""
         self.geometry()
         self.forces()
-        self.solve()
-        self.inertial_forces()
-        if ti.static(self.coupled):
-            self.body_added()
+        if ti.static(self.reciprocal):
+            self.apply_reciprocal()
+        else:
+            self.solve()
+            self.inertial_forces()
+            if ti.static(self.coupled):
+                self.body_added()
         self.step_change()
 
     @ti.func
@@ -710,6 +836,9 @@ class SelectiveMass:
             if not self.nodes.is_idle(c):
                 v = self.s.nodes.sms_step[c]
             self.nodes.finish(c, v)
-        self.constraint_work()
-        for e in range(self.s.elements.count[None]):
-            self.acc.total(self.s.step.kinetic, self.beta(e) * self.node_kinetic(e))
+        if ti.static(self.reciprocal):
+            self.reciprocal_kinetic()
+        else:
+            self.constraint_work()
+            for e in range(self.s.elements.count[None]):
+                self.acc.total(self.s.step.kinetic, self.beta(e) * self.node_kinetic(e))

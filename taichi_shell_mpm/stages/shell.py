@@ -23,7 +23,7 @@ from .rotation import mid_step, rotation_vector
 from .drilling import DrillingSpring
 from .hourglass import Hourglass
 from .masses import MassUpdate
-from .timestep import element_limit
+from .timestep import element_limit, zigzag_limit
 from .triangle import TriangleElement
 
 
@@ -216,14 +216,15 @@ class ShellElement:
         return -0.5 * dt * self.element_power(fg, mg, v, w, corners)
 
     @ti.func
-    def step_limit(self, e, c, v, w, limit, corners: ti.template()):
-        """Element e's stable step `limit` (physical mass) with selective mass scaling, and
+    def step_limit(self, e, c, v, w, limit, zigzag, corners: ti.template()):
+        """Element e's stable step `limit` (physical mass) with mass scaling (`zigzag`: its
+        transverse-shear zigzag's step, the reciprocal mass matrix's cap; :meth:`zigzag`), and
         whether the element fails now (erosion; then its stress, hourglass and drilling
         resultants are zeroed and the caller writes zero loads): stages/masses.py.  A failing
         element sets no step."""
         step = limit
         if ti.static(self.cfg.mass_scaling):
-            step = self.masses.scale(e, c, v, w, limit, corners)
+            step = self.masses.scale(e, c, v, w, limit, zigzag, corners)
         erode = False
         if ti.static(self.cfg.erosion):
             erode = self.fails(e, step)
@@ -237,6 +238,19 @@ class ShellElement:
         if not erode:
             self.acc.minimum(self.s.step.dt_next, step)
         return erode
+
+    @ti.func
+    def quad_zigzag(self, e, x, area):
+        """The quad's zigzag step (stages/timestep.zigzag_limit), h = area / longest side, with the
+        reciprocal mass matrix (0 without: not used)."""
+        out = 0.0
+        if ti.static(self.cfg.reciprocal_mass):
+            side = 0.0
+            for a in ti.static(range(4)):
+                b = (a + 1) % 4
+                side = ti.max(side, ti.Vector([x[b, 0] - x[a, 0], x[b, 1] - x[a, 1], x[b, 2] - x[a, 2]]).norm())
+            out = zigzag_limit(self.s, e, area / side)
+        return out
 
     @ti.func
     def quad_limit(self, e, x, area):
@@ -387,7 +401,7 @@ class ShellElement:
             drill_energy = dt * 0.5 * (drill_old + drill_new).dot(drill_rate)
         internal = dt * area_m * 0.5 * t * power
         if ti.static(self.cfg.erosion):              # erosion (stages/masses.py): decided before the
-            if self.step_limit(e, c, v, w, self.quad_limit(e, x, area), 4):    # scatter, as a failing
+            if self.step_limit(e, c, v, w, self.quad_limit(e, x, area), self.quad_zigzag(e, x, area), 4):    # scatter, as a failing
                 internal += self.failing_stagger(f @ rot, m @ rot, v, w, dt, 4)  # element writes no loads
                 f = ti.Matrix.zero(ti.f64, 4, 3)
                 m = ti.Matrix.zero(ti.f64, 4, 3)
@@ -406,4 +420,4 @@ class ShellElement:
         # [choice: after the scatter without erosion, where it was before issue 18: Taichi's fast
         # math schedules the kernel by the source order, and plain scenes keep their bits]
         if ti.static(not self.cfg.erosion):
-            self.step_limit(e, c, v, w, self.quad_limit(e, x, area), 4)
+            self.step_limit(e, c, v, w, self.quad_limit(e, x, area), self.quad_zigzag(e, x, area), 4)

@@ -72,6 +72,17 @@ def element_limit(s: ti.template(), cfg: ti.template(), e, area, longest):
 
 
 @ti.func
+def zigzag_limit(s: ti.template(), e, width):
+    """The step of element e's transverse-shear zigzag, alpha h / c_s: the element tilted
+    rigidly against its neighbours with its nodes' rotations still, whose shear strain 2 w / h
+    across its narrowest width h (a quad: area / longest side; a triangle: its smallest
+    altitude) against its lumped mass gives omega = 2 c_s / h, c_s = sqrt(kappa G / rho).
+    The reciprocal mass matrix of selective mass scaling leaves this mode at the lumped mass
+    (stages/selective_mass.py, Reciprocal), so it caps the step it reaches (stages/masses.py)."""
+    return s.step.dt_safety[None] * width / s.sections.shear_wave_speed[e]
+
+
+@ti.func
 def triangle_limit(s: ti.template(), cfg: ti.template(), e, length, gain):
     """Stable step of triangle e (stages/triangle.py): alpha L_e / c_e with the triangle's
     L_e = 4A / sqrt(3 sum l^2), and with the physical rotary inertia

@@ -78,7 +78,7 @@ import taichi as ti
 from ..state import STATUS_INVERTED, STATUS_OK
 from . import opt_membrane
 from .rotation import mid_step, rotation_vector
-from .timestep import triangle_limit
+from .timestep import triangle_limit, zigzag_limit
 
 
 @ti.func
@@ -201,6 +201,17 @@ class TriangleElement:
         self.quad = quad
 
     @ti.func
+    def zigzag(self, e, x, area):
+        """The triangle's zigzag step (stages/timestep.zigzag_limit), h = 2 A / longest edge, with
+        the reciprocal mass matrix (0 without: not used)."""
+        out = 0.0
+        if ti.static(self.cfg.reciprocal_mass):
+            edge = ti.max((corner(x, 1) - corner(x, 0)).norm(), (corner(x, 2) - corner(x, 1)).norm(),
+                          (corner(x, 0) - corner(x, 2)).norm())
+            out = zigzag_limit(self.s, e, 2.0 * area / edge)
+        return out
+
+    @ti.func
     def limit(self, e, x, xh, yh, area):
         """The triangle's stable step, L_e = 4A / sqrt(3 sum l^2) (module docstring;
         timestep.triangle_limit)."""
@@ -290,7 +301,7 @@ class TriangleElement:
             drill_energy = dt * 0.5 * (drill_old + drill_new).dot(drill_rate)
         internal = dt * area_m * 0.5 * t * power + higher_energy
         if ti.static(self.cfg.erosion):              # erosion: before the scatter (ShellElement.update)
-            if self.quad.step_limit(e, c, v, w, self.limit(e, x, xh, yh, area), 3):
+            if self.quad.step_limit(e, c, v, w, self.limit(e, x, xh, yh, area), self.zigzag(e, x, area), 3):
                 internal += self.quad.failing_stagger(f @ rot, m @ rot, v, w, dt, 3)
                 f = ti.Matrix.zero(ti.f64, 3, 3)
                 m = ti.Matrix.zero(ti.f64, 3, 3)
@@ -307,4 +318,4 @@ class TriangleElement:
         # --- time-step limit, with selective mass scaling (shell.ShellElement.step_limit; after the
         # scatter without erosion, as ShellElement.update)
         if ti.static(not self.cfg.erosion):
-            self.quad.step_limit(e, c, v, w, self.limit(e, x, xh, yh, area), 3)
+            self.quad.step_limit(e, c, v, w, self.limit(e, x, xh, yh, area), self.zigzag(e, x, area), 3)
