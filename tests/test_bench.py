@@ -132,10 +132,11 @@ def test_plan_names():
     # per static mesh: mpm at two grid ratios, fem relaxation and fem Newton (issue 19)
     # and the hemisphere in triangles (issue 33): per mesh and triangle element mpm, fem and Newton
     assert len(names) == len(set(names)) == (4 * 4 + 3 * 4 + 3 * 3 * len(bench.TRIANGLE_ELEMENTS)
-                                             + len(bench.RELAXATION) + 7 + len(bench.SCALING_FLAT)
+                                             + len(bench.RELAXATION) + 8 + len(bench.SCALING_FLAT)
                                              + 2 * bench.EMPTY_GRID_PAIRS)
     assert {"cantilever_40x4_mpm_r1", "hemisphere_32x32_fem", "hemisphere_32x32_newton", "tube_2.5mm_mpm", "tube_5mm_fem",
-            "tube_5mm_fem_sms10", "tube_5mm_fem_sms20", "tube_5mm_mpm_h5_multi_polypic", "scaling_60",
+            "tube_5mm_fem_sms10", "tube_5mm_fem_sms20", "tube_5mm_fem_sms_reciprocal", "tube_5mm_mpm_h5_multi_polypic",
+            "scaling_60",
             "empty_grid_scene_1", "empty_grid_wide_3", "hemisphere_tri_c0_32x32_newton"} <= set(names)
     # the relaxation variants: their default row's overrides plus their own, on scene keys of their own
     by_name = {c.name: c for c in full}
