@@ -302,7 +302,7 @@ class State:
         # hourglass_*: r E t / 8, r E t^3 / 192, r kappa G t^3 / 12 (stages/hourglass.py);
         # drilling_factor: alpha E t^3 / 48 (stages/drilling.py)
         g.entity("section", ti.field(i32), m)
-        g.entity("shear_wave_speed", ti.field(f64), m, used=fx.reciprocal_mass)   # sqrt(kappa G_max / rho)
+        g.entity("shear_wave_speed", ti.field(f64), m, used=fx.reciprocal_mass)   # sqrt(G_max / rho)
         for name in ("opt_modulus", "opt_poisson", "opt_floor"):       # the OPT triangle (stages/opt_membrane.py)
             g.entity(name, ti.field(f64), m, used=fx.triangle_opt)
         # cos, sin of the angle from e1 to the section's material axis (docs/laminates.md)

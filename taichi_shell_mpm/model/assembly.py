@@ -274,7 +274,7 @@ def target_step(target_dt: float | str, steps: np.ndarray, cap: np.ndarray | Non
 
 
 def zigzag_steps(points: np.ndarray, elements: np.ndarray, element: "ElementData", dt_safety: float) -> np.ndarray:
-    """(m,) each element's transverse-shear zigzag step alpha h / c_s, the most the reciprocal
+    """(m,) each element's shear zigzags' step alpha h / c_s, the most the reciprocal
     mass matrix raises its step (host twin of stages/timestep.zigzag_limit: h = area / longest
     side of a quad, 2 area / longest edge of a triangle)."""
     x = points[np.where(elements >= 0, elements, elements[:, :1])]

@@ -30,8 +30,8 @@ class ElementData:
     shear_factor: np.ndarray                # (m,) kappa
     wave_speed: np.ndarray                  # (m,) plane-stress c_e of its stiffest material (physical density)
     rotational_frequency: np.ndarray        # (m,) sqrt(12 kappa G / rho) / t with physical rotary inertia, else 0
-    shear_wave_speed: np.ndarray            # (m,) sqrt(kappa G_max / rho): the transverse-shear wave's
-    #                                         speed (the reciprocal mass matrix's step cap, stages/masses.py)
+    shear_wave_speed: np.ndarray            # (m,) sqrt(G_max / rho): the shear wave's speed (the
+    #                                         reciprocal mass matrix's step cap, stages/timestep.zigzag_limit)
     # E, G below: the material's; a laminate's or an orthotropic material's effective isotropic
     # moduli (laminate.Layup: membrane E, bending E, mean transverse G)
     hourglass_membrane: np.ndarray          # (m,) r E t / 8      (stages/hourglass.py: x A beta -> C3)
@@ -320,7 +320,7 @@ def tables(scene: Scene, parts, material_specs: dict, section_specs: dict, frame
         values = {"thickness": t, "shear_factor": kappa, "wave_speed": lay.wave_speed,
                   "rotational_frequency": (np.sqrt(12.0 * kappa * lay.transverse_shear_max / lay.rotary_density) / t
                                            if scene.solve.physical_rotary_inertia else 0.0),
-                  "shear_wave_speed": np.sqrt(kappa * lay.transverse_shear_max / lay.density),
+                  "shear_wave_speed": np.sqrt(lay.transverse_shear_max / lay.density),
                   "hourglass_membrane": r * lay.membrane_modulus * t / 8.0,
                   "hourglass_bending": r * lay.bending_modulus * t ** 3 / 192.0,
                   "hourglass_transverse": r * kappa * lay.transverse_shear_modulus * t ** 3 / 12.0,

@@ -90,11 +90,10 @@ class Solve:
             "16-30 iterations per step, each dearer than the element pass, so a run on a cheap shell is slower "
             "than the unscaled one.  `reciprocal`: a = A f, A the sum of the elements' own inverses of "
             "M_e + M_add^e (a sparse reciprocal mass matrix in the sense of Tkachuk & Bischoff 2015; the solve's "
-            "preconditioner): no iterations, momentum kept to round-off, but an element tilting rigidly against "
-            "its neighbours keeps its lumped mass, so each element's step is raised to at most that "
-            "transverse-shear zigzag's step alpha h / c_s (h its narrowest width, c_s = sqrt(kappa G / rho): 2.6x "
-            "its own for a square steel element; the target's mass beyond it is not added): the tube at "
-            "`target_dt = \"auto\"` ran 2.4x fewer steps in less time (docs/mass_scaling.md)")
+            "preconditioner): no iterations, momentum kept to round-off, but an element tilting or spinning rigidly "
+            "against its neighbours keeps its lumped mass, so each element's step is raised to at most those shear "
+            "zigzags' step alpha h / c_s (h its narrowest width, c_s = sqrt(G / rho): 2.4x its own for a square "
+            "steel element; the target's mass beyond it is not added; docs/mass_scaling.md)")
     sms_tolerance: float = key(number(0, 0.1, lo_open=True), default=1e-5, allowed="(0, 0.1]; only with `selective`",
         doc="the conjugate-gradient solve of (M + M_add) a = f ends once its residual is this fraction of the "
             "force (norms with the preconditioner's inverse); the momentum is exact whatever it is, the energy "

@@ -24,10 +24,10 @@ booked (energy.py: mass_scaling, an energy put in, like external work).  With
 mass matrix, which adds no mass (stages/selective_mass.py): the lumped masses and rotary
 inertias stay physical, and the kinetic energy given to the added mass as beta_e grows is
 booked alike.  With ``sms_solve = "reciprocal"`` an element's step is raised to at most its
-transverse-shear zigzag's step alpha h / c_s (stages/timestep.zigzag_limit; 2.6 times its own
-for a square steel element): the reciprocal mass matrix leaves an element's rigid tilt against
-its neighbours at the lumped mass, so that mode is then the highest (stages/selective_mass.py,
-Reciprocal; docs/mass_scaling.md).  Conventional scaling: the run stops
+shear zigzags' step alpha h / c_s (stages/timestep.zigzag_limit; 2.4 times its own for a
+square steel element): the reciprocal mass matrix leaves an element's rigid tilt or spin
+against its neighbours at the lumped mass, so those modes are then the highest
+(stages/selective_mass.py, Reciprocal; docs/mass_scaling.md).  Conventional scaling: the run stops
 once the total added mass exceeds ``[solve].added_mass_limit`` percent of the shell's
 physical mass (STATUS_MASS_ADDED).  The grid rule of ``dt_rule = "both"`` and the contact
 limit are not changed: mass scaling acts on the element rule only.

@@ -112,13 +112,14 @@ as it is, and the shares sum to one at a node), so a = P^-1 f keeps the linear a
 momenta of the lumped masses to round-off (1^T M P^-1 = 1^T) while each element's
 deformation modes see (1 + beta_e) their mass: a reciprocal mass matrix (Tkachuk & Bischoff,
 IJNME 101, 2015, build such inverses directly), applied with no iterations
-(:meth:`apply_reciprocal`, parallel loops).  What it cannot see: an element tilted rigidly
-against its neighbours (a transverse zigzag with the nodes' rotations still) is a rigid motion
-of each block, so that mode keeps the lumped mass, and its frequency 2 c_s / h (c_s =
-sqrt(kappa G / rho), h the element's narrowest width) caps the step: stages/masses.py raises
-an element's step to at most alpha h / c_s (stages/timestep.zigzag_limit) [measured on the
-16 x 2 strip of square elements: stable at that cap, 2.63x the element's own step, period
-+0.07 %, balance 1e-10; at 1.1x the cap the guard stopped it within 68 steps].  Kinetic
+(:meth:`apply_reciprocal`, parallel loops).  What it cannot see: an element tilted or spun
+rigidly against its neighbours (shear zigzags, transverse with the nodes' rotations still, and
+in-plane) is a rigid motion of each block, so those modes keep the lumped mass, and their
+frequencies ~2 c_s / h (c_s = sqrt(G / rho), h the element's narrowest width) cap the step:
+stages/masses.py raises an element's step to at most alpha h / c_s
+(stages/timestep.zigzag_limit) [measured in docs/mass_scaling.md: with sqrt(kappa G / rho)
+the 16 x 2 strip of square elements ran at the cap, 2.62x its own step, and the guard stopped
+it at 1.1x, where the free plate's highest in-plane mode sat at omega dt / 2 = 0.90].  Kinetic
 energy: 1/2 v^T P v cannot be formed without a solve, so each element keeps the running sum
 of its share of the step's change of 1/2 v^T (P - M) v, h v_mid . (f - M a) at its corners
 (state.elements.sms_excess; :meth:`reciprocal_kinetic`): exact for a constant matrix, while
