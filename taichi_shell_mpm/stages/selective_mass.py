@@ -191,47 +191,53 @@ class SelectiveMass:
 
     @ti.func
     def geometry(self):
-        """At the start of the step: each live element's r_a, J_e^-1, n_e and rho_e^2 at x^n,
+        """At the start of the step: each live element's geometry (:meth:`element_geometry`),
         and the change of T_add this brings at the present velocities, booked as
-        mass-scaling energy (module docstring)."""
+        mass-scaling energy (module docstring).  (The reciprocal matrix forms it in its own
+        element loop, :meth:`apply_reciprocal`.)"""
         for e in range(self.s.elements.count[None]):
             if self.masses.alive(e) > 0.0:
                 b = self.beta(e)
-                before = 0.0
-                if ti.static(not self.reciprocal):
-                    before = b * self.node_kinetic(e)
-                c = self.s.elements.corners[e]
-                m = self.s.elements.corner_mass[e]
-                mass, centre = self.corner_mean(e, self.s.nodes.position)
-                inertia = ti.Matrix.zero(ti.f64, 3, 3)
-                spread = 0.0
-                for a in ti.static(range(4)):
-                    r = zero3()
-                    if c[a] >= 0:
-                        r = self.s.nodes.position[c[a]] - centre
-                        inertia += m[a] * (r.norm_sqr() * ti.Matrix.identity(ti.f64, 3) - r.outer_product(r))
-                        spread += m[a] * r.norm_sqr()
-                    self.s.elements.sms_arm[e, a] = r
-                x0, x1, x2 = self.s.nodes.position[c[0]], self.s.nodes.position[c[1]], self.s.nodes.position[c[2]]
-                normal = (x1 - x0).cross(x2 - x0)
-                if c[3] >= 0:
-                    normal = (x2 - x0).cross(self.s.nodes.position[c[3]] - x1)
-                unit = normal.normalized()
-                self.s.elements.sms_normal[e] = unit
-                self.s.elements.sms_inverse_inertia[e] = inertia.inverse()
-                rho2 = spread / (2.0 * mass)
-                self.s.elements.sms_radius_sq[e] = rho2
-                gamma = 0.0         # the spin's block in the preconditioner (element_block_inverse)
-                for a in ti.static(range(4)):
-                    if c[a] >= 0:
-                        ja = b * m[a] * rho2
-                        gamma += ja * self.s.elements.corner_inertia[e][a] / (self.s.elements.corner_inertia[e][a] + ja)
-                self.s.elements.sms_spin_block[e] = (inertia + gamma * (ti.Matrix.identity(ti.f64, 3)
-                                                                        - unit.outer_product(unit))).inverse()
-                if b > 0.0 and not ti.static(self.reciprocal):
+                before = b * self.node_kinetic(e)
+                self.element_geometry(e)
+                if b > 0.0:
                     change = b * self.node_kinetic(e) - before
                     self.s.elements.mass_energy[e][1] += change
                     self.acc.total(self.s.step.mass_scaling_energy, change)
+
+    @ti.func
+    def element_geometry(self, e):
+        """Element e's r_a, J_e^-1, n_e and rho_e^2 at x^n, and the spin block (J_e + gamma P)^-1
+        of its inverse (:meth:`element_block_inverse`) with this step's beta_e."""
+        b = self.beta(e)
+        c = self.s.elements.corners[e]
+        m = self.s.elements.corner_mass[e]
+        mass, centre = self.corner_mean(e, self.s.nodes.position)
+        inertia = ti.Matrix.zero(ti.f64, 3, 3)
+        spread = 0.0
+        for a in ti.static(range(4)):
+            r = zero3()
+            if c[a] >= 0:
+                r = self.s.nodes.position[c[a]] - centre
+                inertia += m[a] * (r.norm_sqr() * ti.Matrix.identity(ti.f64, 3) - r.outer_product(r))
+                spread += m[a] * r.norm_sqr()
+            self.s.elements.sms_arm[e, a] = r
+        x0, x1, x2 = self.s.nodes.position[c[0]], self.s.nodes.position[c[1]], self.s.nodes.position[c[2]]
+        normal = (x1 - x0).cross(x2 - x0)
+        if c[3] >= 0:
+            normal = (x2 - x0).cross(self.s.nodes.position[c[3]] - x1)
+        unit = normal.normalized()
+        self.s.elements.sms_normal[e] = unit
+        self.s.elements.sms_inverse_inertia[e] = inertia.inverse()
+        rho2 = spread / (2.0 * mass)
+        self.s.elements.sms_radius_sq[e] = rho2
+        gamma = 0.0
+        for a in ti.static(range(4)):
+            if c[a] >= 0:
+                ja = b * m[a] * rho2
+                gamma += ja * self.s.elements.corner_inertia[e][a] / (self.s.elements.corner_inertia[e][a] + ja)
+        self.s.elements.sms_spin_block[e] = (inertia + gamma * (ti.Matrix.identity(ti.f64, 3)
+                                                                - unit.outer_product(unit))).inverse()
 
     # ------------------------------------------------------------------ the product M p
     @ti.func
@@ -661,8 +667,9 @@ class SelectiveMass:
     @ti.func
     def apply_reciprocal(self):
         """[a, alpha] = A [f, mu] with the reciprocal mass matrix A = P^-1 (module docstring,
-        Reciprocal), in parallel loops: the elements' block inverses of their shares of the
-        force, gathered at the nodes.  What the elements hand to a rigid body's slaves,
+        Reciprocal), in parallel loops: each element's geometry (:meth:`element_geometry`) and
+        block inverse of its shares of the force in one loop, gathered at the nodes.  What the
+        elements hand to a rigid body's slaves,
         m_s z_s and J_s z^r_s (sms_product, sms_moment; zero elsewhere), goes to the body with
         its load: its rows M_tot^-1 (F + sum m_s z_s) and the moment's likewise
         (sms_added_force, sms_added_moment hold minus them for RigidBodies.update), so the
@@ -671,6 +678,7 @@ class SelectiveMass:
         :meth:`reciprocal_kinetic`)."""
         for e in range(self.s.elements.count[None]):
             if self.masses.alive(e) > 0.0:
+                self.element_geometry(e)
                 self.element_block_inverse(e, self.s.nodes.sms_force, self.s.nodes.sms_torque)
         for c in range(self.s.nodes.count[None]):
             z, zr = self.inverse_at(c, self.s.nodes.sms_force, self.s.nodes.sms_torque)
@@ -788,7 +796,8 @@ class SelectiveMass:
     def prepare(self):
         """The solve of explicit_fe (with rigid bodies it runs before RigidBodies.update, whose
         kick takes the bodies' solved accelerations: module docstring, Bodies)."""
-        self.geometry()
+        if ti.static(not self.reciprocal):
+            self.geometry()
         self.forces()
         if ti.static(self.reciprocal):
             self.apply_reciprocal()
