@@ -336,6 +336,22 @@ def test_reciprocal_strip_runs_at_its_zigzag_cap(tmp_path):
     assert abs(e["balance_error"]) < 1e-11
 
 
+def test_reciprocal_mass_matrix_on_triangles(tmp_path):
+    """The strip in C0 triangles (mesh.triangles = "all") with the reciprocal mass matrix at its
+    cap (a triangle's width: its smallest altitude): 83 640 -> 40 800 steps, period +0.040 %,
+    balance 2.1e-10 J of 4.1e-3 J (measured)."""
+    r0, plain, h0 = strip_run(tmp_path, "plain", "", 0.51, "--set", "mesh.triangles=all")
+    r1, scaled, h1 = strip_run(tmp_path, "reciprocal", RECIPROCAL, 0.51, "--set", "mesh.triangles=all")
+    assert r0.code == 0 and r1.code == 0, r0.err + r1.err
+    change = mean_period(h1) / mean_period(h0) - 1.0
+    e = scaled["energies"]
+    print(f"\ntriangles: {plain['steps']} -> {scaled['steps']} steps; period {change:+.3%}; balance "
+          f"{e['balance_error']:.3g} J of kinetic {e['kinetic']:.3g} J")
+    assert plain["steps"] >= 2.0 * scaled["steps"]
+    assert abs(change) < 6e-4
+    assert abs(e["balance_error"]) < 3.1e-10
+
+
 def test_restart_through_the_reciprocal_mass_matrix_is_bit_for_bit(tmp_path, monkeypatch):
     """The added mass's running kinetic energy (state.elements.sms_excess) is checkpointed."""
     scene = write_scene(tmp_path, plate_text(ly=2 * STRIP_H, nx=16, ny=2, extra=STRIP, end_time=0.02,
