@@ -156,12 +156,11 @@ class MassUpdate:
             f_new = (target / limit) ** 2
             self.s.elements.mass_factor[e] = f_new
             gain = 0.0
-            if ti.static(self.cfg.reciprocal_mass):     # its kinetic energy is a running sum (selective_mass.py)
-                pass
-            elif ti.static(self.cfg.selective_mass):    # no mass added: beta grows (stages/selective_mass.py)
-                added = (f_new - f_old) * self.unit_kinetic(e, v, w, corners)
-                self.acc.total(self.s.step.kinetic, added)
-                gain = added
+            if ti.static(self.cfg.selective_mass):      # no mass added: beta grows (stages/selective_mass.py)
+                if ti.static(not self.cfg.reciprocal_mass):     # (the reciprocal's: a running sum)
+                    added = (f_new - f_old) * self.unit_kinetic(e, v, w, corners)
+                    self.acc.total(self.s.step.kinetic, added)
+                    gain = added
             else:
                 self.acc.total(self.s.step.added_mass, (f_new - f_old) * self.s.elements.corner_mass[e].sum())
                 gain = self.corner_kinetic(e, c, v, w, f_new - f_old, corners)

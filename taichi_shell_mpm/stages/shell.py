@@ -217,8 +217,9 @@ class ShellElement:
 
     @ti.func
     def step_limit(self, e, c, v, w, limit, zigzag, corners: ti.template()):
-        """Element e's stable step `limit` (physical mass) with mass scaling (`zigzag`: its
-        transverse-shear zigzag's step, the reciprocal mass matrix's cap; :meth:`zigzag`), and
+        """Element e's stable step `limit` (physical mass) with mass scaling (`zigzag`: its shear
+        zigzags' step, the reciprocal mass matrix's cap: :meth:`quad_zigzag`,
+        TriangleElement.zigzag), and
         whether the element fails now (erosion; then its stress, hourglass and drilling
         resultants are zeroed and the caller writes zero loads): stages/masses.py.  A failing
         element sets no step."""
