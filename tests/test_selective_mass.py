@@ -336,6 +336,20 @@ def test_reciprocal_strip_runs_at_its_zigzag_cap(tmp_path):
     assert abs(e["balance_error"]) < 1e-11
 
 
+def test_a_target_beyond_the_reciprocal_reach_is_named(tmp_path):
+    """A target_dt above what the reciprocal matrix reaches on the mesh runs at its reach, with a
+    warning naming both steps (the plate: 1.5e-4 against 0.9 h / c_s = 3.594e-5)."""
+    scene = write_scene(tmp_path, plate_text(scaling=f'mass_scaling = "selective"\ntarget_dt = {TARGET}\n'
+                                                     'sms_solve = "reciprocal"'), "beyond.toml")
+    r = cli_run("run", str(scene), "--out", str(tmp_path / "out"))
+    print("\n" + "\n".join(line for line in (r.out + r.err).splitlines() if "beyond" in line))
+    assert r.code == 0, r.err
+    assert (f"beyond.toml: [solve].target_dt = 0.00015 is beyond the reciprocal mass matrix's reach on this "
+            f"mesh, {0.9 * H / C_S:.4g}") in r.out + r.err
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["steps"] >= math.floor(3e-3 / (0.9 * H / C_S))
+
+
 def test_reciprocal_mass_matrix_on_triangles(tmp_path):
     """The strip in C0 triangles (mesh.triangles = "all") with the reciprocal mass matrix at its
     cap (a triangle's width: its smallest altitude): 83 640 -> 40 800 steps, period +0.040 %,

@@ -363,6 +363,11 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
                if scaling == "selective" and scene.solve.sms_solve == "reciprocal" else None)
         target_dt = target_step(scene.solve.target_dt, steps, cap)
         mass_factor = element_mass_factor(steps, target_dt, cap)
+        reach = float(np.maximum(cap, steps).min()) if cap is not None else target_dt
+        if target_dt > reach:
+            notes.append(f"{scene.source.name}: [solve].target_dt = {target_dt:g} is beyond the reciprocal mass "
+                         f"matrix's reach on this mesh, {reach:.4g} (its elements' shear-zigzag steps; "
+                         "docs/mass_scaling.md): the run starts at that step, and no mass is added beyond it")
     node_mass = np.zeros(n)
     node_area = np.zeros(n)
     node_inertia = np.zeros(n)
