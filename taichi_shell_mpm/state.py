@@ -133,6 +133,87 @@ def _write_field(f: ti.template(), src: ti.types.ndarray(), n: ti.i32):
             f[I] = src[I]
 
 
+BATCH_FIELDS = 32     # fields per kernel of State.arrays / restore (Taichi warns above 32 unrolled loops)
+
+
+def _width(f) -> int:
+    """Numbers per entry of `f`: n m of a matrix field, n of a vector field, 1 of a scalar one."""
+    return f.n * f.m if isinstance(f, ti.MatrixField) else 1
+
+
+@ti.func
+def _row(I, shape: ti.template()):
+    """The row-major index of the grouped index I in (any, *shape[1:])."""
+    k = I[0]
+    for d in ti.static(range(1, len(shape))):
+        k = k * shape[d] + I[d]
+    return k
+
+
+@ti.kernel
+def _read_fields(fields: ti.template(), out: ti.types.ndarray(), offsets: ti.types.ndarray(),
+                 sizes: ti.types.ndarray()):
+    """Every field of `fields` (one dtype) into the flat `out`: field q's first sizes[q]
+    entries (0-d: its value) from offsets[q], row-major, components last.  One kernel for a
+    checkpoint's fields of a dtype instead of one per field [issue 32]: each kernel is built
+    and loaded again in every run (~7 ms each, 221 fields for the CI crash set of
+    tests/test_matrix.py: a checkpoint's first save 1.5 s, its restore 1.35 s)."""
+    for q in ti.static(range(len(fields))):
+        f = ti.static(fields[q])
+        if ti.static(len(f.shape) == 0):
+            _put(out, offsets[q], f[None], f)
+        else:
+            for I in ti.grouped(ti.ndrange(sizes[q], *ti.static(f.shape[1:]))):
+                _put(out, offsets[q] + _row(I, f.shape) * ti.static(_width(f)), f[I], f)
+
+
+@ti.func
+def _put(out: ti.template(), base, v, f: ti.template()):
+    if ti.static(isinstance(f, ti.MatrixField)):
+        if ti.static(f.m == 1):
+            for j in ti.static(range(f.n)):
+                out[base + j] = v[j]
+        else:
+            for j, k in ti.static(ti.ndrange(f.n, f.m)):
+                out[base + j * f.m + k] = v[j, k]
+    else:
+        out[base] = v
+
+
+@ti.kernel
+def _write_fields(fields: ti.template(), src: ti.types.ndarray(), offsets: ti.types.ndarray(),
+                  sizes: ti.types.ndarray()):
+    """The inverse of :func:`_read_fields`: field q's first sizes[q] entries (0-d: its value)
+    from the flat `src` at offsets[q]."""
+    for q in ti.static(range(len(fields))):
+        f = ti.static(fields[q])
+        if ti.static(len(f.shape) == 0):
+            _take(src, offsets[q], f, None)
+        else:
+            for I in ti.grouped(ti.ndrange(sizes[q], *ti.static(f.shape[1:]))):
+                _take(src, offsets[q] + _row(I, f.shape) * ti.static(_width(f)), f, I)
+
+
+@ti.func
+def _take(src: ti.template(), base, f: ti.template(), I: ti.template()):
+    if ti.static(isinstance(f, ti.MatrixField)):
+        if ti.static(f.m == 1):
+            for j in ti.static(range(f.n)):
+                f[I][j] = src[base + j]
+        else:
+            for j, k in ti.static(ti.ndrange(f.n, f.m)):
+                f[I][j, k] = src[base + j * f.m + k]
+    else:
+        f[I] = src[base]
+
+
+def _entry_shape(field, size: int | None) -> tuple:
+    """The numpy shape of `size` entries of `field` (0-d: its value's), as State.read gives."""
+    tail = (field.n,) if isinstance(field, ti.MatrixField) and field.m == 1 else \
+        (field.n, field.m) if isinstance(field, ti.MatrixField) else ()
+    return tail if len(field.shape) == 0 else (size, *field.shape[1:], *tail)
+
+
 class Group(SimpleNamespace):
     """The fields of one role (module docstring), in an SNode tree of their own; each entry
     remembers how many of its entries the model uses."""
@@ -979,17 +1060,54 @@ class State:
         self.write(self.groups()[group]._entries[name][0], array)
 
     def arrays(self, persistent_only: bool = True) -> dict[str, np.ndarray]:
-        """Every field's used entries, keyed ``group.name`` (checkpoints)."""
+        """Every field's used entries, keyed ``group.name`` (checkpoints): the fields of a
+        dtype read by one kernel (:func:`_read_fields`), each the array State.read gives."""
+        plan = self._batches(self._host_fields(persistent_only), lambda key, field, size: size)
         out = {}
-        for gname, g in self.groups().items():
-            for name, (field, size) in g.fields(persistent_only).items():
-                out[f"{gname}.{name}"] = self.read(field, size) if size is not None else field.to_numpy()
+        for (dtype, _), (keys, fields, shapes, offsets, sizes, total) in plan.items():
+            flat = np.zeros(total, dtype=dtype)
+            _read_fields(fields, flat, offsets, sizes)
+            for key, shape, start in zip(keys, shapes, offsets):
+                out[key] = flat[start:start + int(np.prod(shape, dtype=np.int64))].reshape(shape).copy()
         return out
 
     def restore(self, arrays: dict[str, np.ndarray], persistent_only: bool = True) -> None:
-        for gname, g in self.groups().items():
-            for name, (field, size) in g.fields(persistent_only).items():
-                self.write(field, arrays[f"{gname}.{name}"])
+        """Write back what :meth:`arrays` gave (each field's first len(array) entries), the
+        fields of a dtype by one kernel (:func:`_write_fields`)."""
+        fields = self._host_fields(persistent_only)
+        plan = self._batches(fields, lambda key, field, size: len(arrays[key]) if len(field.shape) else None)
+        for (dtype, _), (keys, group, shapes, offsets, sizes, total) in plan.items():
+            flat = np.zeros(total, dtype=dtype)
+            for key, shape, start in zip(keys, shapes, offsets):
+                flat[start:start + int(np.prod(shape, dtype=np.int64))] = np.asarray(arrays[key], dtype=dtype).ravel()
+            _write_fields(group, flat, offsets, sizes)
+
+    def _host_fields(self, persistent_only: bool) -> list[tuple[str, object, int | None]]:
+        return [(f"{gname}.{name}", field, size) for gname, g in self.groups().items()
+                for name, (field, size) in g.fields(persistent_only).items()]
+
+    @staticmethod
+    def _batches(fields, entries) -> dict:
+        """Per numpy dtype, in batches of BATCH_FIELDS: the keys, the fields (a tuple: the
+        kernels' template), their shapes, offsets into one flat array (int64), entry counts
+        (int32; `entries(key, field, size)`, None for a 0-d field) and the flat length."""
+        plan: dict = {}
+        counts: dict = {}
+        for key, field, size in fields:
+            n = entries(key, field, size)
+            if n is None:
+                n = field.shape[0] if len(field.shape) else 0
+            shape = _entry_shape(field, n)
+            dtype = _numpy_dtype(field.dtype)
+            counts[dtype] = counts.get(dtype, 0) + 1       # batches of BATCH_FIELDS fields: Taichi
+            batch = (dtype, (counts[dtype] - 1) // BATCH_FIELDS)    # warns above 32 unrolled loops
+            b = plan.setdefault(batch, ([], [], [], [], [], [0]))
+            for column, value in zip(b, (key, field, shape, b[5][0], n)):
+                column.append(value)
+            b[5][0] += int(np.prod(shape, dtype=np.int64))
+        return {batch: (keys, tuple(fields), shapes, np.array(offsets, dtype=np.int64),
+                        np.array(sizes, dtype=np.int32), total[0])
+                for batch, (keys, fields, shapes, offsets, sizes, total) in plan.items()}
 
 
 def _numpy_dtype(dtype):

@@ -217,3 +217,34 @@ def test_sigterm_stops_like_ctrl_c_and_the_run_continues(tmp_path):
     assert r.code == 0, r.err
     after = (out / "probes.csv").read_text().splitlines()
     assert len(after) == 101 and after[:len(before)] == before
+
+
+def test_checkpoint_arrays_are_the_fields_read_one_by_one(tmp_path):
+    """State.arrays reads a checkpoint's fields a batch of a dtype per kernel and State.restore
+    writes them back so (issue 32: one kernel per field cost ~7 ms each in every run): the
+    arrays are those State.read gives field by field (dtype, shape and bytes), and a restore
+    of changed arrays, then of the first ones, reads back exactly."""
+    from taichi_shell_mpm.scene import load_scene
+
+    from .conftest import simulation
+    sim = simulation(load_scene(write_scene(tmp_path, FLAP, "flap.toml")), tmp_path)
+    assert sim.stepper.advance(20) == 20
+    s = sim.state
+    arrays = s.arrays()
+    fields = {f"{g}.{n}": (f, size) for g, group in s.groups().items() for n, (f, size) in group.fields(True).items()}
+    assert arrays.keys() == fields.keys()
+    kinds = {}          # one field of each kind (dtype, dimensions, components: a kernel each to read one by one)
+    for key, (f, size) in fields.items():
+        kinds.setdefault((f.dtype, len(f.shape), getattr(f, "n", 0), getattr(f, "m", 0)), key)
+    one_by_one = {key: np.asarray(s.read(*fields[key]) if fields[key][1] is not None else fields[key][0].to_numpy())
+                  for key in kinds.values()}
+    print(f"\n{len(arrays)} arrays, {sum(a.size for a in arrays.values())} numbers; {len(kinds)} kinds compared")
+    for key, a in one_by_one.items():
+        b = arrays[key]
+        assert (b.dtype, b.shape, b.tobytes()) == (a.dtype, a.shape, a.tobytes()), key
+    changed = {k: a + 1 if a.dtype.kind == "f" else a for k, a in arrays.items()}
+    s.restore(changed)
+    assert all(np.array_equal(s.arrays()[k], changed[k]) for k in arrays)
+    s.restore(arrays)
+    back = s.arrays()
+    assert all(back[k].tobytes() == arrays[k].tobytes() for k in arrays)

@@ -192,6 +192,24 @@ def test_quiet_cuda_request_without_gpu_subprocess(tmp_path):
         assert path.stat().st_mode & 0o777 == 0o640, path
 
 
+def test_cuda_fallback_compiles_as_a_cpu_run():
+    """A `--arch cuda` run that Taichi moved to the CPU compiles its kernels as a CPU run does
+    (Taichi's IR optimizations as runtime.ir_optimization says, off by default): the same
+    kernels and offline-cache keys as `--arch cpu`.  Before, the GPU's setting stayed on: the
+    4-element cantilever compiled 19.7 s instead of 2.8 s on a cold cache, into cache entries
+    of its own (the subprocess test above took 23 s)."""
+    import taichi as ti
+
+    from taichi_shell_mpm.runtime import init_taichi, ir_optimization
+    arch = init_taichi("cuda", quiet=True)
+    cfg = ti.lang.impl.current_cfg()
+    print(arch, cfg.arch, cfg.advanced_optimization)
+    if arch == "cpu":
+        assert cfg.advanced_optimization == ir_optimization()
+    else:
+        assert cfg.advanced_optimization
+
+
 def test_atomic_write_follows_the_umask(tmp_path):
     old = os.umask(0o002)
     try:
