@@ -383,7 +383,8 @@ def added_mass(state, model) -> np.ndarray:
 def added_kinetic(state, model) -> np.ndarray:
     """(m,) the kinetic energy of each element's added mass under selective scaling
     (stages/selective_mass.py; zeros without): beta_e / 2 (sum_a m_a |d_a|^2 +
-    sum_a m_a rho_e^2 |P_e (omega_a - Omega_e)|^2) with the geometry the step kept."""
+    sum_a m_a rho_e^2 |P_e (omega_a - Omega_e)|^2) with the geometry the step kept; with the
+    reciprocal mass matrix, the running sum each element keeps (state.elements.sms_excess)."""
     if not state.features.selective_mass:
         return np.zeros(state.n_elements)
     if state.features.reciprocal_mass:       # the running sum the step keeps (no matrix to evaluate)

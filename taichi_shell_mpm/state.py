@@ -1026,9 +1026,7 @@ class State:
     def _read(field, size: int) -> np.ndarray:
         if len(field.shape) == 0:
             return np.array(field.to_numpy())
-        shape = (size, *field.shape[1:]) + ((field.n,) if isinstance(field, ti.MatrixField) and field.m == 1 else
-                                            (field.n, field.m) if isinstance(field, ti.MatrixField) else ())
-        out = np.zeros(shape, dtype=_numpy_dtype(field.dtype))
+        out = np.zeros(_entry_shape(field, size), dtype=_numpy_dtype(field.dtype))
         if size > 0:
             _read_field(field, out, size)
         return out

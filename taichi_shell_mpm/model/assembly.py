@@ -215,18 +215,26 @@ def element_length(points: np.ndarray, elements: np.ndarray, area: np.ndarray) -
     return np.where(quad, area / diag, 4.0 * area / np.sqrt(3.0 * edges_sq))
 
 
+def corner_areas(points: np.ndarray, elements: np.ndarray) -> tuple:
+    """The elements' corner positions x (m, 4, 3; a triangle's fourth repeats its first), which
+    are triangles, and the areas the device's step rules use: a quad's 1/2 |d13 x d24|, a
+    triangle's 1/2 |x01 x x02| (stages/shell.py, stages/triangle.py)."""
+    x = points[np.where(elements >= 0, elements, elements[:, :1])]
+    tri = elements[:, 3] < 0
+    quad_area = 0.5 * np.linalg.norm(np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1]), axis=1)
+    tri_area = 0.5 * np.linalg.norm(np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), axis=1)
+    return x, tri, np.where(tri, tri_area, quad_area)
+
+
 def element_steps(points: np.ndarray, elements: np.ndarray, element: "ElementData", dt_safety: float) -> np.ndarray:
     """Each element's stable step in the configuration `points` with its physical mass: the
     host twin of stages/timestep.element_limit (quads) and triangle_limit (triangles)."""
-    x = points[np.where(elements >= 0, elements, elements[:, :1])]
+    x, tri, area = corner_areas(points, elements)
     d13, d24 = x[:, 2] - x[:, 0], x[:, 3] - x[:, 1]
-    area = 0.5 * np.linalg.norm(np.cross(d13, d24), axis=1)
     longest = np.maximum(np.linalg.norm(d13, axis=1), np.linalg.norm(d24, axis=1))
     inv = np.maximum(element.wave_speed * longest / area, 0.5 * element.rotational_frequency)
-    tri = elements[:, 3] < 0
     if tri.any():
-        tri_area = 0.5 * np.linalg.norm(np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), axis=1)
-        inv_tri = element.wave_speed / element_length(points, elements, np.where(tri, tri_area, 1.0))
+        inv_tri = element.wave_speed / element_length(points, elements, np.where(tri, area, 1.0))
         gain = triangle_shear_gain(points, elements)
         inv_tri *= np.sqrt(np.where(element.opt_modulus > 0.0, 1.0 + 0.5 * gain, 1.0))   # OPT (stages/triangle.py)
         inv_tri = np.sqrt(inv_tri ** 2 + gain * (0.5 * element.rotational_frequency) ** 2)
@@ -263,25 +271,21 @@ box beam of the issue: 5 340 cycles against our 70 781 steps unscaled).  Measure
 force +1.1 %, its fold count unchanged."""
 
 
-def target_step(target_dt: float | str, steps: np.ndarray, cap: np.ndarray | None = None) -> float:
+def target_step(target_dt: float | str, steps: np.ndarray, reach: float | None = None) -> float:
     """The target step of mass scaling: the scene's, or for "auto" AUTO_TARGET_FACTOR times the
     smallest of `steps` (each element's stable step at the start); with the reciprocal mass
-    matrix's `cap` (each element's :func:`zigzag_steps`), "auto" is the largest step it
-    allows, min_e max(cap_e, dt_e)."""
+    matrix, "auto" is `reach`, the largest step it allows (min_e max(cap_e, dt_e), cap_e each
+    element's :func:`zigzag_steps`)."""
     if target_dt != "auto":
         return float(target_dt)
-    return float(np.maximum(cap, steps).min()) if cap is not None else AUTO_TARGET_FACTOR * float(steps.min())
+    return reach if reach is not None else AUTO_TARGET_FACTOR * float(steps.min())
 
 
 def zigzag_steps(points: np.ndarray, elements: np.ndarray, element: "ElementData", dt_safety: float) -> np.ndarray:
     """(m,) each element's shear zigzags' step alpha h / c_s, the most the reciprocal
     mass matrix raises its step (host twin of stages/timestep.zigzag_limit: h = area / longest
     side of a quad, 2 area / longest edge of a triangle)."""
-    x = points[np.where(elements >= 0, elements, elements[:, :1])]
-    tri = elements[:, 3] < 0
-    d13, d24 = x[:, 2] - x[:, 0], x[:, 3] - x[:, 1]
-    area = np.where(tri, 0.5 * np.linalg.norm(np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), axis=1),
-                    0.5 * np.linalg.norm(np.cross(d13, d24), axis=1))
+    x, tri, area = corner_areas(points, elements)
     sides = np.linalg.norm(np.roll(x, -1, axis=1) - x, axis=2)                    # 01, 12, 23, 30
     sides[tri, 2] = np.linalg.norm(x[tri, 0] - x[tri, 2], axis=1)             # a triangle's 20
     sides[tri, 3] = 0.0
@@ -361,10 +365,10 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
         steps = element_steps(points, elements, element, scene.solve.dt_safety)
         cap = (zigzag_steps(points, elements, element, scene.solve.dt_safety)
                if scaling == "selective" and scene.solve.sms_solve == "reciprocal" else None)
-        target_dt = target_step(scene.solve.target_dt, steps, cap)
+        reach = float(np.maximum(cap, steps).min()) if cap is not None else None
+        target_dt = target_step(scene.solve.target_dt, steps, reach)
         mass_factor = element_mass_factor(steps, target_dt, cap)
-        reach = float(np.maximum(cap, steps).min()) if cap is not None else target_dt
-        if target_dt > reach:
+        if reach is not None and target_dt > reach:
             notes.append(f"{scene.source.name}: [solve].target_dt = {target_dt:g} is beyond the reciprocal mass "
                          f"matrix's reach on this mesh, {reach:.4g} (its elements' shear-zigzag steps; "
                          "docs/mass_scaling.md): the run starts at that step, and no mass is added beyond it")
