@@ -134,8 +134,7 @@ def compatible(names: tuple[str, ...]) -> bool:
     fem = "fem" in names or "selective" in names
     return not (fem and any(FEATURES[n].mpm_only for n in names)) and \
         not ("tool_sphere" in names and "tool_mesh" in names) and not ("selective" in names and "mass_scaling" in names) \
-        and not ("triangles" in names and "opt_triangles" in names) \
-        and not ("selective" in names and "opt_triangles" in names)      # refused (a scene error)
+        and not ("triangles" in names and "opt_triangles" in names)
 
 
 def write_case(tmp_path, names: tuple[str, ...], values: dict | None = None):

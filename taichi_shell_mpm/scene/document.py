@@ -313,10 +313,6 @@ def read_scene(r: Reader) -> Scene:
     if element is not None and solve is not None and element.triangle == "opt" and solve.physical_rotary_inertia:
         r.error("[element].triangle", '"opt" keeps the scaled rotary inertia: its drilling modes would set the step '
                 'with the physical one ([solve].rotary_inertia = "physical")')
-    if element is not None and solve is not None and element.triangle == "opt" and solve.mass_scaling == "selective":
-        r.error("[element].triangle", '"opt" with selective mass scaling: the added mass does not act on the '
-                "drilling rotations that carry its membrane (the matrix's sheet ran away at step 5); use \"c0\" "
-                "triangles or conventional scaling")
     output = plain(r, "output", Output)
     bodies = r.array("rigid_body", lambda path, data: read_rigid_body(r, path, data))
     if len(bodies) > MAX_BODIES:

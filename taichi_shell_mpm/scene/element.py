@@ -35,8 +35,8 @@ class ElementOptions:
             "Lyly–Stenberg stabilised transverse shear (`stages/opt_membrane.py`): Sze's hemisphere in triangles "
             "4.4 / 6.9 % mean error at 16×16 (`c0` 8.7 / 13.7 %), 0.39 / 1.08 % at 32×32 (`c0` 1.66 / 3.17 %) "
             "([element.md](element.md), \"The OPT triangle\"); needs `drilling = \"penalty\"` and the scaled "
-            "rotary inertia, and is refused with selective mass scaling (its added mass does not act on the "
-            "drilling rotations); its drilling modes shorten the triangles' step by 1/√(1 + g/2)")
+            "rotary inertia; selective mass scaling scales its drilling rotations as well ([mass_scaling.md]"
+            "(mass_scaling.md), \"OPT triangles\"); its drilling modes shorten the triangles' step by 1/√(1 + g/2)")
     warping: Literal["none", "bwc"] = key(choice("none", "bwc"), default="none",
         doc="warped quads: `none` is the flat-facet BT element (the paper's); `bwc` adds the "
             "Belytschko–Wong–Chiang (1992) curvature rate that in-plane motion gives a warped quad (element spin "

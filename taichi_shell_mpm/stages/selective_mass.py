@@ -17,7 +17,11 @@ metric: vbar_e their mean, Omega_e = J_e^-1 sum_a m_a r_a x v_a (J_e = sum_a m_a
 r_a r_a^T)); d_a = v_a - vbar_e - Omega_e x r_a is what is left (the membrane and warping
 modes), and P_e (omega_a - Omega_e), P_e = I - n_e n_e^T the projection on the element's
 plane, is how far a node's rotation departs from the element's rigid rotation (the
-transverse-shear modes; the drilling rotation is not a DOF here).  T_add is zero on every
+transverse-shear modes; the drilling rotation carries no stiffness of a BT quad or a C0
+triangle).  An OPT triangle ([element].triangle = "opt") bends in its plane through its corner
+drilling rotations, so there P_e = I: its normal is kept as zero (elements.sms_normal) and the
+drilling modes are scaled with the rest [measured in docs/mass_scaling.md, "OPT triangles":
+with P_e the matrix's sheet in OPT triangles at ten times its step ran away at step 5].  T_add is zero on every
 rigid motion of the element (translation and rotation), and on a smooth bending mode, whose
 corners move as the element turns with its nodes: so total mass, linear and angular momentum
 are those of the lumped masses M (its translational rows and its moments sum to zero), and
@@ -227,6 +231,9 @@ class SelectiveMass:
         if c[3] >= 0:
             normal = (x2 - x0).cross(self.s.nodes.position[c[3]] - x1)
         unit = normal.normalized()
+        if ti.static(self.cfg.triangle_opt):
+            if c[3] < 0:        # an OPT triangle's drilling rotations carry its membrane: scaled too
+                unit = zero3()
         self.s.elements.sms_normal[e] = unit
         self.s.elements.sms_inverse_inertia[e] = inertia.inverse()
         rho2 = spread / (2.0 * mass)
