@@ -688,14 +688,17 @@ class SelectiveMass:
                 self.element_geometry(e)
                 self.element_block_inverse(e, self.s.nodes.sms_force, self.s.nodes.sms_torque)
         for c in range(self.s.nodes.count[None]):
-            z, zr = self.inverse_at(c, self.s.nodes.sms_force, self.s.nodes.sms_torque)
+            z, zr, handed, handed_turn = zero3(), zero3(), zero3(), zero3()
+            slave = False
+            if ti.static(self.coupled):
+                slave = self.s.nodes.body[c] >= 0
+            if slave:               # no free DOF of its own: what the blocks hand it goes to its body
+                step, turn = self.gathered(c)
+                handed, handed_turn = self.s.nodes.mass[c] * step, self.s.nodes.inertia[c] * turn
+            else:
+                z, zr = self.inverse_at(c, self.s.nodes.sms_force, self.s.nodes.sms_torque)
             self.s.nodes.acceleration[c] = z
             self.s.nodes.angular_acceleration[c] = zr
-            handed, handed_turn = zero3(), zero3()
-            if ti.static(self.coupled):
-                if self.s.nodes.body[c] >= 0:
-                    step, turn = self.gathered(c)
-                    handed, handed_turn = self.s.nodes.mass[c] * step, self.s.nodes.inertia[c] * turn
             self.s.nodes.sms_product[c] = handed
             self.s.nodes.sms_moment[c] = handed_turn
         for _ in range(1):          # the bodies' rows (few; serial)
