@@ -76,7 +76,7 @@ one-point quadrature", IJNME 20 (1984) 787-802.
 import taichi as ti
 
 from ..state import STATUS_INVERTED, STATUS_OK
-from . import opt_membrane
+from . import ns_membrane, opt_membrane
 from .rotation import mid_step, rotation_vector
 from .timestep import triangle_limit, zigzag_limit
 
@@ -199,6 +199,44 @@ class TriangleElement:
         self.s = quad.s
         self.cfg = quad.cfg
         self.quad = quad
+        self.smoothing = ns_membrane.NodeSmoothedMembrane(self) if self.cfg.triangle_ns else None
+
+    @ti.func
+    def membrane_rate(self, e):
+        """The constant-strain membrane rate of triangle e on its mid-step geometry, with the
+        frame and area (stages/ns_membrane.py, pass 1)."""
+        c = self.s.elements.corners[e]
+        x, v, w = self.quad.gather(c, 3)
+        rot_m, xm, ym, normal_m, vl, wl = mid_step(x, v, w, self.s.step.dt[None], self.cfg.finite_increment,
+                                                   triangle_geometry, increment_geometry)
+        area_m, g1, g2 = gradient_operators(xm, ym)
+        vx, vy = column(vl, 0), column(vl, 1)
+        return rot_m, area_m, ti.Vector([g1.dot(vx), g2.dot(vy), g2.dot(vx) + g1.dot(vy)])
+
+    @ti.func
+    def smoothed_loads(self, e, c, mean):
+        """The constant-strain loads of the smoothed resultant N* = R mean R^T (x^(n+1) frame) added
+        to triangle e's corners, and their stagger term (stages/ns_membrane.py, pass 3)."""
+        x, v, w = self.quad.gather(c, 3)
+        rot, xh, yh, normal = triangle_geometry(x)
+        area, b1, b2 = gradient_operators(xh, yh)
+        n_res = ns_membrane.to_local(rot, mean)
+        f, m = resultant_loads(xh, yh, area, b1, b2, n_res, ti.Vector([0.0, 0.0, 0.0]), ti.Vector([0.0, 0.0]), 0.0)
+        fg = f @ rot
+        power = 0.0
+        for a in ti.static(range(3)):
+            force = ti.Vector([fg[a, 0], fg[a, 1], fg[a, 2]])
+            power += force.dot(ti.Vector([v[a, 0], v[a, 1], v[a, 2]]))
+            if ti.static(self.cfg.serial):
+                self.s.nodes.force_int[c[a]] = self.s.nodes.force_int[c[a]] + force
+            else:                                   # the element's own slots, before the gather
+                slot = self.s.elements.corner_loads[e, a]
+                self.s.elements.corner_loads[e, a] = slot + ti.Vector([force[0], force[1], force[2], 0.0, 0.0, 0.0,
+                                                                       0.0, 0.0, 0.0, 0.0])
+        stagger = -0.5 * self.s.step.dt[None] * power
+        old = self.s.elements.energy[e]
+        self.s.elements.energy[e] = ti.Vector([old[0], old[1], old[2], old[3], old[4] + stagger])
+        self.quad.energy.acc.total(self.s.step.stagger_energy, stagger)
 
     @ti.func
     def zigzag(self, e, x, area):
@@ -243,6 +281,8 @@ class TriangleElement:
             membrane_rate += opt_membrane.basic_drilling_rate(xm, ym, area_m, tz)
             shear_scale = opt_membrane.shear_scale(x, t)
             shear_rate *= shear_scale
+        if ti.static(self.cfg.triangle_ns):         # the node-smoothed membrane rate (stages/ns_membrane.py)
+            membrane_rate = self.smoothing.smoothed_rate(c, rot_m)
         # --- geometry at x^(n+1) for the loads; a normal reversed within the step: inside out
         rot, xh, yh, normal = triangle_geometry(x)
         area, b1, b2 = gradient_operators(xh, yh)
@@ -255,7 +295,11 @@ class TriangleElement:
                 yield_before[k] = self.s.points.plastic_strain[e, k]
         n_res, m_res, q_res, power, plastic_work = self.quad.section_response(e, t, kappa, dt, membrane_rate,
                                                                               curvature_rate, shear_rate)
-        f, m = resultant_loads(xh, yh, area, b1, b2, n_res, m_res, shear_scale * q_res, kappa)
+        membrane_loads = n_res
+        if ti.static(self.cfg.triangle_ns):         # its loads come from the node means (ns_membrane, pass 3)
+            self.smoothing.stresses(e, rot, area, n_res)
+            membrane_loads = ti.Vector([0.0, 0.0, 0.0])
+        f, m = resultant_loads(xh, yh, area, b1, b2, membrane_loads, m_res, shear_scale * q_res, kappa)
         drill_energy = 0.0
         higher_energy = 0.0
         if ti.static(self.cfg.triangle_opt):        # OPT (stages/opt_membrane.py): basic drilling moments,

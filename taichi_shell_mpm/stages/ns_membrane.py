@@ -1,0 +1,137 @@
+"""Node-smoothed membrane strain for the C0 triangle (``[element].triangle = "ns"``, issue 33;
+docs/element.md, "The node-smoothed triangle").
+
+Why [measured].  On a doubly curved shell in bending a mesh of flat facets cannot follow the
+surface's inextensional modes: a convex triangulated polyhedron is rigid for fixed edge
+lengths, so bending strains every facet's constant-strain membrane (membrane locking).  With
+one membrane strain per triangle a mesh has ~6 membrane constraints per node (2 triangles per
+node, 3 each) against 3 translations; the one-point quad has ~3.  Sze's pinched hemisphere in
+C0 triangles (16x16, fem) is 8.69 / 13.65 % stiff, and no element-local membrane fixed that
+(OPT: 4.36 / 6.87 %).  Smoothing the membrane strain over the triangles around each node (the
+node-based smoothed FEM of G. R. Liu et al. 2009, "A node-based smoothed finite element method
+(NS-FEM) for upper bound solutions to solid mechanics problems", Comput. Struct. 87:14-26,
+here on a faceted shell) leaves ~3 constraints per node, as the quad: 1.24 / 0.18 % at 16x16.
+
+What.  Three passes around the element pass (stages/shell.ShellElement.element_pass):
+
+1. each live triangle e writes its constant-strain membrane rate as a global tensor,
+   G_e = R_e^T [[eps_xx, gamma/2], [gamma/2, eps_yy]] R_e (R_e the 2x3 rows e1, e2 of its
+   mid-step frame), times w_e = A_e / 3, and w_e (:meth:`rates`);
+2. each node a takes the weighted mean S_a = sum_e w_e G_e / sum_e w_e over its triangles,
+   gathered through the node -> corner slots in ascending element order (deterministic in
+   serial and parallel launches) (:meth:`node_means`); the triangle's membrane rate is then
+   eps_e' = R_e (1/3 sum_(a in e) S_a) R_e^T (:meth:`smoothed_rate`) -- the node strains
+   brought back to the element, so the stress stays at the element's through-thickness
+   points (plasticity, layered sections and the energy ledger as before);
+3. the loads are the exact transpose: each triangle writes T_e = (A_e / 3) R_e^T N_e R_e (its
+   membrane resultant, end-of-step frame) and A_e / 3 (:meth:`stresses`), the nodes take the
+   weighted means as in 2, and each triangle applies the constant-strain triangle's loads of
+   N_e* = R_e (1/3 sum_a T_a / W_a) R_e^T (:meth:`loads`).  So sum f.v = sum_e A_e N_e : eps_e'
+   over the mesh (the power identity holds for the mesh, not for an element alone).
+
+The element's own constant-strain membrane loads are not applied (the smoothed ones replace
+them); bending, transverse shear and the drilling spring are the C0 triangle's.  A rigid motion
+gives eps = 0 on every triangle, hence 0 everywhere; a uniform strain on a flat patch is
+smoothed to itself (the patch test).  Quads take no part (their membrane is unchanged; a node
+shared with quads averages over its triangles only).
+
+Time step [argued, measured].  The smoothed strain is a weighted mean of the triangles'
+strains, so by convexity (flat patch: exactly) the membrane energy of any motion is at most the
+constant-strain triangle's and the highest frequency at most the C0 triangle's: the C0
+triangle's step rule is kept (tests/test_triangle_ns.py compares the two patches' largest
+frequencies on a random curved patch).
+
+What it does not do.  Newton's tangent is element by element (solvers/tangent.py), and this
+membrane couples each triangle with its neighbours' neighbours: "ns" is refused with
+``solve.solver = "newton"`` (use the relaxation).  Also refused: erosion and selective mass
+scaling (not measured with it).
+"""
+
+import taichi as ti
+
+
+@ti.func
+def in_plane_rows(rot):
+    """The 2x3 rows e1, e2 of a frame (3x3, rows e1 e2 e3)."""
+    return ti.Matrix([[rot[0, 0], rot[0, 1], rot[0, 2]], [rot[1, 0], rot[1, 1], rot[1, 2]]])
+
+
+@ti.func
+def to_global(rot, xx, yy, xy):
+    """R^T [[xx, xy], [xy, yy]] R: an in-plane tensor of the frame `rot` as a global 3x3 tensor."""
+    r2 = in_plane_rows(rot)
+    return r2.transpose() @ ti.Matrix([[xx, xy], [xy, yy]]) @ r2
+
+
+@ti.func
+def to_local(rot, g):
+    """(xx, yy, xy) of R g R^T: a global 3x3 tensor in the plane of the frame `rot`."""
+    r2 = in_plane_rows(rot)
+    loc = r2 @ g @ r2.transpose()
+    return ti.Vector([loc[0, 0], loc[1, 1], loc[0, 1]])
+
+
+@ti.data_oriented
+class NodeSmoothedMembrane:
+    """The smoothing passes of the triangles' membrane; ``triangle`` (triangle.TriangleElement)
+    lends the geometry, the quad's gather and the loads."""
+
+    def __init__(self, triangle):
+        self.s = triangle.s
+        self.cfg = triangle.cfg
+        self.tri = triangle
+
+    @ti.func
+    def node_means(self):
+        """S_a = sum w_e X_e / sum w_e over node a's triangles (elements.ns_tensor holds w_e X_e,
+        elements.ns_weight w_e), gathered through the node -> corner slots, e ascending."""
+        for c in range(self.s.nodes.count[None]):
+            total = ti.Matrix.zero(ti.f64, 3, 3)
+            weight = 0.0
+            for i in range(self.s.elements.node_slot_start[c], self.s.elements.node_slot_start[c + 1]):
+                e = self.s.elements.node_slots[i] // 4
+                if self.s.elements.corners[e][3] < 0:
+                    total += self.s.elements.ns_tensor[e]
+                    weight += self.s.elements.ns_weight[e]
+            if weight > 0.0:
+                total /= weight
+            self.s.nodes.ns_mean[c] = total
+
+    @ti.func
+    def corner_mean(self, c):
+        """1/3 sum of the node means at the corners c[0..2]."""
+        return (self.s.nodes.ns_mean[c[0]] + self.s.nodes.ns_mean[c[1]] + self.s.nodes.ns_mean[c[2]]) / 3.0
+
+    @ti.func
+    def rates(self):
+        """Pass 1: each triangle's membrane rate (mid-step frame) as w_e G_e, then the node means."""
+        for e in range(self.s.elements.count[None]):
+            c = self.s.elements.corners[e]
+            if c[3] < 0:
+                rot_m, area_m, rate = self.tri.membrane_rate(e)
+                self.s.elements.ns_tensor[e] = (area_m / 3.0) * to_global(rot_m, rate[0], rate[1], 0.5 * rate[2])
+                self.s.elements.ns_weight[e] = area_m / 3.0
+        self.node_means()
+
+    @ti.func
+    def smoothed_rate(self, c, rot_m):
+        """Pass 2 (in the element update): the triangle's smoothed membrane rate (xx, yy, 2 xy)."""
+        local = to_local(rot_m, self.corner_mean(c))
+        return ti.Vector([local[0], local[1], 2.0 * local[2]])
+
+    @ti.func
+    def stresses(self, e, rot, area, n_res):
+        """Pass 2 (in the element update): the triangle's membrane resultant N (end frame) as w_e T_e."""
+        self.s.elements.ns_tensor[e] = (area / 3.0) * to_global(rot, n_res[0], n_res[1], n_res[2])
+        self.s.elements.ns_weight[e] = area / 3.0
+
+    @ti.func
+    def loads(self):
+        """Pass 3: the node means of the resultants, and each triangle's constant-strain loads of
+        N* (the transpose of passes 1-2) added to its corners, with their stagger term (energy.py)."""
+        self.node_means()
+        for e in range(self.s.elements.count[None]):
+            c = self.s.elements.corners[e]
+            if c[3] < 0:
+                self.tri.smoothed_loads(e, c, self.corner_mean(c))
+
