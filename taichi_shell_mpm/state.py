@@ -350,6 +350,9 @@ class State:
         # the node-smoothed triangle (stages/ns_membrane.py): this step's w_e X_e and w_e = A/3
         g.entity("ns_tensor", ti.Matrix.field(3, 3, f64), m, persistent=False, used=fx.triangle_ns, host=False)
         g.entity("ns_weight", ti.field(f64), m, persistent=False, used=fx.triangle_ns, host=False)
+        # and for its loads the end-of-step normal and A grad N_a (rows a)
+        g.entity("ns_gradient", ti.Matrix.field(3, 3, f64), m, persistent=False, used=fx.triangle_ns, host=False)
+        g.entity("ns_normal", ti.Vector.field(3, f64), m, persistent=False, used=fx.triangle_ns, host=False)
         # erosion and selective mass scaling (issue 18; stages/masses.py): failed (1) or not;
         # density factor f_e >= 1; the element's physical shares of its corners' masses and
         # rotary inertias; kinetic energy its erosion took out of the nodes, and that its

@@ -120,18 +120,43 @@ class NodeSmoothedMembrane:
         return ti.Vector([local[0], local[1], 2.0 * local[2]])
 
     @ti.func
-    def stresses(self, e, rot, area, n_res):
-        """Pass 2 (in the element update): the triangle's membrane resultant N (end frame) as w_e T_e."""
+    def stresses(self, e, rot, area, b1, b2, n_res):
+        """Pass 2 (in the element update): the triangle's membrane resultant N (end frame) as w_e T_e,
+        and for pass 3 its normal e3 and h_a = A grad N_a (global, rows a) at x^(n+1)."""
         self.s.elements.ns_tensor[e] = (area / 3.0) * to_global(rot, n_res[0], n_res[1], n_res[2])
         self.s.elements.ns_weight[e] = area / 3.0
+        h = ti.Matrix.zero(ti.f64, 3, 3)
+        for a, d in ti.static(ti.ndrange(3, 3)):
+            h[a, d] = area * (b1[a] * rot[0, d] + b2[a] * rot[1, d])
+        self.s.elements.ns_gradient[e] = h
+        self.s.elements.ns_normal[e] = ti.Vector([rot[2, 0], rot[2, 1], rot[2, 2]])
 
     @ti.func
     def loads(self):
         """Pass 3: the node means of the resultants, and each triangle's constant-strain loads of
-        N* (the transpose of passes 1-2) added to its corners, with their stagger term (energy.py)."""
+        N* (the transpose of passes 1-2) added to its corners, with their stagger term (energy.py).
+        With M = 1/3 sum_a T_a / W_a (global) the local loads A (B_a^T R M R^T) in global axes are
+        f_a = P M h_a, P = I - e3 e3^T the in-plane projector (h_a is in the plane): no geometry
+        is recomputed here."""
         self.node_means()
         for e in range(self.s.elements.count[None]):
             c = self.s.elements.corners[e]
             if c[3] < 0:
-                self.tri.smoothed_loads(e, c, self.corner_mean(c))
-
+                mean = self.corner_mean(c)
+                h = self.s.elements.ns_gradient[e]
+                n3 = self.s.elements.ns_normal[e]
+                power = 0.0
+                for a in ti.static(range(3)):
+                    q = mean @ ti.Vector([h[a, 0], h[a, 1], h[a, 2]])
+                    force = q - n3.dot(q) * n3
+                    power += force.dot(self.s.nodes.grid_velocity[c[a]])
+                    if ti.static(self.cfg.serial):
+                        self.s.nodes.force_int[c[a]] = self.s.nodes.force_int[c[a]] + force
+                    else:                               # the element's own slots, before the gather
+                        slot = self.s.elements.corner_loads[e, a]
+                        self.s.elements.corner_loads[e, a] = slot + ti.Vector([force[0], force[1], force[2], 0.0, 0.0,
+                                                                               0.0, 0.0, 0.0, 0.0, 0.0])
+                stagger = -0.5 * self.s.step.dt[None] * power
+                old = self.s.elements.energy[e]
+                self.s.elements.energy[e] = ti.Vector([old[0], old[1], old[2], old[3], old[4] + stagger])
+                self.tri.quad.energy.acc.total(self.s.step.stagger_energy, stagger)

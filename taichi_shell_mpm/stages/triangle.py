@@ -69,6 +69,11 @@ are 2A in its own frame): it is flagged when its normal reverses within a step,
 (x2 - x1) x (x3 - x1) at x^(n+1) against the mid-step one <= 0 (which includes collapsing to
 a line).
 
+Options (``[element].triangle``): ``opt`` replaces the membrane by Felippa's OPT
+(:mod:`.opt_membrane`); ``ns`` smooths the constant-strain membrane rate over each node's
+triangles and applies the transpose of that as the membrane loads (:mod:`.ns_membrane`: the
+passes around the element loop and :meth:`TriangleElement.membrane_rate` here).
+
 Reference: T. Belytschko, H. Stolarski, N. Carpenter, "A C0 triangular plate element with
 one-point quadrature", IJNME 20 (1984) 787-802.
 """
@@ -214,31 +219,6 @@ class TriangleElement:
         return rot_m, area_m, ti.Vector([g1.dot(vx), g2.dot(vy), g2.dot(vx) + g1.dot(vy)])
 
     @ti.func
-    def smoothed_loads(self, e, c, mean):
-        """The constant-strain loads of the smoothed resultant N* = R mean R^T (x^(n+1) frame) added
-        to triangle e's corners, and their stagger term (stages/ns_membrane.py, pass 3)."""
-        x, v, w = self.quad.gather(c, 3)
-        rot, xh, yh, normal = triangle_geometry(x)
-        area, b1, b2 = gradient_operators(xh, yh)
-        n_res = ns_membrane.to_local(rot, mean)
-        f, m = resultant_loads(xh, yh, area, b1, b2, n_res, ti.Vector([0.0, 0.0, 0.0]), ti.Vector([0.0, 0.0]), 0.0)
-        fg = f @ rot
-        power = 0.0
-        for a in ti.static(range(3)):
-            force = ti.Vector([fg[a, 0], fg[a, 1], fg[a, 2]])
-            power += force.dot(ti.Vector([v[a, 0], v[a, 1], v[a, 2]]))
-            if ti.static(self.cfg.serial):
-                self.s.nodes.force_int[c[a]] = self.s.nodes.force_int[c[a]] + force
-            else:                                   # the element's own slots, before the gather
-                slot = self.s.elements.corner_loads[e, a]
-                self.s.elements.corner_loads[e, a] = slot + ti.Vector([force[0], force[1], force[2], 0.0, 0.0, 0.0,
-                                                                       0.0, 0.0, 0.0, 0.0])
-        stagger = -0.5 * self.s.step.dt[None] * power
-        old = self.s.elements.energy[e]
-        self.s.elements.energy[e] = ti.Vector([old[0], old[1], old[2], old[3], old[4] + stagger])
-        self.quad.energy.acc.total(self.s.step.stagger_energy, stagger)
-
-    @ti.func
     def zigzag(self, e, x, area):
         """The triangle's zigzag step (stages/timestep.zigzag_limit), h = 2 A / longest edge, with
         the reciprocal mass matrix (0 without: not used)."""
@@ -297,7 +277,7 @@ class TriangleElement:
                                                                               curvature_rate, shear_rate)
         membrane_loads = n_res
         if ti.static(self.cfg.triangle_ns):         # its loads come from the node means (ns_membrane, pass 3)
-            self.smoothing.stresses(e, rot, area, n_res)
+            self.smoothing.stresses(e, rot, area, b1, b2, n_res)
             membrane_loads = ti.Vector([0.0, 0.0, 0.0])
         f, m = resultant_loads(xh, yh, area, b1, b2, membrane_loads, m_res, shear_scale * q_res, kappa)
         drill_energy = 0.0
