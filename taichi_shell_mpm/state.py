@@ -329,6 +329,7 @@ class State:
         g.entity("load_start", ti.field(i32), n + 1, used=fx.loads)
         # the node-smoothed triangle (stages/ns_membrane.py): the node's weighted mean tensor
         g.entity("ns_mean", ti.Matrix.field(3, 3, f64), n, persistent=False, used=fx.triangle_ns, host=False)
+        g.entity("ns_share", ti.field(f64), n, persistent=False, used=fx.triangle_ns, host=False)   # 0: next to a quad
 
         # --- elements (= material points): topology and element-level state
         g = self.elements = Group("elements")

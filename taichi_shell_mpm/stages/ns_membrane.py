@@ -84,23 +84,36 @@ class NodeSmoothedMembrane:
     @ti.func
     def node_means(self):
         """S_a = sum w_e X_e / sum w_e over node a's triangles (elements.ns_tensor holds w_e X_e,
-        elements.ns_weight w_e), gathered through the node -> corner slots, e ascending."""
+        elements.ns_weight w_e), gathered through the node -> corner slots, e ascending; 0 at a
+        node that also has a quad, whose triangles keep their own strain there
+        (nodes.ns_share 0, else 1: module docstring, "Next to quads")."""
         for c in range(self.s.nodes.count[None]):
             total = ti.Matrix.zero(ti.f64, 3, 3)
             weight = 0.0
+            share = 1.0
             for i in range(self.s.elements.node_slot_start[c], self.s.elements.node_slot_start[c + 1]):
                 e = self.s.elements.node_slots[i] // 4
                 if self.s.elements.corners[e][3] < 0:
                     total += self.s.elements.ns_tensor[e]
                     weight += self.s.elements.ns_weight[e]
-            if weight > 0.0:
+                else:
+                    share = 0.0
+            if weight > 0.0 and share > 0.0:
                 total /= weight
+            else:
+                total = ti.Matrix.zero(ti.f64, 3, 3)
             self.s.nodes.ns_mean[c] = total
+            self.s.nodes.ns_share[c] = share
 
     @ti.func
     def corner_mean(self, c):
-        """1/3 sum of the node means at the corners c[0..2]."""
+        """1/3 sum of the node means at the corners c[0..2] (0 from a node next to a quad)."""
         return (self.s.nodes.ns_mean[c[0]] + self.s.nodes.ns_mean[c[1]] + self.s.nodes.ns_mean[c[2]]) / 3.0
+
+    @ti.func
+    def own_share(self, c):
+        """k_e = 1/3 (number of corners next to a quad): the share of the triangle's own strain."""
+        return (3.0 - self.s.nodes.ns_share[c[0]] - self.s.nodes.ns_share[c[1]] - self.s.nodes.ns_share[c[2]]) / 3.0
 
     @ti.func
     def rates(self):
@@ -114,10 +127,11 @@ class NodeSmoothedMembrane:
         self.node_means()
 
     @ti.func
-    def smoothed_rate(self, c, rot_m):
-        """Pass 2 (in the element update): the triangle's smoothed membrane rate (xx, yy, 2 xy)."""
+    def smoothed_rate(self, c, rot_m, own):
+        """Pass 2 (in the element update): the triangle's smoothed membrane rate (xx, yy, 2 xy),
+        R (1/3 sum_a S_a) R^T + k_e eps_e (`own`: its constant-strain rate)."""
         local = to_local(rot_m, self.corner_mean(c))
-        return ti.Vector([local[0], local[1], 2.0 * local[2]])
+        return ti.Vector([local[0], local[1], 2.0 * local[2]]) + self.own_share(c) * own
 
     @ti.func
     def stresses(self, e, rot, area, b1, b2, n_res):

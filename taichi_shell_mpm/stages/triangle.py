@@ -262,7 +262,7 @@ class TriangleElement:
             shear_scale = opt_membrane.shear_scale(x, t)
             shear_rate *= shear_scale
         if ti.static(self.cfg.triangle_ns):         # the node-smoothed membrane rate (stages/ns_membrane.py)
-            membrane_rate = self.smoothing.smoothed_rate(c, rot_m)
+            membrane_rate = self.smoothing.smoothed_rate(c, rot_m, membrane_rate)
         # --- geometry at x^(n+1) for the loads; a normal reversed within the step: inside out
         rot, xh, yh, normal = triangle_geometry(x)
         area, b1, b2 = gradient_operators(xh, yh)
@@ -278,7 +278,7 @@ class TriangleElement:
         membrane_loads = n_res
         if ti.static(self.cfg.triangle_ns):         # its loads come from the node means (ns_membrane, pass 3)
             self.smoothing.stresses(e, rot, area, b1, b2, n_res)
-            membrane_loads = ti.Vector([0.0, 0.0, 0.0])
+            membrane_loads = self.smoothing.own_share(c) * n_res     # its own strain's share (corners next to quads)
         f, m = resultant_loads(xh, yh, area, b1, b2, membrane_loads, m_res, shear_scale * q_res, kappa)
         drill_energy = 0.0
         higher_energy = 0.0
