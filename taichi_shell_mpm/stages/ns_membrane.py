@@ -29,8 +29,8 @@ What.  Three passes around the element pass (stages/shell.ShellElement.element_p
    N_e* = R_e (1/3 sum_a T_a / W_a) R_e^T (:meth:`loads`).  So sum f.v = sum_e A_e N_e : eps_e'
    over the mesh (the power identity holds for the mesh, not for an element alone).
 
-The element's own constant-strain membrane loads are not applied (the smoothed ones replace
-them); bending, transverse shear and the drilling spring are the C0 triangle's.  A rigid motion
+The element's own constant-strain membrane loads are applied only for its share next to quads
+(below; otherwise the smoothed ones replace them); bending, transverse shear and the drilling spring are the C0 triangle's.  A rigid motion
 gives eps = 0 on every triangle, hence 0 everywhere; a uniform strain on a flat patch is
 smoothed to itself (the patch test).
 
@@ -43,8 +43,8 @@ the 6 ms square tube's band of triangles collapse in the first fold (their step 
 against 2.27 for the C0 triangles; 43 604 steps against 23 386, mean force 9.437 kN); with the
 rule 29 193 steps and 9.480 kN (all quads 9.509; docs/element.md).
 
-Time step [argued, measured].  The smoothed strain is a weighted mean of the triangles'
-strains, so by convexity (flat patch: exactly) the membrane energy of any motion is at most the
+Time step [argued, measured].  The smoothed strain (next to quads too) is a weighted mean of
+the triangles' strains, so by convexity (flat patch: exactly) the membrane energy of any motion is at most the
 constant-strain triangle's and the highest frequency at most the C0 triangle's: the C0
 triangle's step rule is kept (tests/test_triangle_ns.py compares the two patches' largest
 frequencies on a random curved patch).
