@@ -64,6 +64,8 @@ class Features:
     joints: bool = False        # [[tie]] or [[spotweld]] (stages/joints.py)
     triangle_opt: bool = False  # the triangles' membrane is OPT ([element].triangle = "opt";
     #                             stages/opt_membrane.py); else the constant-strain one
+    triangle_ns: bool = False   # the triangles' membrane strain is smoothed over each node's triangles
+    #                             ([element].triangle = "ns"; stages/ns_membrane.py)
     finite_increment: bool = False  # the step is one large increment (Newton's trial,
     #                             solvers/tangent.py): mid-step shape from the end shapes
     #                             (stages/shell.mid_geometry)
@@ -142,6 +144,7 @@ class Features:
             warping_correction=el.warping == "bwc",
             triangles=bool((model.elements[:, 3] < 0).any()),
             triangle_opt=el.triangle == "opt" and bool((model.elements[:, 3] < 0).any()),
+            triangle_ns=el.triangle == "ns" and bool((model.elements[:, 3] < 0).any()),
             physical_rotary_inertia=scene.solve.physical_rotary_inertia,
             grid_rule=scene.solve.dt_rule == "both" and scene.method.kind == "mpm",
             grid_planes=model.grid is not None and bool(model.grid.planes),

@@ -327,6 +327,9 @@ class State:
             g.entity(name, ti.Vector.field(3, f64), n, persistent=False, used=fx.selective_mass, host=False)
         g.entity("sms_share", ti.Vector.field(2, f64), n, persistent=False, used=fx.selective_mass, host=False)
         g.entity("load_start", ti.field(i32), n + 1, used=fx.loads)
+        # the node-smoothed triangle (stages/ns_membrane.py): the node's weighted mean tensor
+        g.entity("ns_mean", ti.Matrix.field(3, 3, f64), n, persistent=False, used=fx.triangle_ns, host=False)
+        g.entity("ns_share", ti.field(f64), n, persistent=False, used=fx.triangle_ns, host=False)   # 0: next to a quad
 
         # --- elements (= material points): topology and element-level state
         g = self.elements = Group("elements")
@@ -343,8 +346,14 @@ class State:
         gathered = fx.launch != "batched"
         g.entity("corner_loads", ti.Vector.field(10, f64), m, (4,), persistent=False,
                  used=gathered)
-        g.entity("node_slot_start", ti.field(i32), n + 1, used=gathered or fx.mass_update)
-        g.entity("node_slots", ti.field(i32), 4 * m, used=gathered or fx.mass_update)
+        g.entity("node_slot_start", ti.field(i32), n + 1, used=gathered or fx.mass_update or fx.triangle_ns)
+        g.entity("node_slots", ti.field(i32), 4 * m, used=gathered or fx.mass_update or fx.triangle_ns)
+        # the node-smoothed triangle (stages/ns_membrane.py): this step's w_e X_e and w_e = A/3
+        g.entity("ns_tensor", ti.Matrix.field(3, 3, f64), m, persistent=False, used=fx.triangle_ns, host=False)
+        g.entity("ns_weight", ti.field(f64), m, persistent=False, used=fx.triangle_ns, host=False)
+        # and for its loads the end-of-step normal and A grad N_a (rows a)
+        g.entity("ns_gradient", ti.Matrix.field(3, 3, f64), m, persistent=False, used=fx.triangle_ns, host=False)
+        g.entity("ns_normal", ti.Vector.field(3, f64), m, persistent=False, used=fx.triangle_ns, host=False)
         # erosion and selective mass scaling (issue 18; stages/masses.py): failed (1) or not;
         # density factor f_e >= 1; the element's physical shares of its corners' masses and
         # rotary inertias; kinetic energy its erosion took out of the nodes, and that its
@@ -847,7 +856,7 @@ class State:
                 w(el.sms_radius_sq, radius_sq)
             else:
                 st.added_mass[None] = float(np.dot(model.mass_factor - 1.0, model.corner_mass.sum(axis=1)))
-        if self.features.launch != "batched" or self.features.mass_update:
+        if self.features.launch != "batched" or self.features.mass_update or self.features.triangle_ns:
             flat = model.elements.ravel()
             slots = np.argsort(np.where(flat >= 0, flat, n), kind="stable")[:int((flat >= 0).sum())]
             w(el.node_slots, slots.astype(np.int32))

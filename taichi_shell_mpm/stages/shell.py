@@ -168,6 +168,8 @@ class ShellElement:
 
     @ti.func
     def element_pass(self):
+        if ti.static(self.cfg.triangle_ns):      # the triangles' node-smoothed membrane rates (stages/ns_membrane.py)
+            self.triangle.smoothing.rates()
         for e in range(self.s.elements.count[None]):
             if ti.static(self.cfg.erosion):          # stages/masses.py
                 if self.s.elements.eroded[e] == 0:
@@ -176,6 +178,8 @@ class ShellElement:
                     self.eroded(e)
             else:
                 self.element(e)
+        if ti.static(self.cfg.triangle_ns):      # and their loads, into the corners' slots before the gather
+            self.triangle.smoothing.loads()
         self.loads.gather()
 
     @ti.func

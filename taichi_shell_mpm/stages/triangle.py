@@ -69,6 +69,11 @@ are 2A in its own frame): it is flagged when its normal reverses within a step,
 (x2 - x1) x (x3 - x1) at x^(n+1) against the mid-step one <= 0 (which includes collapsing to
 a line).
 
+Options (``[element].triangle``): ``opt`` replaces the membrane by Felippa's OPT
+(:mod:`.opt_membrane`); ``ns`` smooths the constant-strain membrane rate over each node's
+triangles and applies the transpose of that as the membrane loads (:mod:`.ns_membrane`: the
+passes around the element loop and :meth:`TriangleElement.membrane_rate` here).
+
 Reference: T. Belytschko, H. Stolarski, N. Carpenter, "A C0 triangular plate element with
 one-point quadrature", IJNME 20 (1984) 787-802.
 """
@@ -76,7 +81,7 @@ one-point quadrature", IJNME 20 (1984) 787-802.
 import taichi as ti
 
 from ..state import STATUS_INVERTED, STATUS_OK
-from . import opt_membrane
+from . import ns_membrane, opt_membrane
 from .rotation import mid_step, rotation_vector
 from .timestep import triangle_limit, zigzag_limit
 
@@ -199,6 +204,19 @@ class TriangleElement:
         self.s = quad.s
         self.cfg = quad.cfg
         self.quad = quad
+        self.smoothing = ns_membrane.NodeSmoothedMembrane(self) if self.cfg.triangle_ns else None
+
+    @ti.func
+    def membrane_rate(self, e):
+        """The constant-strain membrane rate of triangle e on its mid-step geometry, with the
+        frame and area (stages/ns_membrane.py, pass 1)."""
+        c = self.s.elements.corners[e]
+        x, v, w = self.quad.gather(c, 3)
+        rot_m, xm, ym, normal_m, vl, wl = mid_step(x, v, w, self.s.step.dt[None], self.cfg.finite_increment,
+                                                   triangle_geometry, increment_geometry)
+        area_m, g1, g2 = gradient_operators(xm, ym)
+        vx, vy = column(vl, 0), column(vl, 1)
+        return rot_m, area_m, ti.Vector([g1.dot(vx), g2.dot(vy), g2.dot(vx) + g1.dot(vy)])
 
     @ti.func
     def zigzag(self, e, x, area):
@@ -243,6 +261,8 @@ class TriangleElement:
             membrane_rate += opt_membrane.basic_drilling_rate(xm, ym, area_m, tz)
             shear_scale = opt_membrane.shear_scale(x, t)
             shear_rate *= shear_scale
+        if ti.static(self.cfg.triangle_ns):         # the node-smoothed membrane rate (stages/ns_membrane.py)
+            membrane_rate = self.smoothing.smoothed_rate(c, rot_m, membrane_rate)
         # --- geometry at x^(n+1) for the loads; a normal reversed within the step: inside out
         rot, xh, yh, normal = triangle_geometry(x)
         area, b1, b2 = gradient_operators(xh, yh)
@@ -255,7 +275,11 @@ class TriangleElement:
                 yield_before[k] = self.s.points.plastic_strain[e, k]
         n_res, m_res, q_res, power, plastic_work = self.quad.section_response(e, t, kappa, dt, membrane_rate,
                                                                               curvature_rate, shear_rate)
-        f, m = resultant_loads(xh, yh, area, b1, b2, n_res, m_res, shear_scale * q_res, kappa)
+        membrane_loads = n_res
+        if ti.static(self.cfg.triangle_ns):         # its loads come from the node means (ns_membrane, pass 3)
+            self.smoothing.stresses(e, rot, area, b1, b2, n_res)
+            membrane_loads = self.smoothing.own_share(c) * n_res     # its own strain's share (corners next to quads)
+        f, m = resultant_loads(xh, yh, area, b1, b2, membrane_loads, m_res, shear_scale * q_res, kappa)
         drill_energy = 0.0
         higher_energy = 0.0
         if ti.static(self.cfg.triangle_opt):        # OPT (stages/opt_membrane.py): basic drilling moments,
