@@ -230,12 +230,13 @@ def _execute(scene, mesh, model, out: Path, ckpt, progress: bool, arch_requested
     from .solvers.dynamic import run_dynamic
     from .solvers.newton import ShellEquations, run_newton
     from .solvers.static import run_static
-    from .solvers.tangent import newton_is_serial
+    from .solvers.tangent import newton_is_serial, virtual_count
     sim = None
     control = RunControl(checkpoint_every, resume=ckpt.position if ckpt else None)
     try:
         threads = None
-        if scene.solve.kind == "static" and scene.solve.solver == "newton" and newton_is_serial(len(model.elements)):
+        if (scene.solve.kind == "static" and scene.solve.solver == "newton"
+                and newton_is_serial(virtual_count(model, scene.element.triangle))):
             threads = 1             # its kernels are serial: no thread pool (solvers/tangent.newton_is_serial)
         arch = init_taichi(arch_requested, quiet=not progress, threads=threads)
         if progress:

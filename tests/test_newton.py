@@ -194,28 +194,42 @@ solver = "newton"
 TANGENT_BOUND = {"elastic": 1.3e-9, "plastic": 4.1e-10, "triangles": 8e-10}
 
 
-def patch_equations(tmp_path, plastic: bool, triangles: bool = False):
+def patch_equations(tmp_path, plastic: bool, triangles: bool = False, cells: int = 2, element: str = ""):
+    """Newton's equations of a warped random patch of cells x cells quads (or twice as many
+    triangles) at a deformed, stressed converged state; `element`: [element] lines."""
     from .conftest import simulation, write_scene
     from taichi_shell_mpm.scene import load_scene
     import meshio
     rng = np.random.default_rng(7)
-    x, y = np.meshgrid(np.linspace(0, 1, 3), np.linspace(0, 1, 3), indexing="xy")
-    points = np.stack([x.ravel(), y.ravel(), np.zeros(9)], axis=1)
-    points[:, :2] += rng.uniform(-0.08, 0.08, (9, 2))
-    points[:, 2] += rng.uniform(-0.05, 0.05, 9)                   # warped quads
-    quads = np.array([[0, 1, 4, 3], [1, 2, 5, 4], [3, 4, 7, 6], [4, 5, 8, 7]])
-    cells = [("triangle", np.concatenate([quads[:, :3], quads[:, [0, 2, 3]]]))] if triangles else [("quad", quads)]
-    meshio.write(tmp_path / "patch.vtu", meshio.Mesh(points, cells))
+    side = cells + 1
+    x, y = np.meshgrid(np.linspace(0, 1, side), np.linspace(0, 1, side), indexing="xy")
+    n = side * side
+    points = np.stack([x.ravel(), y.ravel(), np.zeros(n)], axis=1)
+    points[:, :2] += rng.uniform(-0.08, 0.08, (n, 2)) * 2 / cells
+    points[:, 2] += rng.uniform(-0.05, 0.05, n) * 2 / cells      # warped quads
+    i, j = np.meshgrid(np.arange(cells), np.arange(cells), indexing="ij")
+    first = (side * i + j).ravel()
+    quads = np.stack([first, first + 1, first + side + 1, first + side], axis=1)
+    cells_out = [("triangle", np.concatenate([quads[:, :3], quads[:, [0, 2, 3]]]))] if triangles else [("quad", quads)]
+    meshio.write(tmp_path / "patch.vtu", meshio.Mesh(points, cells_out))
     material = 'model = "j2"\nyield_stress = 0.5\nhardening = 10.0' if plastic else ""
-    scene = load_scene(write_scene(tmp_path, PATCH.format(material=material)))
+    text = PATCH.format(material=material)
+    if element:
+        text = text.replace("[solve]", f"[element]\n{element}\n[solve]", 1)
+    scene = load_scene(write_scene(tmp_path, text))
     sim = simulation(scene, tmp_path)
     eq = ShellEquations.compiled(sim)
     # a deformed, stressed converged state: one random increment committed
-    first = np.concatenate([rng.normal(0, 0.02, (9, 3)), rng.normal(0, 0.15, (9, 3))], axis=1).ravel()
+    first = random_increment(rng, n)
     f, _, message = eq.evaluate(first[eq.free], False)
     assert f is not None, message
     eq.forces.commit(eq.full(first[eq.free]))
     return sim, eq, rng
+
+
+def random_increment(rng, n: int) -> np.ndarray:
+    """Random translations (0.02) and rotations (0.15) of n nodes, as one (6 n) vector."""
+    return np.concatenate([rng.normal(0, 0.02, (n, 3)), rng.normal(0, 0.15, (n, 3))], axis=1).ravel()
 
 
 def tangent_errors(eq, d, K, rng, count: int = 6) -> list[float]:
@@ -235,7 +249,7 @@ def tangent_errors(eq, d, K, rng, count: int = 6) -> list[float]:
 @pytest.mark.parametrize("kind", ["elastic", "plastic", "triangles"])
 def test_tangent_against_finite_differences(tmp_path, kind):
     sim, eq, rng = patch_equations(tmp_path, kind == "plastic", triangles=kind == "triangles")
-    d = np.concatenate([rng.normal(0, 0.02, (9, 3)), rng.normal(0, 0.15, (9, 3))], axis=1).ravel()[eq.free]
+    d = random_increment(rng, 9)[eq.free]
     f, K, message = eq.evaluate(d, True)
     assert f is not None, message
     if kind == "plastic":

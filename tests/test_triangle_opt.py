@@ -223,14 +223,9 @@ def test_newton_tangent_against_finite_differences(tmp_path):
     deformed, stressed state, against a directional difference of the internal forces (the
     bound of tests/test_newton.py's C0 triangles, 8e-10)."""
     from . import test_newton
-    original = test_newton.PATCH
-    test_newton.PATCH = original.replace("[solve]", "[element]\n" + OPT + "\n[solve]", 1)
-    try:
-        sim, eq, rng = test_newton.patch_equations(tmp_path, False, triangles=True)
-    finally:
-        test_newton.PATCH = original
+    sim, eq, rng = test_newton.patch_equations(tmp_path, False, triangles=True, element=OPT)
     assert sim.cfg.triangle_opt
-    d = np.concatenate([rng.normal(0, 0.02, (9, 3)), rng.normal(0, 0.15, (9, 3))], axis=1).ravel()[eq.free]
+    d = test_newton.random_increment(rng, 9)[eq.free]
     f, K, message = eq.evaluate(d, True)
     assert f is not None, message
     errors = test_newton.tangent_errors(eq, d, K, rng)

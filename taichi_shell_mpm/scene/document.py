@@ -287,12 +287,8 @@ def plain(r: Reader, key: str, cls: type) -> Any:
 
 
 def check_node_smoothed(r, solve, materials) -> None:
-    """[element].triangle = "ns" (stages/ns_membrane.py): its membrane couples each triangle with
-    its neighbours, which Newton's element-by-element tangent does not see; erosion and selective
-    mass scaling were not measured with it."""
-    if solve is not None and solve.solver == "newton":
-        r.error("[element].triangle", '"ns" couples neighbouring triangles, which the Newton tangent (element by '
-                'element) does not see: use [solve].solver = "relaxation"')
+    """[element].triangle = "ns" (stages/ns_membrane.py): erosion and selective mass scaling were
+    not measured with it."""
     if solve is not None and solve.mass_scaling == "selective":
         r.error("[element].triangle", '"ns" with selective mass scaling is not measured: use conventional scaling '
                 'or "c0" triangles')

@@ -40,8 +40,8 @@ class ElementOptions:
             "triangle with its membrane strain smoothed over the triangles around each node (node-based smoothed "
             "FEM, `stages/ns_membrane.py`), which removes the flat facets' membrane locking: Sze's hemisphere "
             "1.24 / 0.18 % mean error at 16×16 in fem ([element.md](element.md), \"The node-smoothed "
-            "triangle\"); the `c0` step; refused with `[solve].solver = \"newton\"` (its tangent is element by "
-            "element), erosion and selective mass scaling")
+            "triangle\"); the `c0` step; Newton's tangent by coloured copies of the mesh ([newton.md](newton.md)); "
+            "refused with erosion and selective mass scaling")
     warping: Literal["none", "bwc"] = key(choice("none", "bwc"), default="none",
         doc="warped quads: `none` is the flat-facet BT element (the paper's); `bwc` adds the "
             "Belytschko–Wong–Chiang (1992) curvature rate that in-plane motion gives a warped quad (element spin "

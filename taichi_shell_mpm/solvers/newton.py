@@ -40,7 +40,7 @@ from ..run_control import RunControl, RunLoop
 from ..scene import DOFS
 from ..simulation import FAILURES, Simulation, SimulationError
 from .path import JumpMonitor, PathError, Plan, Settings, follow
-from .tangent import DOFS_PER_ELEMENT, IncrementalForces
+from .tangent import IncrementalForces
 
 # SuperLU: minimum degree on K + K^T, pivots on the diagonal unless one is below 1 % of its
 # column (the tangent is nearly symmetric); 6-14x faster than the default partial pivoting,
@@ -107,13 +107,12 @@ class ShellEquations:
         L = model.mean_edge
         self.load = np.concatenate([model.load_force, model.load_moment], axis=1).ravel()[self.free]
         self.weight = np.tile([1.0, 1.0, 1.0, L, L, L], n)[self.free]
-        # sparsity: every (row, col) of the element blocks between free DOFs, and the CSR slot
-        # of each element entry (duplicates summed by bincount)
-        corners = model.elements
-        dof = np.where(corners[:, :, None] >= 0, 6 * corners[:, :, None] + np.arange(6), -1).reshape(-1, DOFS_PER_ELEMENT)
-        local = np.where(dof >= 0, index[np.maximum(dof, 0)], -1)
-        rows = np.broadcast_to(local[:, :, None], (len(corners), 24, 24)).ravel()
-        cols = np.broadcast_to(local[:, None, :], (len(corners), 24, 24)).ravel()
+        # sparsity: every (row, col) of the tangent's entries between free DOFs (element blocks,
+        # or the smoothed triangles' coloured columns: tangent.py), and the CSC slot of each
+        # entry (duplicates summed by bincount)
+        dof_rows, dof_cols = self.forces.entries
+        rows = np.where(dof_rows >= 0, index[np.maximum(dof_rows, 0)], -1)
+        cols = np.where(dof_cols >= 0, index[np.maximum(dof_cols, 0)], -1)
         self.keep = (rows >= 0) & (cols >= 0)
         keys = rows[self.keep] * self.ndof + cols[self.keep]
         unique, self.slot = np.unique(keys, return_inverse=True)
@@ -156,7 +155,7 @@ class ShellEquations:
         f = self.forces.internal.ravel()[self.free].copy()
         K = None
         if tangent:
-            data = np.bincount(self.slot, weights=self.forces.stiffness.ravel()[self.keep], minlength=self.nnz)
+            data = np.bincount(self.slot, weights=self.forces.values()[self.keep], minlength=self.nnz)
             K = sp.csc_matrix((data, (self.pattern_rows, self.pattern_cols)), shape=(self.ndof, self.ndof))
         return f, K, ""
 

@@ -49,10 +49,11 @@ constant-strain triangle's and the highest frequency at most the C0 triangle's: 
 triangle's step rule is kept (tests/test_triangle_ns.py compares the two patches' largest
 frequencies on a random curved patch).
 
-What it does not do.  Newton's tangent is element by element (solvers/tangent.py), and this
-membrane couples each triangle with its neighbours' neighbours: "ns" is refused with
-``solve.solver = "newton"`` (use the relaxation).  Also refused: erosion and selective mass
-scaling (not measured with it).
+Newton.  Its tangent cannot be element by element: a node's translation reaches forces three
+element edges away through passes 1-3, so solvers/tangent.py differentiates coloured copies of
+the whole mesh (tangent.Colouring).
+
+What it does not do.  Erosion and selective mass scaling are refused (not measured with it).
 """
 
 import taichi as ti
