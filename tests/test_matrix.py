@@ -89,6 +89,8 @@ FEATURES = {
     "triangles": Feature({"mesh": {"triangles": "all"}}),
     # the OPT triangle (issue 33): ANDES membrane with drilling rotations
     "opt_triangles": Feature({"mesh": {"triangles": "all"}, "element": {"triangle": "opt"}}),
+    # the node-smoothed triangle (issue 33): membrane strain smoothed over each node's triangles
+    "ns_triangles": Feature({"mesh": {"triangles": "all"}, "element": {"triangle": "ns"}}),
     "layered": Feature({"sections": {"sheet": {"plies": [{"material": "steel", "thickness": 0.01, "angle": 0.0},
                                                          {"material": "steel", "thickness": 0.01, "angle": 90.0}]}}}),
     "contact": Feature({"contact": {"stiffness": 0.1}}),
@@ -134,7 +136,7 @@ def compatible(names: tuple[str, ...]) -> bool:
     fem = "fem" in names or "selective" in names
     return not (fem and any(FEATURES[n].mpm_only for n in names)) and \
         not ("tool_sphere" in names and "tool_mesh" in names) and not ("selective" in names and "mass_scaling" in names) \
-        and not ("triangles" in names and "opt_triangles" in names)
+        and sum(n in names for n in ("triangles", "opt_triangles", "ns_triangles")) <= 1
 
 
 def write_case(tmp_path, names: tuple[str, ...], values: dict | None = None):

@@ -286,18 +286,6 @@ def plain(r: Reader, key: str, cls: type) -> Any:
     return r.part(key, lambda data: r.table_object(f"[{key}]", data, cls))
 
 
-def check_node_smoothed(r, solve, materials) -> None:
-    """[element].triangle = "ns" (stages/ns_membrane.py): erosion and selective mass scaling were
-    not measured with it."""
-    if solve is not None and solve.mass_scaling == "selective":
-        r.error("[element].triangle", '"ns" with selective mass scaling is not measured: use conventional scaling '
-                'or "c0" triangles')
-    if any(m is not None and (getattr(m, "failure_strain", 0.0) > 0.0 or getattr(m, "failure_min_dt", 0.0) > 0.0)
-           for m in materials):
-        r.error("[element].triangle", '"ns" with erosion (failure_strain, failure_min_dt) is not measured: use "c0" '
-                "triangles")
-
-
 def read_scene(r: Reader) -> Scene:
     """Every table of the scene, then the checks across them; raises SceneError listing
     every problem."""
@@ -325,8 +313,6 @@ def read_scene(r: Reader) -> Scene:
     if element is not None and solve is not None and element.triangle == "opt" and solve.physical_rotary_inertia:
         r.error("[element].triangle", '"opt" keeps the scaled rotary inertia: its drilling modes would set the step '
                 'with the physical one ([solve].rotary_inertia = "physical")')
-    if element is not None and element.triangle == "ns":       # stages/ns_membrane.py, "What it does not do"
-        check_node_smoothed(r, solve, [material, *materials.values()])
     output = plain(r, "output", Output)
     bodies = r.array("rigid_body", lambda path, data: read_rigid_body(r, path, data))
     if len(bodies) > MAX_BODIES:

@@ -41,7 +41,7 @@ class ElementOptions:
             "FEM, `stages/ns_membrane.py`), which removes the flat facets' membrane locking: Sze's hemisphere "
             "1.24 / 0.18 % mean error at 16×16 in fem ([element.md](element.md), \"The node-smoothed "
             "triangle\"); the `c0` step; Newton's tangent by coloured copies of the mesh ([newton.md](newton.md)); "
-            "refused with erosion and selective mass scaling")
+            "with erosion and selective mass scaling as `c0`")
     warping: Literal["none", "bwc"] = key(choice("none", "bwc"), default="none",
         doc="warped quads: `none` is the flat-facet BT element (the paper's); `bwc` adds the "
             "Belytschko–Wong–Chiang (1992) curvature rate that in-plane motion gives a warped quad (element spin "

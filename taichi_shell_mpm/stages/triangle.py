@@ -329,6 +329,9 @@ class TriangleElement:
                 internal += self.quad.failing_stagger(f @ rot, m @ rot, v, w, dt, 3)
                 f = ti.Matrix.zero(ti.f64, 3, 3)
                 m = ti.Matrix.zero(ti.f64, 3, 3)
+                if ti.static(self.cfg.triangle_ns):     # out of this step's load means too
+                    self.s.elements.ns_tensor[e] = ti.Matrix.zero(ti.f64, 3, 3)
+                    self.s.elements.ns_weight[e] = 0.0
         # --- to global and scatter
         fg = f @ rot
         mg = m @ rot
