@@ -214,15 +214,22 @@ def _twisted_beam_nodes(nx: int, ny: int, *, length=12.0, width=1.1, twist_deg=9
 
 
 def twisted_beam(tmp_path, *, load: str, warping: str, t: float = 0.32, nx: int = 12, ny: int = 2,
-                 tolerance: float = 1e-6, twist_deg: float = 90.0, sets=()) -> tuple[float, float, dict]:
+                 tolerance: float = 1e-6, twist_deg: float = 90.0, sets=(), triangles: bool = False
+                 ) -> tuple[float, float, dict]:
     """Runs the twisted beam through the CLI (fem, statics in one load step); returns the tip
     deflection along the load (mean of the tip nodes), its relative error against MacNeal &
-    Harder, and the summary."""
+    Harder, and the summary.  `triangles`: each quad cut into two along alternating diagonals
+    (a checkerboard, as the generated meshes' ``mesh.triangles = "all"``)."""
     from .test_reliability import cli_run
     nodes = _twisted_beam_nodes(nx, ny, twist_deg=twist_deg)
     quads = [[i * (ny + 1) + j, (i + 1) * (ny + 1) + j, (i + 1) * (ny + 1) + j + 1, i * (ny + 1) + j + 1]
              for i in range(nx) for j in range(ny)]
-    meshio.write(tmp_path / "twisted_beam.vtu", meshio.Mesh(nodes, [("quad", np.array(quads))]))
+    cells = [("quad", np.array(quads))]
+    if triangles:
+        cut = [tri for n, (a, b, c, d) in enumerate(quads)
+               for tri in (([a, b, c], [a, c, d]) if (n // ny + n % ny) % 2 == 0 else ([a, b, d], [b, c, d]))]
+        cells = [("triangle", np.array(cut))]
+    meshio.write(tmp_path / "twisted_beam.vtu", meshio.Mesh(nodes, cells))
     p = 1.0 if t >= 0.1 else 1e-6
     # tip: width along z ("in-plane" load), normal along -y ("out-of-plane" load)
     direction, component = ([0.0, 0.0, 1.0], "uz") if load == "in_plane" else ([0.0, 1.0, 0.0], "uy")
@@ -265,7 +272,8 @@ def test_twisted_beam(tmp_path, load):
 
 def main(argv=None):
     """The twisted-beam study of docs/element.md:
-    python -m tests.test_warping [--t 0.0032] [--nx 12 --ny 2] [--twist 90] [--tolerance 1e-6] [--set KEY=VALUE ...]
+    python -m tests.test_warping [--t 0.0032] [--nx 12 --ny 2] [--twist 90] [--tolerance 1e-6] [--triangles]
+        [--set KEY=VALUE ...]
     (errors against the twisted beam's reference whatever --twist is)"""
     import argparse
     import tempfile
@@ -277,13 +285,14 @@ def main(argv=None):
     ap.add_argument("--twist", type=float, default=90.0, help="root-to-tip twist, degrees")
     ap.add_argument("--tolerance", type=float, default=1e-6)
     ap.add_argument("--set", action="append", default=[], help="extra scene override, repeatable")
+    ap.add_argument("--triangles", action="store_true", help="each quad cut into two triangles (checkerboard)")
     args = ap.parse_args(argv)
     for load in ("in_plane", "out_of_plane"):
         for warping in ("none", "bwc"):
             with tempfile.TemporaryDirectory() as tmp:
                 deflection, error, summary = twisted_beam(Path(tmp), load=load, warping=warping, t=args.t, nx=args.nx,
                                                           ny=args.ny, tolerance=args.tolerance, twist_deg=args.twist,
-                                                          sets=args.set)
+                                                          sets=args.set, triangles=args.triangles)
             print(f"t = {args.t}, {args.nx}x{args.ny}, twist {args.twist:g} deg, {load}, warping {warping}: tip {deflection:.5e} "
                   f"(MacNeal-Harder {TWISTED_REFERENCE[args.t][load]:.4e}), error {100 * error:+.3f} %, "
                   f"{summary['steps']} steps, run {summary['run_seconds']:.1f} s", flush=True)

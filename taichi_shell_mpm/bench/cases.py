@@ -19,7 +19,7 @@ SCENE_FILES = {"cantilever": "cantilever.toml", "hemisphere": "hemisphere.toml",
                "scaling": "square_tube.toml", "empty_grid": "square_tube.toml",
                "relaxation_cantilever": "cantilever.toml", "relaxation_hemisphere": "hemisphere.toml",
                "hemisphere_tri": "hemisphere.toml"}
-TRIANGLE_ELEMENTS = {"c0": (), "opt": ("element.triangle=opt",)}
+TRIANGLE_ELEMENTS = {"c0": (), "opt": ("element.triangle=opt",), "ns": ("element.triangle=ns",)}
 """The 3-node shells of the triangle series (issue 33): each name, its ``--set`` overrides."""
 STATIC_SCENES = {"cantilever": "Cantilever strip under end shear (Sze), 20 load steps",
                  "hemisphere": "Quarter hemisphere with an 18° hole (Sze)",
