@@ -178,19 +178,23 @@ def test_membrane_patch_is_exact_on_a_distorted_mixed_patch(tmp_path):
     assert np.abs(moment).max() < 1e-12 * np.abs(force).max()
 
 
+@pytest.mark.parametrize("triangle", ["c0", "ns"])
 @pytest.mark.parametrize("jitter", [0.0, 0.07], ids=["parallelogram", "distorted"])
-def test_constant_curvature_patch_is_exact_with_mixed_elements(tmp_path, jitter):
+def test_constant_curvature_patch_is_exact_with_mixed_elements(tmp_path, jitter, triangle):
     """A Kirchhoff field w' = a x^2 + b x y + c y^2 (omega = (dw'/dy, -dw'/dx, 0)) for bending,
     twist and a mix on a mixed patch (parallelogram quads; triangles regular or distorted):
     M' = -dt D kappa' in every element, zero transverse shear in every triangle (each edge's
     tangential shear of a Kirchhoff field is zero, so on any triangle) and quad (on
     parallelograms, method.md 9), and zero resultant force and moment at every interior node.
     dt = 1e-13 and the nodes at X + dt/2 v: the rates see the flat patch (curvature_patch in
-    tests/test_shell_element.py)."""
+    tests/test_shell_element.py).  The node-smoothed triangle ("ns", issue 33) shares the C0
+    triangle's bending: the same patch test."""
     points, quads, triangles, interior = mixed_patch(jitter=jitter)
     centre = points.mean(axis=0)
     dt = 1e-13
-    sim = element_simulation(tmp_path, points, E=E, nu=NU, t=T, quads=quads, triangles=triangles)
+    sim = element_simulation(tmp_path, points, E=E, nu=NU, t=T, quads=quads, triangles=triangles,
+                             element=f'triangle = "{triangle}"')
+    assert sim.cfg.triangle_ns == (triangle == "ns")
     bending = E * T ** 3 / (12 * (1 - NU ** 2)) * np.array([[1, NU, 0], [NU, 1, 0], [0, 0, (1 - NU) / 2]])
     elements = sim.model.elements
     for name, (a, b, c) in {"bending": (0.7, 0.0, 0.0), "twist": (0.0, 1.0, 0.0),
