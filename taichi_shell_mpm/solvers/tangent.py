@@ -261,16 +261,21 @@ class IncrementalForces:
         return h
 
     @ti.func
-    def converged_element(self, ve, e):
-        """Virtual element ve starts from element e's converged stress, plastic strain, resultants
-        and energies."""
+    def copy_element(self, to: ti.template(), te, source: ti.template(), se):
+        """Element se's stress, plastic strain and resultants in state `source` to element te of
+        state `to` (the converged state into a virtual copy, or a converged trial back)."""
         for k in ti.static(range(self.cfg.points)):
-            self.v.points.stress[ve, k] = self.main.points.stress[e, k]
+            to.points.stress[te, k] = source.points.stress[se, k]
             if ti.static(self.plastic):
-                self.v.points.plastic_strain[ve, k] = self.main.points.plastic_strain[e, k]
-        self.v.elements.hourglass_resultant[ve] = self.main.elements.hourglass_resultant[e]
+                to.points.plastic_strain[te, k] = source.points.plastic_strain[se, k]
+        to.elements.hourglass_resultant[te] = source.elements.hourglass_resultant[se]
         if ti.static(self.drilling):
-            self.v.elements.drilling_moment[ve] = self.main.elements.drilling_moment[e]
+            to.elements.drilling_moment[te] = source.elements.drilling_moment[se]
+
+    @ti.func
+    def converged_element(self, ve, e):
+        """Virtual element ve starts from element e's converged state and energies."""
+        self.copy_element(self.v, ve, self.main, e)
         self.v.elements.energy[ve] = self.main.elements.energy[e]
 
     @ti.func
@@ -416,13 +421,7 @@ class IncrementalForces:
     def _commit_state(self, increment: ti.template(), lam_old, lam):
         m = self.main.elements.count[None]
         for e in range(m):
-            for k in ti.static(range(self.cfg.points)):
-                self.main.points.stress[e, k] = self.v.points.stress[e, k]
-                if ti.static(self.plastic):
-                    self.main.points.plastic_strain[e, k] = self.v.points.plastic_strain[e, k]
-            self.main.elements.hourglass_resultant[e] = self.v.elements.hourglass_resultant[e]
-            if ti.static(self.drilling):
-                self.main.elements.drilling_moment[e] = self.v.elements.drilling_moment[e]
+            self.copy_element(self.main, e, self.v, e)
             energy = self.v.elements.energy[e]
             energy[STAGGER] = self.main.elements.energy[e][STAGGER]     # no kinetic energy: no stagger term
             self.main.elements.energy[e] = energy
