@@ -194,9 +194,11 @@ solver = "newton"
 TANGENT_BOUND = {"elastic": 1.3e-9, "plastic": 4.1e-10, "triangles": 8e-10}
 
 
-def patch_equations(tmp_path, plastic: bool, triangles: bool = False, cells: int = 2, element: str = ""):
+def patch_equations(tmp_path, plastic: bool, triangles: bool = False, cells: int = 2, element: str = "",
+                    mixed: bool = False):
     """Newton's equations of a warped random patch of cells x cells quads (or twice as many
-    triangles) at a deformed, stressed converged state; `element`: [element] lines."""
+    triangles; `mixed`: the lower half of the rows in triangles) at a deformed, stressed
+    converged state; `element`: [element] lines."""
     from .conftest import simulation, write_scene
     from taichi_shell_mpm.scene import load_scene
     import meshio
@@ -210,7 +212,9 @@ def patch_equations(tmp_path, plastic: bool, triangles: bool = False, cells: int
     i, j = np.meshgrid(np.arange(cells), np.arange(cells), indexing="ij")
     first = (side * i + j).ravel()
     quads = np.stack([first, first + 1, first + side + 1, first + side], axis=1)
-    cells_out = [("triangle", np.concatenate([quads[:, :3], quads[:, [0, 2, 3]]]))] if triangles else [("quad", quads)]
+    cut = np.full(len(quads), triangles) | (mixed & (first // side < cells // 2))
+    cells_out = [("quad", quads[~cut]), ("triangle", np.concatenate([quads[cut][:, :3], quads[cut][:, [0, 2, 3]]]))]
+    cells_out = [cell for cell in cells_out if len(cell[1])]
     meshio.write(tmp_path / "patch.vtu", meshio.Mesh(points, cells_out))
     material = 'model = "j2"\nyield_stress = 0.5\nhardening = 10.0' if plastic else ""
     text = PATCH.format(material=material)
