@@ -230,14 +230,19 @@ def _execute(scene, mesh, model, out: Path, ckpt, progress: bool, arch_requested
     from .solvers.dynamic import run_dynamic
     from .solvers.newton import ShellEquations, run_newton
     from .solvers.static import run_static
-    from .solvers.tangent import newton_is_serial, virtual_count
+    from .solvers.tangent import MAX_VIRTUAL_ELEMENTS, newton_is_serial, virtual_count
     sim = None
     control = RunControl(checkpoint_every, resume=ckpt.position if ckpt else None)
     try:
         threads = None
-        if (scene.solve.kind == "static" and scene.solve.solver == "newton"
-                and newton_is_serial(virtual_count(model, scene.element.triangle))):
-            threads = 1             # its kernels are serial: no thread pool (solvers/tangent.newton_is_serial)
+        if scene.solve.kind == "static" and scene.solve.solver == "newton":
+            virtual = virtual_count(model, scene.element.triangle)
+            if virtual > MAX_VIRTUAL_ELEMENTS:
+                raise SceneError(f'[solve].solver: "newton" on {len(model.elements)} elements needs {virtual} '
+                                 f"virtual elements for its tangent (solvers/tangent.py), more than "
+                                 f'{MAX_VIRTUAL_ELEMENTS} (about 8 GB): use "relaxation" or a coarser mesh')
+            if newton_is_serial(virtual):
+                threads = 1         # its kernels are serial: no thread pool (solvers/tangent.newton_is_serial)
         arch = init_taichi(arch_requested, quiet=not progress, threads=threads)
         if progress:
             print("compiling kernels (a configuration's first run takes 15-70 s; later runs load them from "

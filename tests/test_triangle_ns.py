@@ -387,3 +387,15 @@ def test_twisted_beam_in_triangles(tmp_path, ny):
               f"(bound {100 * TWISTED_BOUNDS[ny][load]:.2f} %)")
         assert abs(errors[load]) <= TWISTED_BOUNDS[ny][load]
     assert errors["out_of_plane"] > 0.0          # soft, not locked
+
+
+def test_newton_beyond_the_tangent_limit_is_one_line(tmp_path):
+    """ns's tangent holds ~457 copies of the mesh (solvers/tangent.py): the 68x68 hemisphere in
+    ns triangles (9 248) needs more virtual elements than tangent.MAX_VIRTUAL_ELEMENTS, which
+    is said in one line before Taichi starts, exit 2."""
+    r = cli_run("run", str(ROOT / "scenes" / "hemisphere.toml"), "--set", "method.kind=fem", "--set",
+                "solve.solver=newton", "--set", "mesh.triangles=all", "--set", "element.triangle=ns", "--set",
+                "mesh.n_around=68", "--set", "mesh.n_meridian=68", "--out", str(tmp_path / "run"), "--quiet")
+    print(r.err.strip())
+    assert r.code == 2 and len(r.err.strip().splitlines()) == 1 and "Traceback" not in r.err
+    assert "[solve].solver" in r.err and "9248 elements" in r.err
