@@ -433,7 +433,7 @@ class State:
                             ("motion_ramp", f64), ("eroded_kinetic", f64), ("mass_scaling_energy", f64),
                             ("added_mass", f64), ("added_mass_cap", f64), ("target_dt", f64),
                             ("sms_tolerance", f64), ("sms_max_iterations", i32), ("sms_iterations", ti.i64),
-                            ("sms_iterations_max", i32), ("sms_solves", ti.i64)):
+                            ("sms_iterations_max", i32), ("sms_solves", ti.i64), ("ns_blend", f64)):
             g.table(name, ti.field(dtype), ())
         # compiled in, not a field: the kick is the average of dt_last and dt under selective
         # mass scaling (stages/timestep.impulse_time)
@@ -443,7 +443,7 @@ class State:
         # 0 right after a kinetic-damping reset, else 1; fire_*: FIRE state and scratch
         # (solvers/stepper.py); time_limit: advance() stops there exactly; kinetic...:
         # the 0-d running totals of energy.py; dt_safety, length_ref (the rotational residual's
-        # L_ref), mass_floor (grid nodes below it are massless), runaway_speed, flip_blend:
+        # L_ref), mass_floor (grid nodes below it are massless), runaway_speed, flip_blend, ns_blend:
         # the step's run-time parameters; curve_argument: the curves' argument at the end of the
         # last step (time, or the load factor in a static run; stages/motion.py); motion_work: the
         # running total of energy.py; constraint_sq, tolerance_sq: a static run's prescribed-DOF
@@ -895,6 +895,7 @@ class State:
         p = model.parameters
         c_max = float(data.wave_speed.max())
         st.dt_safety[None], st.flip_blend[None] = p.dt_safety, p.flip_blend
+        st.ns_blend[None] = p.ns_blend
         st.length_ref[None] = model.mean_edge
         st.mass_floor[None] = 1e-12 * float(model.node_mass.mean())
         st.runaway_speed[None] = 10.0 * c_max

@@ -73,6 +73,7 @@ class StepParameters:
     added_mass_cap: float = 0.0         # conventional: its limit on the added mass (0: none)
     sms_tolerance: float = 0.0          # selective: the solve's relative residual
     sms_max_iterations: int = 0         # and its iterations per step
+    ns_blend: float = 0.0               # [element].ns_blend: the ns triangles' own-strain share (stages/ns_membrane.py)
 
 
 @dataclass(frozen=True)
@@ -482,7 +483,7 @@ def assemble(scene: Scene, mesh: Mesh) -> Model:
     contact = scene.contact
     laws = contact_table(scene, mesh, points, elements, element.thickness, node_thickness)
     parameters = StepParameters(
-        dt_safety=scene.solve.dt_safety, flip_blend=scene.method.flip_blend,
+        dt_safety=scene.solve.dt_safety, flip_blend=scene.method.flip_blend, ns_blend=scene.element.ns_blend,
         **({"contact_thickness": laws.thickness_max, "contact_step_thickness": laws.thickness_min}
            if laws is not None else {}),
         **({"contact_stiffness": contact.stiffness, "contact_damping": contact.damping,

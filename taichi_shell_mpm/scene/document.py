@@ -296,6 +296,9 @@ def read_scene(r: Reader) -> Scene:
     mesh = r.part("mesh", lambda data: read_mesh(r, data))
     material, section, materials, sections, elementsets, parts = read_parts(r, mesh)
     element = plain(r, "element", ElementOptions)
+    if element is not None and element.ns_blend != 0.0 and element.triangle != "ns":
+        r.error("[element].ns_blend", 'blends the node-smoothed triangle\'s membrane: it needs [element].triangle = '
+                '"ns"')
     if element is not None and element.triangle == "opt" and element.drilling == "projection":
         r.error("[element].triangle", '"opt" needs the drilling rotations ([element].drilling = "penalty"): the '
                 "projection removes them")

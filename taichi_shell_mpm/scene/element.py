@@ -42,6 +42,12 @@ class ElementOptions:
             "1.24 / 0.18 % mean error at 16×16 in fem ([element.md](element.md), \"The node-smoothed "
             "triangle\"); the `c0` step; Newton's tangent by coloured copies of the mesh ([newton.md](newton.md)); "
             "with erosion and selective mass scaling as `c0`")
+    ns_blend: float = key(unit_interval, default=0.0,
+        doc="α of the `ns` triangle's membrane strain: (1 − α) the node-smoothed strain + α the triangle's own "
+            "(α-FEM); 0 (pure node smoothing, the count rule of [element.md](element.md), \"The node-smoothed "
+            "triangle\") removes the membrane locking on curved shells but is soft in in-plane bending with two "
+            "triangles across a strip; 1 is the `c0` triangle.  How the hemisphere and the twisted beam move "
+            "with it: [element.md](element.md), \"Blend\"; only with `triangle = \"ns\"`")
     warping: Literal["none", "bwc"] = key(choice("none", "bwc"), default="none",
         doc="warped quads: `none` is the flat-facet BT element (the paper's); `bwc` adds the "
             "Belytschko–Wong–Chiang (1992) curvature rate that in-plane motion gives a warped quad (element spin "

@@ -34,10 +34,18 @@ The element's own constant-strain membrane loads are applied only for its share 
 gives eps = 0 on every triangle, hence 0 everywhere; a uniform strain on a flat patch is
 smoothed to itself (the patch test).
 
+Blend [choice, measured; ``[element].ns_blend`` = alpha, default 0].  Each node mean enters in
+the share s_a = 1 - alpha and the triangle keeps k_e = 1 - 1/3 sum_a s_a of its own strain and
+loads (alpha-FEM, Liu et al. 2008): alpha = 0 is pure node smoothing, 1 the C0 triangle (the smoothed
+parts are exact zeros then: the cantilever in triangles gives the C0 run's probes to the bit).  The default 0 follows the constraint count
+(any alpha > 0 puts the triangles' own ~6 constraints per node back with weight alpha);
+alpha > 0 stiffens the in-plane bending of a strip two triangles wide, where pure smoothing is
+soft (docs/element.md, "Blend": the twisted beam and the hemisphere against alpha).
+
 Next to quads [choice, measured].  Quads take no part (their membrane is unchanged).  At a node
 that also belongs to a quad the triangles keep their own strain (nodes.ns_share = 0 there): the
-triangle's rate is R (1/3 sum_(smoothed a) S_a) R^T + k_e eps_e with k_e = (its corners next to
-a quad) / 3, and its own loads k_e B^T N are applied with the smoothed ones (still the exact
+triangle's rate is R (1/3 sum_a S_a) R^T + k_e eps_e with k_e = (its corners next to a quad) / 3
+(alpha = 0), and its own loads k_e B^T N are applied with the smoothed ones (still the exact
 transpose).  Averaging over the triangles alone at such nodes let two triangles at the edge of
 the 6 ms square tube's band of triangles collapse in the first fold (their step length 0.47
 against 2.27 for the C0 triangles; 43 604 steps against 23 386, mean force 9.437 kN); with the
@@ -101,10 +109,10 @@ class NodeSmoothedMembrane:
 
     @ti.func
     def node_means(self):
-        """S_a = sum w_e X_e / sum w_e over node a's triangles (elements.ns_tensor holds w_e X_e,
-        elements.ns_weight w_e), gathered through the node -> corner slots, e ascending; 0 at a
-        node that also has a quad, whose triangles keep their own strain there
-        (nodes.ns_share 0, else 1: module docstring, "Next to quads")."""
+        """S_a = s_a sum w_e X_e / sum w_e over node a's triangles (elements.ns_tensor holds w_e X_e,
+        elements.ns_weight w_e), gathered through the node -> corner slots, e ascending, and its
+        share s_a (nodes.ns_share): 1 - alpha (step.ns_blend; module docstring, "Blend"), or 0 at a
+        node that also has a quad, whose triangles keep their own strain there ("Next to quads")."""
         for c in range(self.s.nodes.count[None]):
             total = ti.Matrix.zero(ti.f64, 3, 3)
             weight = 0.0
@@ -116,8 +124,9 @@ class NodeSmoothedMembrane:
                     weight += self.s.elements.ns_weight[e]
                 else:
                     share = 0.0
+            share *= 1.0 - self.s.step.ns_blend[None]
             if weight > 0.0 and share > 0.0:
-                total /= weight
+                total = (total / weight) * share      # share 1: to the bit as the plain mean
             else:
                 total = ti.Matrix.zero(ti.f64, 3, 3)
             self.s.nodes.ns_mean[c] = total
@@ -125,12 +134,14 @@ class NodeSmoothedMembrane:
 
     @ti.func
     def corner_mean(self, c):
-        """1/3 sum of the node means at the corners c[0..2] (0 from a node next to a quad)."""
+        """1/3 sum of the node means at the corners c[0..2], each in its share (0 from a node next to a
+        quad)."""
         return (self.s.nodes.ns_mean[c[0]] + self.s.nodes.ns_mean[c[1]] + self.s.nodes.ns_mean[c[2]]) / 3.0
 
     @ti.func
     def own_share(self, c):
-        """k_e = 1/3 (number of corners next to a quad): the share of the triangle's own strain."""
+        """k_e = 1 - 1/3 sum_a s_a: the share of the triangle's own strain (alpha, plus 1/3 (1 - alpha)
+        for each corner next to a quad)."""
         return (3.0 - self.s.nodes.ns_share[c[0]] - self.s.nodes.ns_share[c[1]] - self.s.nodes.ns_share[c[2]]) / 3.0
 
     @ti.func
