@@ -150,6 +150,32 @@ def test_rigid_motion_of_a_mixed_patch_gives_nothing(tmp_path, lift):
     rigid_motions_give_nothing(sim, points, f"{lift=}: {len(quads)} quads, {len(triangles)} triangles:")
 
 
+STRETCH = np.array([[2e-3, 5e-4, 0.0], [5e-4, -1e-3, 0.0], [0.0, 0.0, 0.0]])   # a uniform stretch rate
+
+
+def stretch_patch(sim, points, interior, grad=STRETCH, spin: float = 0.0) -> dict:
+    """A uniform velocity gradient `grad` (nodal theta_z' = `spin`) over one step of the element
+    stage, about the mid-step geometry (dt = 1e-13, so the strain increment is exactly dt sym(L)):
+    the plane-stress stress C dt sym(L) it must give ("exact"), the largest relative error of any
+    element's stress against it in the element's own frame ("error"), the largest interior
+    resultant force over the largest force ("residual"), and the stage's stress, force, moment
+    and drilling resultants."""
+    dt = 1e-13
+    velocity = points @ grad.T
+    omega = np.tile([0.0, 0.0, spin], (len(points), 1))
+    stress, force, moment, _, drill = element_stage(sim, points + 0.5 * dt * velocity, velocity, omega, dt)
+    c = E / (1 - NU ** 2)
+    exx, eyy, gxy = grad[0, 0], grad[1, 1], grad[0, 1] + grad[1, 0]
+    exact = dt * np.array([c * (exx + NU * eyy), c * (NU * exx + eyy), E / (2 * (1 + NU)) * gxy])
+    error = 0.0
+    for e, corners in enumerate(sim.model.elements):
+        x = points[corners[corners >= 0]]
+        e1 = (x[1] - x[0]) / np.linalg.norm(x[1] - x[0])
+        error = max(error, np.abs(stress[e][:, :3] - in_frame(exact, e1)).max() / np.abs(exact).max())
+    return {"exact": exact, "error": error, "residual": np.abs(force[interior]).max() / np.abs(force).max(),
+            "stress": stress, "force": force, "moment": moment, "drill": drill}
+
+
 def test_membrane_patch_is_exact_on_a_distorted_mixed_patch(tmp_path):
     """A uniform stretch rate (applied about the mid-step geometry, so the strain increment is
     exactly dt sym(L)) on a patch of distorted triangles around parallelogram quads: the
@@ -158,20 +184,9 @@ def test_membrane_patch_is_exact_on_a_distorted_mixed_patch(tmp_path):
     the end-of-step geometry, which differs from the rates' by dt |L| (1e-16 here)."""
     points, quads, triangles, interior = mixed_patch(jitter=0.07)
     sim = element_simulation(tmp_path, points, E=E, nu=NU, t=T, quads=quads, triangles=triangles)
-    dt = 1e-13
-    rate = np.array([[2e-3, 5e-4, 0.0], [5e-4, -1e-3, 0.0], [0.0, 0.0, 0.0]])
-    velocity = points @ rate.T
-    stress, force, moment, _, _ = element_stage(sim, points + 0.5 * dt * velocity, velocity, np.zeros_like(points), dt)
-    c = E / (1 - NU ** 2)
-    exx, eyy, gxy = rate[0, 0], rate[1, 1], 2 * rate[0, 1]
-    exact = dt * np.array([c * (exx + NU * eyy), c * (NU * exx + eyy), E / (2 * (1 + NU)) * gxy])
-    elements = sim.model.elements
-    error = 0.0
-    for e, corners in enumerate(elements):
-        x = points[corners[corners >= 0]]
-        e1 = (x[1] - x[0]) / np.linalg.norm(x[1] - x[0])
-        error = max(error, np.abs(stress[e][:, :3] - in_frame(exact, e1)).max() / np.abs(exact).max())
-    residual = np.abs(force[interior]).max() / np.abs(force).max()
+    found = stretch_patch(sim, points, interior)
+    error, residual, stress, exact, force, moment = (found[k] for k in ("error", "residual", "stress", "exact",
+                                                                      "force", "moment"))
     print(f"\nmembrane patch ({len(quads)} quads, {len(triangles)} triangles): relative stress error {error:.2e}, "
           f"transverse {np.abs(stress[:, :, 3:]).max():.1e}, interior residual / largest force {residual:.1e}")
     assert len(triangles) >= 20 and len(quads) >= 1
