@@ -243,12 +243,13 @@ def _execute(scene, mesh, model, out: Path, ckpt, progress: bool, arch_requested
                                  f'{MAX_VIRTUAL_ELEMENTS} (about 8 GB): use "relaxation" or a coarser mesh')
             if newton_is_serial(virtual):
                 threads = 1         # its kernels are serial: no thread pool (solvers/tangent.newton_is_serial)
-        arch = init_taichi(arch_requested, quiet=not progress, threads=threads)
+        keep = not (scene.solve.kind == "static" and scene.solve.solver == "newton")   # program.py
+        arch = init_taichi(arch_requested, quiet=not progress, threads=threads, keep=keep)
         if progress:
             print("compiling kernels (a configuration's first run takes 15-70 s; later runs load them from "
                   "Taichi's offline cache) ...", flush=True)
         t0 = time.perf_counter()
-        sim = Simulation(scene, out, arch, quiet=not progress, mesh=mesh, model=model)
+        sim = Simulation(scene, out, arch, quiet=not progress, mesh=mesh, model=model, keep=keep)
         if arch != arch_requested:
             sim.arch_requested = arch_requested
         if hourglass_limit is not None:
@@ -411,12 +412,24 @@ class Simulation:
         mesh, model = mesh_and_model(scene)
         if not progress:
             os.environ.setdefault("ENABLE_TAICHI_HEADER_PRINT", "false")
-        arch = init_taichi(arch, quiet=not progress)
+        arch = init_taichi(arch, quiet=not progress, keep=True)
         self.scene = scene
-        self.core = Core(scene, out, arch, quiet=not progress, mesh=mesh, model=model)
+        self._core = Core(scene, out, arch, quiet=not progress, mesh=mesh, model=model, keep=True)
+        from . import program
+        self._generation = program.generation
         self.core.state.step.load_factor[None] = 1.0          # as the dynamic driver: dead loads in full
         self.core.record(0.0, frame=True)
         self._events = 0
+
+    @property
+    def core(self):
+        """The simulation.Simulation underneath (its state lives while no later run or
+        Simulation of this process has started: Taichi holds one at a time, program.py)."""
+        from . import program
+        if self._generation != program.generation:
+            raise RuntimeError("this Simulation is stale: a later run or Simulation in this process has taken "
+                               "over Taichi's state (one at a time); create it again to continue")
+        return self._core
 
     @property
     def time(self) -> float:

@@ -41,19 +41,43 @@ def cpu_threads() -> int:
         return os.cpu_count() or 1
 
 
-def init_taichi(arch: str = "cpu", quiet: bool = False, threads: int | None = None) -> str:
+def init_taichi(arch: str = "cpu", quiet: bool = False, threads: int | None = None, keep: bool = False) -> str:
     """Start Taichi on `arch`; returns the arch it actually runs on ("cpu" when Taichi fell
     back from an unavailable GPU backend).  `quiet`: without its "[Taichi] Starting on"
     line.  `threads`: the CPU threads (default :func:`cpu_threads`).  Taichi's own probing
     warnings for a missing GPU are held back (the caller reports the fallback).
-    On the CPU Taichi's own IR optimizations are off unless :func:`ir_optimization`."""
+    On the CPU Taichi's own IR optimizations are off unless :func:`ir_optimization`.
+    `keep`: when the program this function last started is still Taichi's and was started
+    with the same settings, keep it (program.py reuses its state and kernels)."""
+    global _started
+    settings = (arch, threads or cpu_threads(), ir_optimization(), kernel_cache_dir())
+    if keep and _started is not None and _started[0] == settings and _started[1] is ti.lang.impl.get_runtime().prog:
+        return _started[2]
+    used = _init(arch, quiet, settings[1])
+    _started = (settings, ti.lang.impl.get_runtime().prog, used, quiet)
+    return used
+
+
+def restart_taichi() -> None:
+    """A fresh program with the settings of the one :func:`init_taichi` last started (its
+    fields and kernels freed)."""
+    global _started
+    settings, _, used, quiet = _started
+    _init(settings[0], quiet, settings[1])
+    _started = (settings, ti.lang.impl.get_runtime().prog, used, quiet)
+
+
+_started: tuple | None = None        # (settings, the program, the arch it runs on, quiet) of init_taichi
+
+
+def _init(arch: str, quiet: bool, threads: int) -> str:
     import contextlib
     import io
     frontend.speed_up()
     level = ti.WARN if arch == "cpu" else ti.ERROR
     with contextlib.redirect_stdout(io.StringIO()) if quiet else contextlib.nullcontext():
         ti.init(arch=getattr(ti, ARCHS[arch]), default_fp=ti.f64, default_ip=ti.i32, offline_cache=True,
-                offline_cache_file_path=kernel_cache_dir(), log_level=level, cpu_max_num_threads=threads or cpu_threads(),
+                offline_cache_file_path=kernel_cache_dir(), log_level=level, cpu_max_num_threads=threads,
                 advanced_optimization=arch != "cpu" or ir_optimization())
     if level != ti.WARN:
         ti.set_logging_level(ti.WARN)

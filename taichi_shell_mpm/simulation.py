@@ -31,7 +31,8 @@ from .state import (CANDIDATES_PER_NODE, MAX_FIELDS, STATUS_CONTACT_FULL, STATUS
                     STATUS_SMS_SOLVE,
                     State)
 from . import energy
-from .runtime import choose_launch
+from .runtime import choose_launch, restart_taichi
+from . import program
 from .energy import (ENERGY_COLUMNS, PART_COLUMNS, added_kinetic, added_mass, deformation_mass, eroded_elements,
                      part_energies, part_names)
 
@@ -83,13 +84,26 @@ HOURGLASS_WARN, HOURGLASS_STOP = 0.10, 0.20     # (E_hg + E_drill) / E_int
 HOURGLASS_ACTIVE = 1e-6     # ratio checked once max(E_int, E_hg) > this x max(W_ext, KE0)
 
 
-def prepare(scene: Scene, model: Model, launch: str) -> tuple[Features, State, Stepper]:
+def prepare(scene: Scene, model: Model, launch: str, keep: bool = False) -> tuple[Features, State, Stepper]:
     """The feature set, the state loaded from the model and the step's stages, before any
-    kernel is compiled (:class:`Simulation`; tests that use one stage alone)."""
+    kernel is compiled (:class:`Simulation`; tests that use one stage alone).  `keep`: reuse
+    the live program's state and stepper when they fit, and keep these for the next run
+    (program.py)."""
     cfg = Features.from_scene(scene, model, launch)
+    if keep:
+        live = program.reuse(cfg, model)
+        if live is not None:
+            program.generation += 1
+            return (cfg, *live)
+        if program.current_program() is not None and program.current_program() is getattr(program._live, "program", None):
+            restart_taichi()
     state = State(model, cfg)
     state.load(model)
-    return cfg, state, Stepper(state, cfg, model)
+    stepper = Stepper(state, cfg, model)
+    if keep:
+        program.keep(cfg, state, stepper)
+    program.generation += 1
+    return cfg, state, stepper
 
 
 @dataclass
@@ -105,7 +119,7 @@ class History:
 
 class Simulation:
     def __init__(self, scene: Scene, out_dir: Path | None = None, arch: str = "cpu", quiet: bool = False,
-                 mesh: Mesh | None = None, model: Model | None = None):
+                 mesh: Mesh | None = None, model: Model | None = None, keep: bool = False):
         self.scene = scene
         self.arch = arch
         self.arch_requested: str | None = None      # set when Taichi fell back from this arch to `arch`
@@ -114,7 +128,7 @@ class Simulation:
         self.mesh: Mesh = mesh if mesh is not None else build_mesh(scene.mesh)
         self.model: Model = model if model is not None else assemble(scene, self.mesh)
         launch = choose_launch(arch, len(self.model.elements), scene.solve.kind == "static")
-        self.cfg, self.state, self.stepper = prepare(scene, self.model, launch)
+        self.cfg, self.state, self.stepper = prepare(scene, self.model, launch, keep)
         self.driver_data: dict = {}          # driver counters (and the last rotations read) kept in checkpoints
         self.driver_arrays: dict[str, np.ndarray] = {}   # the driver's arrays kept in checkpoints
         self._initial_geometry()

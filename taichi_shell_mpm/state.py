@@ -167,6 +167,32 @@ def _read_fields(fields: ti.template(), out: ti.types.ndarray(), offsets: ti.typ
                 _put(out, offsets[q] + _row(I, f.shape) * ti.static(_width(f)), f[I], f)
 
 
+@ti.kernel
+def _zero_fields(fields: ti.template()):
+    """Every entry of every field of `fields` set to zero, the state of a field Taichi has just
+    allocated (State.clear)."""
+    for q in ti.static(range(len(fields))):
+        f = ti.static(fields[q])
+        if ti.static(len(f.shape) == 0):
+            _zero_entry(f, None)
+        else:
+            for I in ti.grouped(f):
+                _zero_entry(f, I)
+
+
+@ti.func
+def _zero_entry(f: ti.template(), I: ti.template()):
+    if ti.static(isinstance(f, ti.MatrixField)):
+        if ti.static(f.m == 1):
+            for j in ti.static(range(f.n)):
+                f[I][j] = ti.cast(0, f.dtype)
+        else:
+            for j, k in ti.static(ti.ndrange(f.n, f.m)):
+                f[I][j, k] = ti.cast(0, f.dtype)
+    else:
+        f[I] = ti.cast(0, f.dtype)
+
+
 @ti.func
 def _put(out: ti.template(), base, v, f: ti.template()):
     if ti.static(isinstance(f, ti.MatrixField)):
@@ -223,6 +249,8 @@ class Group(SimpleNamespace):
         self._role = role
         self._builder = ti.FieldsBuilder()
         self._entries: dict[str, tuple] = {}       # name -> (field, host size, persistent)
+        self._placed: list = []                    # every used field, in order (State.clear)
+        self._layout: list[tuple] = []             # how each was placed (State.layout)
 
     def entity(self, name: str, field, size: int, tail: tuple = (), persistent: bool = True, used: bool = True,
                host: bool = True):
@@ -232,6 +260,7 @@ class Group(SimpleNamespace):
         used fields with ``host`` are read, written and checkpointed by the host."""
         axes = ti.i if not tail else (ti.ij if len(tail) == 1 else ti.ijk)
         self._builder.dense(axes, (capacity(size if used else 0), *tail)).place(field)
+        self._record(name, field, (capacity(size if used else 0), *tail), size, used, host, persistent)
         setattr(self, name, field)
         if used and host:
             self._entries[name] = (field, size, persistent)
@@ -245,10 +274,25 @@ class Group(SimpleNamespace):
             self._builder.dense(ti.i if len(shape) == 1 else ti.ij, shape).place(field)
         else:
             self._builder.place(field)
+        self._record(name, field, shape, size, used, True, persistent)
         setattr(self, name, field)
         if used:
             self._entries[name] = (field, shape[0] if shape and size is None else size, persistent)
         return field
+
+    def together(self, count: int, **fields) -> None:
+        """Place `fields` side by side over `count` entries (an array of structures), never
+        read or written by the host."""
+        self._builder.dense(ti.i, count).place(*fields.values())
+        for name, field in fields.items():
+            self._record(name, field, (count,), count, True, False, False)
+            setattr(self, name, field)
+
+    def _record(self, name: str, field, shape: tuple, size, used: bool, host: bool, persistent: bool) -> None:
+        if used:        # (a field the features do not use is never written: it stays zero)
+            self._placed.append(field)
+        kind = (field.n, field.m) if isinstance(field, ti.MatrixField) else ()
+        self._layout.append((name, str(field.dtype), kind, tuple(shape), size, used, host, persistent))
 
     def finalize(self) -> None:
         self._tree = self._builder.finalize()
@@ -262,7 +306,7 @@ class State:
     """All fields of a run, grouped by role (module docstring).  Sizes are data (the count
     fields), not kernel constants; ``features`` (config.Features) decides which fields exist."""
 
-    def __init__(self, model, features):
+    def __init__(self, model, features, allocate: bool = True):
         n, m = len(model.points), len(model.elements)
         f64, i32, vec3 = ti.f64, ti.i32, 3
         fx = features
@@ -771,20 +815,18 @@ class State:
         # mass, momentum (without grid_force: p + dt f, stages/grid.py), force: an array of
         # structures, one grid node's data in one cache line.  Never read or written by the
         # host: zero between steps.
-        g.mass = ti.field(f64)
-        g.momentum = ti.Vector.field(3, f64)
-        placed = [g.mass, g.momentum]
+        placed = {"mass": ti.field(f64), "momentum": ti.Vector.field(3, f64)}
         if fx.grid_force:
-            g.force = ti.Vector.field(3, f64)
-            placed.append(g.force)
+            placed["force"] = ti.Vector.field(3, f64)
         if touch:        # per field: sum N m x and sum N m n (the grid contact condition)
-            g.field_position = ti.Vector.field(3, f64)
-            g.field_normal = ti.Vector.field(3, f64)
-            placed += [g.field_position, g.field_normal]
-        g._builder.dense(ti.i, slots * (MAX_FIELDS if multi else 1)).place(*placed)
-        for group in (self.nodes, self.elements, self.sections, self.step, self.bodies, self.loads, self.tools,
-                      self.joints, contact, self.points, grid):
-            group.finalize()
+            placed["field_position"] = ti.Vector.field(3, f64)
+            placed["field_normal"] = ti.Vector.field(3, f64)
+        g.together(slots * (MAX_FIELDS if multi else 1), **placed)
+        self._groups = (self.nodes, self.elements, self.sections, self.step, self.bodies, self.loads, self.tools,
+                        self.joints, contact, self.points, grid)      # every tree, used or not
+        if allocate:        # (False: only its layout is wanted, program.py; nothing is allocated)
+            for group in self._groups:
+                group.finalize()
     
     # ------------------------------------------------------------ the model's data
     def load(self, model) -> None:
@@ -1009,6 +1051,28 @@ class State:
                                         ("step", self.step), ("bodies", self.bodies), ("loads", self.loads),
                                         ("tools", self.tools), ("joints", self.joints), ("contact", self.contact),
                                         ("grid", self.grid)) if g is not None}
+
+    def layout(self) -> tuple:
+        """What the kernels built on this state depend on besides the features: every field's
+        place (group, name, type, shape) and the host's sizes, and the state's other
+        attributes (a run of another model with an equal layout can reuse this state, its
+        kernels included: program.py)."""
+        fields = tuple((g._role, tuple(g._layout)) for g in self._groups)
+        rest = tuple(sorted((k, repr(v)) for k, v in vars(self).items()
+                            if not isinstance(v, Group) and k not in ("_cache", "_groups", "features")))
+        return fields, rest
+
+    def clear(self) -> None:
+        """Every field back to zero, as Taichi allocated it (program.py: before the next
+        run's load)."""
+        self._cache = None
+        placed = [f for g in self._groups for f in g._placed]
+        for k in range(0, len(placed), BATCH_FIELDS):
+            _zero_fields(tuple(placed[k:k + BATCH_FIELDS]))
+
+    def builders(self) -> list:
+        """The groups' field builders (program.py drops those of a state never allocated)."""
+        return [g._builder for g in self._groups]
 
     def read(self, field, size: int) -> np.ndarray:
         """The first `size` entries of `field` (all of a 0-d or fixed table) as a numpy array
