@@ -11,8 +11,8 @@ starts afresh) leaves its program, its State and its Stepper alive, and the next
 1. asks for the same program (runtime.init_taichi: same arch, threads, IR options); a
    different one starts afresh;
 2. has the same features (config.Features);
-3. builds its State in that program only to compare :meth:`State.layout` (every field's
-   place, type and shape, the host's sizes), then frees it; a different layout starts afresh;
+3. has the same :meth:`State.layout` (every field's place, type and shape, the host's sizes:
+   its State planned without making a field); a different layout starts afresh;
 4. zeroes the live State (:meth:`State.clear`: the state Taichi allocates) and loads its model
    into it, then builds its Stepper on it and compares every Python value the kernels could
    read as a compile-time constant with the live Stepper's (:func:`same_constants`); equal:
@@ -33,7 +33,6 @@ from dataclasses import dataclass
 import numpy as np
 import taichi as ti
 
-from . import frontend
 from .config import Features
 from .solvers.stepper import Stepper
 from .state import Group, State
@@ -62,18 +61,13 @@ def reuse(cfg: Features, model) -> tuple[State, Stepper] | None:
     """The live state (cleared, `model` loaded) and stepper when the run of `model` with
     `cfg` would build the same kernels (module docstring), else None."""
     live = _live
-    if live is None or live.program is not current_program() or live.features != cfg or not frontend.private_api():
+    if live is None or live.program is not current_program() or live.features != cfg:
         return None
     if (len(model.points), len(model.elements)) != (live.state.n_nodes, live.state.n_elements):
         return None                 # (another mesh: another layout, State.layout)
     if constants(live.stepper) != live.constants:       # its run changed a value its kernels read
         return None
-    candidate = State(model, cfg, allocate=False)
-    same = candidate.layout() == live.state.layout()
-    unfinalized = ti.lang.impl.get_runtime().unfinalized_fields_builder
-    for builder in candidate.builders():       # never finalized: nothing was allocated
-        unfinalized.pop(builder, None)
-    if not same:
+    if State(model, cfg, allocate=False).layout() != live.state.layout():     # (no field made)
         return None
     live.state.clear()
     live.state.load(model)

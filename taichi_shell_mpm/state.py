@@ -53,6 +53,7 @@ Sign convention (method.md 0): ``nodes.force_int``/``nodes.moment_int`` are *res
 nodal forces; m a = f_ext - f_int through the grid.
 """
 import contextlib
+from dataclasses import dataclass
 from types import SimpleNamespace
 
 import numpy as np
@@ -240,59 +241,90 @@ def _entry_shape(field, size: int | None) -> tuple:
     return tail if len(field.shape) == 0 else (size, *field.shape[1:], *tail)
 
 
+@dataclass(frozen=True)
+class FieldKind:
+    """What a field holds per entry: ``shape`` () a scalar, (n,) a vector, (n, m) a matrix."""
+    shape: tuple
+    dtype: object
+
+    def make(self):
+        if not self.shape:
+            return ti.field(self.dtype)
+        if len(self.shape) == 1:
+            return ti.Vector.field(self.shape[0], self.dtype)
+        return ti.Matrix.field(*self.shape, self.dtype)
+
+
+def scalar(dtype) -> FieldKind:
+    return FieldKind((), dtype)
+
+
+def vector(n: int, dtype) -> FieldKind:
+    return FieldKind((n,), dtype)
+
+
+def matrix(n: int, m: int, dtype) -> FieldKind:
+    return FieldKind((n, m), dtype)
+
+
 class Group(SimpleNamespace):
     """The fields of one role (module docstring), in an SNode tree of their own; each entry
-    remembers how many of its entries the model uses."""
+    remembers how many of its entries the model uses.  ``allocate`` False: only the layout is
+    recorded, no Taichi field is made (program.py compares layouts)."""
 
-    def __init__(self, role: str):
+    def __init__(self, role: str, allocate: bool = True):
         super().__init__()
         self._role = role
-        self._builder = ti.FieldsBuilder()
+        self._allocate = allocate
+        self._builder = ti.FieldsBuilder() if allocate else None
         self._entries: dict[str, tuple] = {}       # name -> (field, host size, persistent)
         self._placed: list = []                    # every used field, in order (State.clear)
         self._layout: list[tuple] = []             # how each was placed (State.layout)
 
-    def entity(self, name: str, field, size: int, tail: tuple = (), persistent: bool = True, used: bool = True,
-               host: bool = True):
-        """Place `field` with one entry per entity (+ a fixed `tail` shape) over capacity(size);
-        `size` entries are used.  A field the features do not use is placed all the same, at
-        the smallest class (``used`` False), so that every run builds the same trees; only
-        used fields with ``host`` are read, written and checkpointed by the host."""
+    def entity(self, name: str, kind: FieldKind, size: int, tail: tuple = (), persistent: bool = True,
+               used: bool = True, host: bool = True):
+        """Place a field of `kind` with one entry per entity (+ a fixed `tail` shape) over
+        capacity(size); `size` entries are used.  A field the features do not use is placed all
+        the same, at the smallest class (``used`` False), so that every run builds the same
+        trees; only used fields with ``host`` are read, written and checkpointed by the host."""
+        shape = (capacity(size if used else 0), *tail)
         axes = ti.i if not tail else (ti.ij if len(tail) == 1 else ti.ijk)
-        self._builder.dense(axes, (capacity(size if used else 0), *tail)).place(field)
-        self._record(name, field, (capacity(size if used else 0), *tail), size, used, host, persistent)
-        setattr(self, name, field)
-        if used and host:
-            self._entries[name] = (field, size, persistent)
-        return field
+        self._place(name, kind, shape, lambda f: self._builder.dense(axes, shape).place(f))
+        self._record(name, kind, shape, size, used, host, persistent)
 
-    def table(self, name: str, field, shape: tuple, size: int | None = None, persistent: bool = True,
+    def table(self, name: str, kind: FieldKind, shape: tuple, size: int | None = None, persistent: bool = True,
               used: bool = True):
         """Place a small dense table of fixed `shape` (0-d when shape is ()); ``used`` False:
         not read, written or checkpointed by the host."""
-        if shape:
-            self._builder.dense(ti.i if len(shape) == 1 else ti.ij, shape).place(field)
-        else:
-            self._builder.place(field)
-        self._record(name, field, shape, size, used, True, persistent)
+        self._place(name, kind, shape, lambda f: (self._builder.dense(ti.i if len(shape) == 1 else ti.ij, shape).place(f)
+                                                  if shape else self._builder.place(f)))
+        self._record(name, kind, shape, shape[0] if shape and size is None else size, used, True, persistent)
+
+    def together(self, count: int, **kinds: FieldKind) -> None:
+        """Place fields of `kinds` side by side over `count` entries (an array of structures),
+        never read or written by the host."""
+        fields = {name: kind.make() if self._allocate else None for name, kind in kinds.items()}
+        if self._allocate:
+            self._builder.dense(ti.i, count).place(*fields.values())
+        for name, kind in kinds.items():
+            setattr(self, name, fields[name])
+            self._record(name, kind, (count,), count, True, False, False)
+
+    def _place(self, name: str, kind: FieldKind, shape: tuple, place) -> None:
+        field = None
+        if self._allocate:
+            field = kind.make()
+            place(field)
         setattr(self, name, field)
-        if used:
-            self._entries[name] = (field, shape[0] if shape and size is None else size, persistent)
-        return field
 
-    def together(self, count: int, **fields) -> None:
-        """Place `fields` side by side over `count` entries (an array of structures), never
-        read or written by the host."""
-        self._builder.dense(ti.i, count).place(*fields.values())
-        for name, field in fields.items():
-            self._record(name, field, (count,), count, True, False, False)
-            setattr(self, name, field)
-
-    def _record(self, name: str, field, shape: tuple, size, used: bool, host: bool, persistent: bool) -> None:
+    def _record(self, name: str, kind: FieldKind, shape: tuple, size, used: bool, host: bool,
+                persistent: bool) -> None:
+        field = getattr(self, name)
         if used:        # (a field the features do not use is never written: it stays zero)
             self._placed.append(field)
-        kind = (field.n, field.m) if isinstance(field, ti.MatrixField) else ()
-        self._layout.append((name, str(field.dtype), kind, tuple(shape), size, used, host, persistent))
+            if host:
+                self._entries[name] = (field, size, persistent)
+        self._layout.append((name, str(kind.dtype), kind.shape, tuple(shape), size, used, host, persistent))
 
     def finalize(self) -> None:
         self._tree = self._builder.finalize()
@@ -316,150 +348,150 @@ class State:
         nk = fx.points
 
         # --- shell nodes (= particle-domain corners), method.md 1
-        g = self.nodes = Group("nodes")
-        g.table("count", ti.field(i32), ())
+        g = self.nodes = Group("nodes", allocate)
+        g.table("count", scalar(i32), ())
         for name, size in (("position", vec3), ("position_ref", vec3), ("velocity", vec3), ("grid_velocity", vec3),
                            ("omega", vec3), ("rotation", 4), ("force_int", vec3), ("moment_int", vec3),
                            ("load_force", vec3), ("load_moment", vec3)):
-            g.entity(name, ti.Vector.field(size, f64), n)
+            g.entity(name, vector(size, f64), n)
         # position_ref: X_c; velocity: carried v_c (FLIP memory / APIC velocity); grid_velocity:
         # v~_c, the velocity that moved the node; rotation: accumulated orientation quaternion
         # (output only); force_int/moment_int: resisting internal loads; load_*: at load factor 1
-        g.entity("mass", ti.field(f64), n)
-        g.entity("inertia", ti.field(f64), n)          # scalar rotary inertia J_c
-        g.entity("thickness", ti.field(f64), n)        # the thickest adjacent element's
-        g.entity("fix_mask", ti.field(i32), n)         # bits ux uy uz rx ry rz
-        g.entity("body", ti.field(i32), n)             # rigid body of the node, -1 = none
-        g.entity("energy", ti.Vector.field(4, f64), n)  # external work, contact, wall, motion (energy.py)
-        g.entity("affine", ti.Matrix.field(3, 3, f64), n,   # C_c (method.md 2.2)
+        g.entity("mass", scalar(f64), n)
+        g.entity("inertia", scalar(f64), n)          # scalar rotary inertia J_c
+        g.entity("thickness", scalar(f64), n)        # the thickest adjacent element's
+        g.entity("fix_mask", scalar(i32), n)         # bits ux uy uz rx ry rz
+        g.entity("body", scalar(i32), n)             # rigid body of the node, -1 = none
+        g.entity("energy", vector(4, f64), n)  # external work, contact, wall, motion (energy.py)
+        g.entity("affine", matrix(3, 3, f64), n,   # C_c (method.md 2.2)
                  used=fx.affine_transfer)
         # PolyPIC's higher velocity modes (stages/mapping.py): columns d2v/dxdy, d2v/dydz,
         # d2v/dzdx, d3v/dxdydz
-        g.entity("velocity_modes", ti.Matrix.field(3, 4, f64), n, used=fx.velocity_modes)
+        g.entity("velocity_modes", matrix(3, 4, f64), n, used=fx.velocity_modes)
         # sum_e A_e e3 and sum_e A_e: the nodal normal of the drilling projection (method.md 2.3)
         # and of the multi-field grid's layer test (stages/grid.py)
-        g.entity("normal_sum", ti.Vector.field(3, f64), n, used=fx.nodal_normals)
-        g.entity("area_sum", ti.field(f64), n, used=fx.nodal_normals)
-        g.entity("part", ti.field(i32), n, used=fx.multi_field)      # the lowest part of its elements
+        g.entity("normal_sum", vector(3, f64), n, used=fx.nodal_normals)
+        g.entity("area_sum", scalar(f64), n, used=fx.nodal_normals)
+        g.entity("part", scalar(i32), n, used=fx.multi_field)      # the lowest part of its elements
         # prescribed motion (stages/motion.py): DOF bits ux .. rz a [[motion]] prescribes, and the
         # motion of each DOF (-1: none)
-        g.entity("motion_mask", ti.field(i32), n, used=fx.loads)
-        g.entity("motion", ti.Vector.field(6, i32), n, used=fx.loads)
+        g.entity("motion_mask", scalar(i32), n, used=fx.loads)
+        g.entity("motion", vector(6, i32), n, used=fx.loads)
         # the reaction on each prescribed DOF (this step's) and its work since the start; summed
         # per motion on the host, in node order (simulation.motion_values)
-        g.entity("motion_reaction", ti.field(f64), n, (6,), used=fx.loads)
-        g.entity("motion_work", ti.field(f64), n, (6,), used=fx.loads)
+        g.entity("motion_reaction", scalar(f64), n, (6,), used=fx.loads)
+        g.entity("motion_work", scalar(f64), n, (6,), used=fx.loads)
         # loads beyond the plain ones (stages/loads.py): physical mass (gravity), this step's
         # pressure force, CSR node -> curve/follower load entries
-        g.entity("physical_mass", ti.field(f64), n, used=fx.loads)
+        g.entity("physical_mass", scalar(f64), n, used=fx.loads)
         # the [[point_mass]] mass and rotary inertia at each node: the per-step mass rebuild of
         # erosion and mass scaling adds them to the elements' shares (stages/masses.py)
-        g.entity("point_mass", ti.field(f64), n, used=fx.mass_update)
-        g.entity("point_inertia", ti.field(f64), n, used=fx.mass_update)
-        g.entity("pressure_force", ti.Vector.field(3, f64), n, persistent=False, used=fx.loads, host=False)
+        g.entity("point_mass", scalar(f64), n, used=fx.mass_update)
+        g.entity("point_inertia", scalar(f64), n, used=fx.mass_update)
+        g.entity("pressure_force", vector(3, f64), n, persistent=False, used=fx.loads, host=False)
         # selective mass scaling (stages/selective_mass.py): the solved accelerations (the next
         # step's first guess, so checkpointed), and the solve's scratch: the free translations
         # (1/0 per axis) and rotations, the drilling normal the rotations are kept normal to,
         # the right-hand side (force, torque), residual, preconditioned residual, search
         # direction and M times it (translation, rotation), and the node's shares of its live
         # elements' masses and rotary inertias
-        g.entity("acceleration", ti.Vector.field(3, f64), n, used=fx.selective_mass)
-        g.entity("angular_acceleration", ti.Vector.field(3, f64), n, used=fx.selective_mass)
+        g.entity("acceleration", vector(3, f64), n, used=fx.selective_mass)
+        g.entity("angular_acceleration", vector(3, f64), n, used=fx.selective_mass)
         for name in ("free_dofs", "free_rotations", "sms_drill_normal", "sms_force", "sms_torque", "sms_residual",
                      "sms_residual_moment", "sms_step", "sms_step_moment", "sms_search", "sms_search_moment",
                      "sms_product", "sms_moment"):
-            g.entity(name, ti.Vector.field(3, f64), n, persistent=False, used=fx.selective_mass, host=False)
-        g.entity("sms_share", ti.Vector.field(2, f64), n, persistent=False, used=fx.selective_mass, host=False)
-        g.entity("load_start", ti.field(i32), n + 1, used=fx.loads)
+            g.entity(name, vector(3, f64), n, persistent=False, used=fx.selective_mass, host=False)
+        g.entity("sms_share", vector(2, f64), n, persistent=False, used=fx.selective_mass, host=False)
+        g.entity("load_start", scalar(i32), n + 1, used=fx.loads)
         # the node-smoothed triangle (stages/ns_membrane.py): the node's weighted mean tensor
-        g.entity("ns_mean", ti.Matrix.field(3, 3, f64), n, persistent=False, used=fx.triangle_ns, host=False)
-        g.entity("ns_share", ti.field(f64), n, persistent=False, used=fx.triangle_ns, host=False)   # 0: next to a quad
+        g.entity("ns_mean", matrix(3, 3, f64), n, persistent=False, used=fx.triangle_ns, host=False)
+        g.entity("ns_share", scalar(f64), n, persistent=False, used=fx.triangle_ns, host=False)   # 0: next to a quad
 
         # --- elements (= material points): topology and element-level state
-        g = self.elements = Group("elements")
-        g.table("count", ti.field(i32), ())
-        g.entity("corners", ti.Vector.field(4, i32), m)    # corner 3 = -1: triangle
-        g.entity("hourglass_resultant", ti.Vector.field(5, f64), m)  # (QMx, QMy, QW, QBx, QBy), local
+        g = self.elements = Group("elements", allocate)
+        g.table("count", scalar(i32), ())
+        g.entity("corners", vector(4, i32), m)    # corner 3 = -1: triangle
+        g.entity("hourglass_resultant", vector(5, f64), m)  # (QMx, QMy, QW, QBx, QBy), local
         # corner moments M_a of the drilling spring about e3 (stages/drilling.py)
-        g.entity("drilling_moment", ti.Vector.field(4, f64), m, used=fx.drilling_spring)
+        g.entity("drilling_moment", vector(4, f64), m, used=fx.drilling_spring)
         # internal, plastic work, hourglass, drilling; stagger (this step's, energy.py)
-        g.entity("energy", ti.Vector.field(5, f64), m)
+        g.entity("energy", vector(5, f64), m)
         # element loads gathered at the nodes (parallel launches, stages/accumulate.py): each
         # element writes its corners' (force, moment, A e3, A) to its own slots (the normal sums
         # only for the drilling projection); CSR node -> 4 e + a, e ascending
         gathered = fx.launch != "batched"
-        g.entity("corner_loads", ti.Vector.field(10, f64), m, (4,), persistent=False,
+        g.entity("corner_loads", vector(10, f64), m, (4,), persistent=False,
                  used=gathered)
-        g.entity("node_slot_start", ti.field(i32), n + 1, used=gathered or fx.mass_update or fx.triangle_ns)
-        g.entity("node_slots", ti.field(i32), 4 * m, used=gathered or fx.mass_update or fx.triangle_ns)
+        g.entity("node_slot_start", scalar(i32), n + 1, used=gathered or fx.mass_update or fx.triangle_ns)
+        g.entity("node_slots", scalar(i32), 4 * m, used=gathered or fx.mass_update or fx.triangle_ns)
         # the node-smoothed triangle (stages/ns_membrane.py): this step's w_e X_e and w_e = A/3
-        g.entity("ns_tensor", ti.Matrix.field(3, 3, f64), m, persistent=False, used=fx.triangle_ns, host=False)
-        g.entity("ns_weight", ti.field(f64), m, persistent=False, used=fx.triangle_ns, host=False)
+        g.entity("ns_tensor", matrix(3, 3, f64), m, persistent=False, used=fx.triangle_ns, host=False)
+        g.entity("ns_weight", scalar(f64), m, persistent=False, used=fx.triangle_ns, host=False)
         # and for its loads the end-of-step normal and A grad N_a (rows a)
-        g.entity("ns_gradient", ti.Matrix.field(3, 3, f64), m, persistent=False, used=fx.triangle_ns, host=False)
-        g.entity("ns_normal", ti.Vector.field(3, f64), m, persistent=False, used=fx.triangle_ns, host=False)
+        g.entity("ns_gradient", matrix(3, 3, f64), m, persistent=False, used=fx.triangle_ns, host=False)
+        g.entity("ns_normal", vector(3, f64), m, persistent=False, used=fx.triangle_ns, host=False)
         # erosion and selective mass scaling (issue 18; stages/masses.py): failed (1) or not;
         # density factor f_e >= 1; the element's physical shares of its corners' masses and
         # rotary inertias; kinetic energy its erosion took out of the nodes, and that its
         # added mass was given (energy.py)
-        g.entity("eroded", ti.field(i32), m, used=fx.erosion)
-        g.entity("mass_factor", ti.field(f64), m, used=fx.mass_scaling)
-        g.entity("corner_mass", ti.Vector.field(4, f64), m, used=fx.mass_update)
-        g.entity("corner_inertia", ti.Vector.field(4, f64), m, used=fx.mass_update)
-        g.entity("mass_energy", ti.Vector.field(2, f64), m, used=fx.mass_update)
+        g.entity("eroded", scalar(i32), m, used=fx.erosion)
+        g.entity("mass_factor", scalar(f64), m, used=fx.mass_scaling)
+        g.entity("corner_mass", vector(4, f64), m, used=fx.mass_update)
+        g.entity("corner_inertia", vector(4, f64), m, used=fx.mass_update)
+        g.entity("mass_energy", vector(2, f64), m, used=fx.mass_update)
         # selective mass scaling (stages/selective_mass.py): the geometry of the step's added
         # mass (corner arms about the mass centre, inverse inertia J^-1, unit normal, rho^2),
         # kept from the start of the step; and the solve's scratch: each element's rigid fit
         # (mean, spin, J^-1 g) of the vector in hand
-        g.entity("sms_arm", ti.Vector.field(3, f64), m, (4,), used=fx.selective_mass)
-        g.entity("sms_inverse_inertia", ti.Matrix.field(3, 3, f64), m, used=fx.selective_mass)
-        g.entity("sms_normal", ti.Vector.field(3, f64), m, used=fx.selective_mass)
-        g.entity("sms_radius_sq", ti.field(f64), m, used=fx.selective_mass)
-        g.entity("sms_spin_block", ti.Matrix.field(3, 3, f64), m, persistent=False, used=fx.selective_mass,
+        g.entity("sms_arm", vector(3, f64), m, (4,), used=fx.selective_mass)
+        g.entity("sms_inverse_inertia", matrix(3, 3, f64), m, used=fx.selective_mass)
+        g.entity("sms_normal", vector(3, f64), m, used=fx.selective_mass)
+        g.entity("sms_radius_sq", scalar(f64), m, used=fx.selective_mass)
+        g.entity("sms_spin_block", matrix(3, 3, f64), m, persistent=False, used=fx.selective_mass,
                  host=False)      # (J_e + gamma P)^-1 of the preconditioner, with this step's beta
         for name in ("sms_mean", "sms_spin", "sms_coupling"):
-            g.entity(name, ti.Vector.field(3, f64), m, persistent=False, used=fx.selective_mass, host=False)
+            g.entity(name, vector(3, f64), m, persistent=False, used=fx.selective_mass, host=False)
         # each element's block inverse of its shares of the vector in hand, per corner (translation,
         # rotation), gathered at the nodes; and with the reciprocal mass matrix the kinetic energy
         # its added mass carries, a running sum (stages/selective_mass.py)
         for name in ("sms_corner_step", "sms_corner_turn"):
-            g.entity(name, ti.Vector.field(3, f64), m, (4,), persistent=False, used=fx.selective_mass, host=False)
-        g.entity("sms_excess", ti.field(f64), m, used=fx.reciprocal_mass)
+            g.entity(name, vector(3, f64), m, (4,), persistent=False, used=fx.selective_mass, host=False)
+        g.entity("sms_excess", scalar(f64), m, used=fx.reciprocal_mass)
 
         # --- section and material data of each element, and the tables they index
-        g = self.sections = Group("sections")
+        g = self.sections = Group("sections", allocate)
         for name in ("thickness", "shear_factor", "wave_speed", "rotational_frequency",
                      "hourglass_membrane", "hourglass_bending", "hourglass_transverse", "drilling_factor"):
-            g.entity(name, ti.field(f64), m)
+            g.entity(name, scalar(f64), m)
         # wave_speed: plane-stress c_e of its stiffest material; rotational_frequency:
         # sqrt(12 kappa G / rho) / t with physical rotary inertia, else 0 (stages/timestep.py);
         # hourglass_*: r E t / 8, r E t^3 / 192, r kappa G t^3 / 12 (stages/hourglass.py);
         # drilling_factor: alpha E t^3 / 48 (stages/drilling.py)
-        g.entity("section", ti.field(i32), m)
-        g.entity("shear_wave_speed", ti.field(f64), m, used=fx.reciprocal_mass)   # sqrt(G_max / rho)
+        g.entity("section", scalar(i32), m)
+        g.entity("shear_wave_speed", scalar(f64), m, used=fx.reciprocal_mass)   # sqrt(G_max / rho)
         for name in ("opt_modulus", "opt_poisson", "opt_floor"):       # the OPT triangle (stages/opt_membrane.py)
-            g.entity(name, ti.field(f64), m, used=fx.triangle_opt)
+            g.entity(name, scalar(f64), m, used=fx.triangle_opt)
         # cos, sin of the angle from e1 to the section's material axis (docs/laminates.md)
-        g.entity("material_axis", ti.Vector.field(2, f64), m, used=fx.oriented)
-        g.table("point_count", ti.field(i32), (MAX_SECTIONS,))                 # points of each section's rule
-        g.table("zeta", ti.field(f64), (MAX_SECTIONS, nk))                      # point positions, -1..1
-        g.table("weight", ti.field(f64), (MAX_SECTIONS, nk))                    # and weights (sum 2)
-        g.table("point_material", ti.field(i32), (MAX_SECTIONS, nk))            # material of each point
-        g.table("ply_axis", ti.Vector.field(2, f64), (MAX_SECTIONS, nk),       # cos, sin of its ply angle
+        g.entity("material_axis", vector(2, f64), m, used=fx.oriented)
+        g.table("point_count", scalar(i32), (MAX_SECTIONS,))                 # points of each section's rule
+        g.table("zeta", scalar(f64), (MAX_SECTIONS, nk))                      # point positions, -1..1
+        g.table("weight", scalar(f64), (MAX_SECTIONS, nk))                    # and weights (sum 2)
+        g.table("point_material", scalar(i32), (MAX_SECTIONS, nk))            # material of each point
+        g.table("ply_axis", vector(2, f64), (MAX_SECTIONS, nk),       # cos, sin of its ply angle
                 used=fx.oriented)
-        g.table("material_kind", ti.field(i32), (MAX_MATERIALS,))              # index into Features.materials
-        g.table("material", ti.field(f64), (MAX_MATERIALS, row_width(fx.materials)))   # parameters (model/materials.py)
-        g.table("failure", ti.Vector.field(len(FAILURE_COLUMNS), f64), (MAX_MATERIALS,),   # erosion (failure_row)
+        g.table("material_kind", scalar(i32), (MAX_MATERIALS,))              # index into Features.materials
+        g.table("material", scalar(f64), (MAX_MATERIALS, row_width(fx.materials)))   # parameters (model/materials.py)
+        g.table("failure", vector(len(FAILURE_COLUMNS), f64), (MAX_MATERIALS,),   # erosion (failure_row)
                 used=fx.erosion)
         # tabulated hardening curves, all materials' one after the other (a row holds its first
         # point and count): plastic strain and yield stress of each point
         curve_points = len(model.materials.curve_strain)
         tabulated = "tabulated" in fx.hardening
-        g.entity("curve_strain", ti.field(f64), curve_points, used=tabulated)
-        g.entity("curve_stress", ti.field(f64), curve_points, used=tabulated)
+        g.entity("curve_strain", scalar(f64), curve_points, used=tabulated)
+        g.entity("curve_stress", scalar(f64), curve_points, used=tabulated)
 
         # --- the scalars of the step and its run-time parameters
-        g = self.step = Group("step")
+        g = self.step = Group("step", allocate)
         for name, dtype in (("dt", f64), ("dt_next", f64), ("dt_first", f64), ("dt_last", f64),
                             ("dt_stable", f64), ("time", f64),
                             ("step", ti.i64), ("load_factor", f64), ("restart_factor", f64),
@@ -478,7 +510,7 @@ class State:
                             ("added_mass", f64), ("added_mass_cap", f64), ("target_dt", f64),
                             ("sms_tolerance", f64), ("sms_max_iterations", i32), ("sms_iterations", ti.i64),
                             ("sms_iterations_max", i32), ("sms_solves", ti.i64), ("ns_blend", f64)):
-            g.table(name, ti.field(dtype), ())
+            g.table(name, scalar(dtype), ())
         # compiled in, not a field: the kick is the average of dt_last and dt under selective
         # mass scaling (stages/timestep.impulse_time)
         g.averaged_kick = fx.selective_mass
@@ -497,31 +529,31 @@ class State:
         # (stages/masses.py); sms_*: selective mass scaling's solve: its tolerance and
         # iteration limit, the iterations and solves since the start, the most in one solve
         # (stages/selective_mass.py)
-        g.table("reaction", ti.Vector.field(3, f64), ())           # force the supports exert on the shell
-        g.table("reaction_impulse", ti.Vector.field(3, f64), ())   # its time integral since the start
+        g.table("reaction", vector(3, f64), ())           # force the supports exert on the shell
+        g.table("reaction_impulse", vector(3, f64), ())   # its time integral since the start
 
         # --- rigid bodies and walls (method.md 2.5c, 7.5)
-        g = self.bodies = Group("bodies")
+        g = self.bodies = Group("bodies", allocate)
         nb, nw = len(model.rigid_bodies), len(model.walls)
-        g.table("count", ti.field(i32), ())
-        g.table("wall_count", ti.field(i32), ())
+        g.table("count", scalar(i32), ())
+        g.table("wall_count", scalar(i32), ())
         for name in ("wall_energy", "total_mass", "added_mass", "external_work", "kinetic_rotation", "contact_energy",
                      "stable_step", "inertia_min"):
-            g.table(name, ti.field(f64), (MAX_BODIES,), nb)
+            g.table(name, scalar(f64), (MAX_BODIES,), nb)
         for name in ("velocity", "velocity_start", "displacement", "force", "impulse", "center0", "omega",
                      "omega_start", "angular_momentum", "moment", "applied_force", "applied_moment",
                      "angular_impulse", "omega_mid", "center_start"):
-            g.table(name, ti.Vector.field(3, f64), (MAX_BODIES,), nb)
+            g.table(name, vector(3, f64), (MAX_BODIES,), nb)
         for name in ("inertia", "translation_free", "rotation_free"):
-            g.table(name, ti.Matrix.field(3, 3, f64), (MAX_BODIES,), nb)
-        g.table("rotation", ti.Vector.field(4, f64), (MAX_BODIES,), nb)
+            g.table(name, matrix(3, 3, f64), (MAX_BODIES,), nb)
+        g.table("rotation", vector(4, f64), (MAX_BODIES,), nb)
         # a [[motion]] of the body: its DOF bits and the motion of each DOF (-1: none), the
         # reaction of each prescribed DOF this step and its work so far (stages/bodies.py)
-        g.table("motion_mask", ti.field(i32), (MAX_BODIES,), nb)
-        g.table("motion", ti.Vector.field(6, i32), (MAX_BODIES,), nb)
-        g.table("motion_reaction", ti.Vector.field(6, f64), (MAX_BODIES,), nb)
-        g.table("motion_work", ti.Vector.field(6, f64), (MAX_BODIES,), nb)
-        g.table("rotation_mode", ti.field(i32), (MAX_BODIES,), nb)
+        g.table("motion_mask", scalar(i32), (MAX_BODIES,), nb)
+        g.table("motion", vector(6, i32), (MAX_BODIES,), nb)
+        g.table("motion_reaction", vector(6, f64), (MAX_BODIES,), nb)
+        g.table("motion_work", vector(6, f64), (MAX_BODIES,), nb)
+        g.table("rotation_mode", scalar(i32), (MAX_BODIES,), nb)
         # (stages/bodies.py) velocity: the centre's V^(n+1/2); velocity_start: V^(n-1/2) of the
         # step; displacement: x_c - center0 (the reference centre X_c); rotation: unit
         # quaternion (w, x, y, z) body -> space; omega: the space-frame angular velocity of the
@@ -543,118 +575,118 @@ class State:
         # residual, search direction, M times it: translation, rotation) and the added mass's
         # inertial force at its slaves and its moment, which its kick takes
         coupled = fx.selective_mass and fx.bodies
-        g.table("sms_acceleration", ti.Vector.field(3, f64), (MAX_BODIES,), nb, used=coupled)
-        g.table("sms_angular_acceleration", ti.Vector.field(3, f64), (MAX_BODIES,), nb, used=coupled)
+        g.table("sms_acceleration", vector(3, f64), (MAX_BODIES,), nb, used=coupled)
+        g.table("sms_angular_acceleration", vector(3, f64), (MAX_BODIES,), nb, used=coupled)
         for name in ("sms_force", "sms_torque", "sms_residual", "sms_residual_moment", "sms_step", "sms_step_moment",
                      "sms_search", "sms_search_moment", "sms_product", "sms_moment", "sms_added_force",
                      "sms_added_moment"):
-            g.table(name, ti.Vector.field(3, f64), (MAX_BODIES,), nb, persistent=False, used=coupled)
-        g.table("direction", ti.Vector.field(3, f64), (MAX_BODIES,), nb)
-        g.table("first_slave", ti.field(i32), (MAX_BODIES,), nb)
-        g.table("slave_count", ti.field(i32), (MAX_BODIES,), nb)
-        g.entity("slave_nodes", ti.field(i32), sum(len(b.nodes) for b in model.rigid_bodies))
-        g.table("wall_point", ti.Vector.field(3, f64), (MAX_WALLS,), nw)
-        g.table("wall_normal", ti.Vector.field(3, f64), (MAX_WALLS,), nw)
-        g.table("wall_body", ti.field(i32), (MAX_WALLS,), nw)          # -1: fixed
+            g.table(name, vector(3, f64), (MAX_BODIES,), nb, persistent=False, used=coupled)
+        g.table("direction", vector(3, f64), (MAX_BODIES,), nb)
+        g.table("first_slave", scalar(i32), (MAX_BODIES,), nb)
+        g.table("slave_count", scalar(i32), (MAX_BODIES,), nb)
+        g.entity("slave_nodes", scalar(i32), sum(len(b.nodes) for b in model.rigid_bodies))
+        g.table("wall_point", vector(3, f64), (MAX_WALLS,), nw)
+        g.table("wall_normal", vector(3, f64), (MAX_WALLS,), nw)
+        g.table("wall_body", scalar(i32), (MAX_WALLS,), nw)          # -1: fixed
         # each node's impulse on each moving wall's body, summed in node order (threads, stages/bodies.py)
-        g.entity("node_wall_impulse", ti.Vector.field(3, f64), n, (MAX_WALLS,),
+        g.entity("node_wall_impulse", vector(3, f64), n, (MAX_WALLS,),
                  used=fx.launch == "threads" and fx.moving_walls)
-        g.entity("node_wall_moment", ti.Vector.field(3, f64), n, (MAX_WALLS,),
+        g.entity("node_wall_moment", vector(3, f64), n, (MAX_WALLS,),
                  used=fx.launch == "threads" and fx.moving_walls and fx.body_rotation)
 
         # --- time curves, loads beyond the plain nodal ones, prescribed motion (stages/loads.py,
         # stages/motion.py; loading.py)
-        g = self.loads = Group("loads")
+        g = self.loads = Group("loads", allocate)
         ld = model.loading
         on = fx.loads
-        g.table("curve_count", ti.field(i32), ())
+        g.table("curve_count", scalar(i32), ())
         for name, dtype in (("curve_kind", i32), ("curve_first", i32), ("curve_rows", i32)):
-            g.table(name, ti.field(dtype), (MAX_CURVES,), len(ld.curves.kind), used=on)
-        g.table("curve_parameter", ti.Vector.field(3, f64), (MAX_CURVES,), len(ld.curves.kind), used=on)  # start, end, scale
-        g.table("curve_origin", ti.Vector.field(2, f64), (MAX_CURVES,), len(ld.curves.kind), used=on)     # I(0), J(0)
-        g.table("curve_value", ti.field(f64), (MAX_CURVES,), len(ld.curves.kind), persistent=False,
+            g.table(name, scalar(dtype), (MAX_CURVES,), len(ld.curves.kind), used=on)
+        g.table("curve_parameter", vector(3, f64), (MAX_CURVES,), len(ld.curves.kind), used=on)  # start, end, scale
+        g.table("curve_origin", vector(2, f64), (MAX_CURVES,), len(ld.curves.kind), used=on)     # I(0), J(0)
+        g.table("curve_value", scalar(f64), (MAX_CURVES,), len(ld.curves.kind), persistent=False,
                 used=on)                                           # this step's f at the loads' argument
-        g.entity("curve_table", ti.Vector.field(CURVE_COLUMNS, f64), len(ld.curves.rows), used=on)   # curves.py rows
+        g.entity("curve_table", vector(CURVE_COLUMNS, f64), len(ld.curves.rows), used=on)   # curves.py rows
         ne = len(ld.entry_curve)
-        g.table("entry_count", ti.field(i32), ())
+        g.table("entry_count", scalar(i32), ())
         for name, dtype in (("entry_node", i32), ("entry_curve", i32), ("entry_neighbor", i32)):
-            g.entity(name, ti.field(dtype), ne, used=on)
-        g.entity("entry_frame", ti.Matrix.field(3, 3, f64), ne, used=on)     # a follower's reference frame (rows)
-        g.entity("entry_force", ti.Vector.field(3, f64), ne, used=on)        # at load factor 1, reference axes
-        g.entity("entry_moment", ti.Vector.field(3, f64), ne, used=on)
+            g.entity(name, scalar(dtype), ne, used=on)
+        g.entity("entry_frame", matrix(3, 3, f64), ne, used=on)     # a follower's reference frame (rows)
+        g.entity("entry_force", vector(3, f64), ne, used=on)        # at load factor 1, reference axes
+        g.entity("entry_moment", vector(3, f64), ne, used=on)
         # this step's: scaled by the curve and turned (followers) at the start of the step
-        g.entity("entry_force_now", ti.Vector.field(3, f64), ne, persistent=False, used=on, host=False)
-        g.entity("entry_moment_now", ti.Vector.field(3, f64), ne, persistent=False, used=on, host=False)
+        g.entity("entry_force_now", vector(3, f64), ne, persistent=False, used=on, host=False)
+        g.entity("entry_moment_now", vector(3, f64), ne, persistent=False, used=on, host=False)
         npr = len(ld.pressure_element)
-        g.table("pressure_count", ti.field(i32), ())
-        g.table("pressure_node_count", ti.field(i32), ())
-        g.entity("pressure_element", ti.field(i32), npr, used=on)
-        g.entity("pressure_value", ti.field(f64), npr, used=on)
-        g.entity("pressure_curve", ti.field(i32), npr, used=on)
-        g.entity("pressure_corner_force", ti.Vector.field(3, f64), npr, (4,), persistent=False, used=on, host=False)
-        g.entity("pressure_nodes", ti.field(i32), len(ld.pressure_nodes), used=on)
-        g.entity("pressure_node_start", ti.field(i32), len(ld.pressure_nodes) + 1, used=on)
-        g.entity("pressure_node_slots", ti.field(i32), len(ld.pressure_node_slots), used=on)
-        g.table("gravity", ti.Vector.field(3, f64), (), used=on)          # g
-        g.table("gravity_curve", ti.field(i32), (), used=on)
-        g.table("gravity_now", ti.Vector.field(3, f64), (), persistent=False, used=on)   # this step's
+        g.table("pressure_count", scalar(i32), ())
+        g.table("pressure_node_count", scalar(i32), ())
+        g.entity("pressure_element", scalar(i32), npr, used=on)
+        g.entity("pressure_value", scalar(f64), npr, used=on)
+        g.entity("pressure_curve", scalar(i32), npr, used=on)
+        g.entity("pressure_corner_force", vector(3, f64), npr, (4,), persistent=False, used=on, host=False)
+        g.entity("pressure_nodes", scalar(i32), len(ld.pressure_nodes), used=on)
+        g.entity("pressure_node_start", scalar(i32), len(ld.pressure_nodes) + 1, used=on)
+        g.entity("pressure_node_slots", scalar(i32), len(ld.pressure_node_slots), used=on)
+        g.table("gravity", vector(3, f64), (), used=on)          # g
+        g.table("gravity_curve", scalar(i32), (), used=on)
+        g.table("gravity_now", vector(3, f64), (), persistent=False, used=on)   # this step's
         nm = len(ld.motions)
-        g.table("motion_count", ti.field(i32), ())
+        g.table("motion_count", scalar(i32), ())
         for name, dtype in (("motion_kind", i32), ("motion_curve", i32)):
-            g.table(name, ti.field(dtype), (MAX_MOTIONS,), nm, used=on)
-        g.table("motion_value", ti.Vector.field(6, f64), (MAX_MOTIONS,), nm, used=on)   # per DOF ux .. rz
+            g.table(name, scalar(dtype), (MAX_MOTIONS,), nm, used=on)
+        g.table("motion_value", vector(6, f64), (MAX_MOTIONS,), nm, used=on)   # per DOF ux .. rz
         windows = fx.motion_windows
-        g.table("motion_window", ti.Vector.field(2, f64), (MAX_MOTIONS,), nm, used=windows)  # start, end
-        g.table("motion_active", ti.field(i32), (MAX_MOTIONS,), nm, persistent=False, used=windows)  # this step
+        g.table("motion_window", vector(2, f64), (MAX_MOTIONS,), nm, used=windows)  # start, end
+        g.table("motion_active", scalar(i32), (MAX_MOTIONS,), nm, persistent=False, used=windows)  # this step
         # this step's displacement level f(s^(n+1)) and rate (stages/motion.py); the acceleration
         # curves' mean velocity of the last step
-        g.table("motion_level", ti.field(f64), (MAX_MOTIONS,), nm, persistent=False, used=on)
-        g.table("motion_rate", ti.field(f64), (MAX_MOTIONS,), nm, persistent=False, used=on)
-        g.table("motion_mean", ti.field(f64), (MAX_MOTIONS,), nm, used=on)
+        g.table("motion_level", scalar(f64), (MAX_MOTIONS,), nm, persistent=False, used=on)
+        g.table("motion_rate", scalar(f64), (MAX_MOTIONS,), nm, persistent=False, used=on)
+        g.table("motion_mean", scalar(f64), (MAX_MOTIONS,), nm, used=on)
 
         # --- rigid tools ([[tool]]; tools.py, stages/tools.py)
-        g = self.tools = Group("tools")
+        g = self.tools = Group("tools", allocate)
         tt = model.tools
         on = fx.tools
         nt = len(tt.names) if tt is not None else 0
-        g.table("count", ti.field(i32), (), persistent=False)
-        g.table("slip_speed", ti.field(f64), (), persistent=False, used=on)   # v_eps of the friction law
-        g.table("reach", ti.field(f64), (), persistent=False, used=on)        # how far behind a mesh nodes are caught
-        g.table("step_limit", ti.field(f64), (), persistent=False, used=on)   # this step's dt bound (stages/tools.py)
+        g.table("count", scalar(i32), (), persistent=False)
+        g.table("slip_speed", scalar(f64), (), persistent=False, used=on)   # v_eps of the friction law
+        g.table("reach", scalar(f64), (), persistent=False, used=on)        # how far behind a mesh nodes are caught
+        g.table("step_limit", scalar(f64), (), persistent=False, used=on)   # this step's dt bound (stages/tools.py)
         for name, dtype in (("kind", i32), ("motion", i32), ("body", i32), ("curve", i32)):
-            g.table(name, ti.field(dtype), (MAX_TOOLS,), nt, persistent=False, used=on)
+            g.table(name, scalar(dtype), (MAX_TOOLS,), nt, persistent=False, used=on)
         for name in ("origin", "size", "value", "coefficients"):
-            g.table(name, ti.Vector.field(3, f64), (MAX_TOOLS,), nt, persistent=False, used=on)
-        g.table("frame", ti.Matrix.field(3, 3, f64), (MAX_TOOLS,), nt, persistent=False, used=on)
+            g.table(name, vector(3, f64), (MAX_TOOLS,), nt, persistent=False, used=on)
+        g.table("frame", matrix(3, 3, f64), (MAX_TOOLS,), nt, persistent=False, used=on)
         # this step's pose at t^n (centre, frame rows) and velocity of the tool's points (its
         # mean over the step for a prescribed motion; V^(n-1/2) of its body)
-        g.table("centre", ti.Vector.field(3, f64), (MAX_TOOLS,), nt, persistent=False, used=on)
-        g.table("axes", ti.Matrix.field(3, 3, f64), (MAX_TOOLS,), nt, persistent=False, used=on)
-        g.table("velocity", ti.Vector.field(3, f64), (MAX_TOOLS,), nt, persistent=False, used=on)
+        g.table("centre", vector(3, f64), (MAX_TOOLS,), nt, persistent=False, used=on)
+        g.table("axes", matrix(3, 3, f64), (MAX_TOOLS,), nt, persistent=False, used=on)
+        g.table("velocity", vector(3, f64), (MAX_TOOLS,), nt, persistent=False, used=on)
         # force and moment (about the centre) the tool exerts on the shell this step; nodes touching
-        g.table("force", ti.Vector.field(3, f64), (MAX_TOOLS,), nt, used=on)
-        g.table("moment", ti.Vector.field(3, f64), (MAX_TOOLS,), nt, used=on)
-        g.table("contacts", ti.field(i32), (MAX_TOOLS,), nt, used=on)
+        g.table("force", vector(3, f64), (MAX_TOOLS,), nt, used=on)
+        g.table("moment", vector(3, f64), (MAX_TOOLS,), nt, used=on)
+        g.table("contacts", scalar(i32), (MAX_TOOLS,), nt, used=on)
         # energy: the contact energy booked so far (energy.py); work: the part of it booked at
         # the tool's own motion, kick F . V_tool (the work its driver or body put in)
-        g.table("energy", ti.field(f64), (MAX_TOOLS,), nt, used=on)
-        g.table("work", ti.field(f64), (MAX_TOOLS,), nt, used=on)
+        g.table("energy", scalar(f64), (MAX_TOOLS,), nt, used=on)
+        g.table("work", scalar(f64), (MAX_TOOLS,), nt, used=on)
         # each node's force from each tool, and their sum (this step's)
-        g.entity("node_force", ti.Vector.field(3, f64), n, (MAX_TOOLS,), persistent=False, used=on, host=False)
-        g.entity("total_force", ti.Vector.field(3, f64), n, persistent=False, used=on, host=False)
+        g.entity("node_force", vector(3, f64), n, (MAX_TOOLS,), persistent=False, used=on, host=False)
+        g.entity("total_force", vector(3, f64), n, persistent=False, used=on, host=False)
         # surface meshes (model/tools.ToolTable): triangles in the tool's frame, their normals, buckets
         meshes = "mesh" in fx.tool_kinds
         ntri = len(tt.triangles) if meshes else 0
-        g.table("tri_first", ti.field(i32), (MAX_TOOLS,), nt, persistent=False, used=meshes)
-        g.table("bucket_first", ti.field(i32), (MAX_TOOLS,), nt, persistent=False, used=meshes)
-        g.table("grid_lo", ti.Vector.field(3, f64), (MAX_TOOLS,), nt, persistent=False, used=meshes)
-        g.table("grid_h", ti.field(f64), (MAX_TOOLS,), nt, persistent=False, used=meshes)
-        g.table("grid_dims", ti.Vector.field(3, i32), (MAX_TOOLS,), nt, persistent=False, used=meshes)
-        g.entity("triangles", ti.Matrix.field(3, 3, f64), ntri, persistent=False, used=meshes)
-        g.entity("tri_normal", ti.Vector.field(3, f64), ntri, persistent=False, used=meshes)
-        g.entity("bucket_start", ti.field(i32), len(tt.bucket_start) if meshes else 0, persistent=False,
+        g.table("tri_first", scalar(i32), (MAX_TOOLS,), nt, persistent=False, used=meshes)
+        g.table("bucket_first", scalar(i32), (MAX_TOOLS,), nt, persistent=False, used=meshes)
+        g.table("grid_lo", vector(3, f64), (MAX_TOOLS,), nt, persistent=False, used=meshes)
+        g.table("grid_h", scalar(f64), (MAX_TOOLS,), nt, persistent=False, used=meshes)
+        g.table("grid_dims", vector(3, i32), (MAX_TOOLS,), nt, persistent=False, used=meshes)
+        g.entity("triangles", matrix(3, 3, f64), ntri, persistent=False, used=meshes)
+        g.entity("tri_normal", vector(3, f64), ntri, persistent=False, used=meshes)
+        g.entity("bucket_start", scalar(i32), len(tt.bucket_start) if meshes else 0, persistent=False,
                  used=meshes)
-        g.entity("bucket_items", ti.field(i32), len(tt.bucket_items) if meshes else 0, persistent=False,
+        g.entity("bucket_items", scalar(i32), len(tt.bucket_items) if meshes else 0, persistent=False,
                  used=meshes)
 
         # --- self-contact (method.md 7.3), used only when the scene asks for it
@@ -665,162 +697,162 @@ class State:
         # this step's normal (tension > 0) and shear force of a weld, their peaks; per node the
         # joint it follows (-1: none) and the slaves' mass, rotary inertia, force and moment
         # lumped on it this step (stages/joints.Joints.distribute)
-        g = self.joints = Group("joints")
+        g = self.joints = Group("joints", allocate)
         jt = model.joints
         on = fx.joints
         nj = len(jt) if jt is not None else 0
-        g.table("count", ti.field(i32), (), used=on)
-        g.entity("slave", ti.field(i32), nj, used=on)
-        g.entity("masters", ti.Vector.field(4, i32), nj, used=on)
-        g.entity("weights", ti.Vector.field(4, f64), nj, used=on)
-        g.entity("offset", ti.Vector.field(3, f64), nj, used=on)
-        g.entity("axis", ti.Vector.field(3, f64), nj, used=on)
-        g.entity("rotations", ti.field(i32), nj, used=on)
-        g.entity("element", ti.field(i32), nj, used=on)
-        g.entity("kind", ti.field(i32), nj, used=on)
-        g.entity("strength", ti.Vector.field(6, f64), nj, used=on)
-        g.entity("active", ti.field(i32), nj, used=on)
-        g.entity("failure_time", ti.field(f64), nj, used=on)
-        g.entity("force_normal", ti.field(f64), nj, used=on)
-        g.entity("force_shear", ti.field(f64), nj, used=on)
-        g.entity("peak_normal", ti.field(f64), nj, used=on)
-        g.entity("peak_shear", ti.field(f64), nj, used=on)
-        g.entity("slave_force", ti.Vector.field(3, f64), nj, persistent=False, used=on, host=False)
-        g.entity("node_joint", ti.field(i32), n, used=on)
+        g.table("count", scalar(i32), (), used=on)
+        g.entity("slave", scalar(i32), nj, used=on)
+        g.entity("masters", vector(4, i32), nj, used=on)
+        g.entity("weights", vector(4, f64), nj, used=on)
+        g.entity("offset", vector(3, f64), nj, used=on)
+        g.entity("axis", vector(3, f64), nj, used=on)
+        g.entity("rotations", scalar(i32), nj, used=on)
+        g.entity("element", scalar(i32), nj, used=on)
+        g.entity("kind", scalar(i32), nj, used=on)
+        g.entity("strength", vector(6, f64), nj, used=on)
+        g.entity("active", scalar(i32), nj, used=on)
+        g.entity("failure_time", scalar(f64), nj, used=on)
+        g.entity("force_normal", scalar(f64), nj, used=on)
+        g.entity("force_shear", scalar(f64), nj, used=on)
+        g.entity("peak_normal", scalar(f64), nj, used=on)
+        g.entity("peak_shear", scalar(f64), nj, used=on)
+        g.entity("slave_force", vector(3, f64), nj, persistent=False, used=on, host=False)
+        g.entity("node_joint", scalar(i32), n, used=on)
         for name in ("node_mass", "node_inertia"):
-            g.entity(name, ti.field(f64), n, persistent=False, used=on, host=False)
+            g.entity(name, scalar(f64), n, persistent=False, used=on, host=False)
         for name in ("node_force", "node_moment"):
-            g.entity(name, ti.Vector.field(3, f64), n, persistent=False, used=on, host=False)
+            g.entity(name, vector(3, f64), n, persistent=False, used=on, host=False)
 
-        g = contact = Group("contact")
+        g = contact = Group("contact", allocate)
         self.contact = g if fx.contact else None
         for name, dtype in (("max_penetration", f64), ("pairs", i32), ("rebuild", i32), ("skin", f64),
                             ("thickness", f64), ("stiffness", f64), ("damping", f64), ("friction", f64),
                             ("slip_speed", f64), ("hash_cell", f64), ("hash_size", i32), ("candidate_capacity", i32)):
-            g.table(name, ti.field(dtype), (), used=fx.contact)
+            g.table(name, scalar(dtype), (), used=fx.contact)
         # max_penetration: largest g / t_c seen; rebuild: 1 = rebuild the candidate lists at the
         # next step; skin: s (contact.skin_width); thickness ... slip_speed: the contact law
-        g.table("velocity_high", ti.Vector.field(3, f64), (), used=fx.contact)   # per-axis extremes of the
-        g.table("velocity_low", ti.Vector.field(3, f64), (), used=fx.contact)    # nodal velocities: their
+        g.table("velocity_high", vector(3, f64), (), used=fx.contact)   # per-axis extremes of the
+        g.table("velocity_low", vector(3, f64), (), used=fx.contact)    # nodal velocities: their
         # spread bounds any approach speed (stages/timestep.py)
         on = fx.contact
-        g.entity("force", ti.Vector.field(3, f64), n, used=on)
+        g.entity("force", vector(3, f64), n, used=on)
         # candidate (Verlet) lists: per node, the elements that can come within t_c before any
         # node moves skin/2 from where the lists were built (stages/contact.py)
-        g.entity("build_position", ti.Vector.field(3, f64), n, used=on)
-        g.entity("candidate_start", ti.field(i32), n + 1, used=on)
-        g.entity("candidate_elements", ti.field(i32), CANDIDATES_PER_NODE * n, used=on)
+        g.entity("build_position", vector(3, f64), n, used=on)
+        g.entity("candidate_start", scalar(i32), n + 1, used=on)
+        g.entity("candidate_elements", scalar(i32), CANDIDATES_PER_NODE * n, used=on)
         # side memory: the element a node touched last step, and on which side of its normal
-        g.entity("last_element", ti.field(i32), n, used=on)
-        g.entity("last_side", ti.field(f64), n, used=on)
+        g.entity("last_element", scalar(i32), n, used=on)
+        g.entity("last_side", scalar(f64), n, used=on)
         # this step's pair of each node: force on it and barycentric weights of the segment point
-        g.entity("pair_force", ti.Vector.field(3, f64), n, persistent=False, used=on)
-        g.entity("pair_weight", ti.Vector.field(4, f64), n, persistent=False, used=on)
+        g.entity("pair_force", vector(3, f64), n, persistent=False, used=on)
+        g.entity("pair_weight", vector(4, f64), n, persistent=False, used=on)
         # exclusion ring, CSR: the nodes sharing an element with node c
-        g.entity("neighbor_start", ti.field(i32), n + 1, used=on)
-        g.entity("neighbor_nodes", ti.field(i32),
+        g.entity("neighbor_start", scalar(i32), n + 1, used=on)
+        g.entity("neighbor_nodes", scalar(i32),
                  len(model.neighbor_nodes) if on else 0, used=on)
         # spatial hash of element centroids: scratch of a rebuild
         table = 1 << int(np.ceil(np.log2(2 * m)))
-        g.entity("hash_count", ti.field(i32), table, persistent=False, used=on)
-        g.entity("hash_start", ti.field(i32), table + 1, persistent=False, used=on)
-        g.entity("hash_elements", ti.field(i32), m, persistent=False, used=on)
-        g.entity("element_slot", ti.field(i32), m, persistent=False, used=on)
-        g.entity("element_radius", ti.field(f64), m, persistent=False, used=on)
+        g.entity("hash_count", scalar(i32), table, persistent=False, used=on)
+        g.entity("hash_start", scalar(i32), table + 1, persistent=False, used=on)
+        g.entity("hash_elements", scalar(i32), m, persistent=False, used=on)
+        g.entity("element_slot", scalar(i32), m, persistent=False, used=on)
+        g.entity("element_radius", scalar(f64), m, persistent=False, used=on)
         # the smallest pair thickness (model/contact_pairs.py; the step limit, stages/timestep.py)
-        g.table("step_thickness", ti.field(f64), (), persistent=False, used=on)
-        g.table("approach", ti.field(f64), (), persistent=False, used=fx.contact_pairs)   # timestep.contact_approach
+        g.table("step_thickness", scalar(f64), (), persistent=False, used=on)
+        g.table("approach", scalar(f64), (), persistent=False, used=fx.contact_pairs)   # timestep.contact_approach
         # [[contact_pair]] interfaces (model/contact_pairs.py): role bits of each node and face,
         # each direction's law and interface, this step's pair direction of each node, and the
         # force on each interface's slave side (this step's)
         pairs = fx.contact_pairs
-        g.entity("node_role", ti.field(i32), n, persistent=False, used=pairs)
-        g.entity("segment_role", ti.field(i32), m, persistent=False, used=pairs)
-        g.table("law", ti.Vector.field(len(LAW_COLUMNS), f64), (DIRECTIONS,), persistent=False, used=pairs)
-        g.table("law_interface", ti.field(i32), (DIRECTIONS,), persistent=False, used=pairs)
-        g.table("interface_count", ti.field(i32), (), persistent=False, used=pairs)
-        g.table("interface_force", ti.Vector.field(3, f64), (MAX_CONTACT_PAIRS,), used=pairs)
-        g.entity("pair_direction", ti.field(i32), n, persistent=False, used=pairs)
+        g.entity("node_role", scalar(i32), n, persistent=False, used=pairs)
+        g.entity("segment_role", scalar(i32), m, persistent=False, used=pairs)
+        g.table("law", vector(len(LAW_COLUMNS), f64), (DIRECTIONS,), persistent=False, used=pairs)
+        g.table("law_interface", scalar(i32), (DIRECTIONS,), persistent=False, used=pairs)
+        g.table("interface_count", scalar(i32), (), persistent=False, used=pairs)
+        g.table("interface_force", vector(3, f64), (MAX_CONTACT_PAIRS,), used=pairs)
+        g.entity("pair_direction", scalar(i32), n, persistent=False, used=pairs)
 
         # --- through-thickness point state (stages/material.py); after every group whose shape does
         # not depend on the features, so that only its own SNodes change with the points' count
-        g = self.points = Group("points")
-        g.entity("stress", ti.Vector.field(5, f64), m, (nk,))   # local (sxx, syy, sxy, txz, tyz)
-        g.entity("plastic_strain", ti.field(f64), m, (nk,),    # equivalent plastic strain
+        g = self.points = Group("points", allocate)
+        g.entity("stress", vector(5, f64), m, (nk,))   # local (sxx, syy, sxy, txz, tyz)
+        g.entity("plastic_strain", scalar(f64), m, (nk,),    # equivalent plastic strain
                  used=fx.plastic)
-        g.entity("strain_rate", ti.field(f64), m, (nk,),       # the filtered strain rate of the rate law
+        g.entity("strain_rate", scalar(f64), m, (nk,),       # the filtered strain rate of the rate law
                  used=fx.rate_filter)
 
         # --- background grid (mpm): hashed, unbounded (stages/grid.py).  Only the grid nodes of
         # the shell nodes' stencils exist: a hash table maps a grid node's integer coordinates
         # to a slot of the dense storage below, whose size class follows the shell's free nodes.
         # Last in the tree: its layout depends on Features.grid_force.
-        g = grid = Group("grid")
+        g = grid = Group("grid", allocate)
         self.grid = g if model.grid is not None else None
         on = model.grid is not None
         free = model.grid.free_nodes if on else 0
         slots = grid_capacity(GRID_SLOTS_PER_NODE * free) if on else CAPACITY_MIN
         self.grid_slots = slots
         for name in ("h", "inv_h"):
-            g.table(name, ti.field(f64), (), used=on)
-        g.table("bound_lo", ti.Vector.field(3, i32), (), used=on)    # the cells a stencil base may take:
-        g.table("bound_hi", ti.Vector.field(3, i32), (), used=on)    # the grid box, or the key range
-        g.table("slab_axis", ti.field(i32), (), used=on)
-        g.table("planes", ti.field(i32), (), used=on)                 # symmetry grid planes: count,
-        g.table("plane_axis", ti.field(i32), (3,), used=on)           # their axes
-        g.table("plane_index", ti.field(i32), (3,), used=on)          # and absolute grid indices
+            g.table(name, scalar(f64), (), used=on)
+        g.table("bound_lo", vector(3, i32), (), used=on)    # the cells a stencil base may take:
+        g.table("bound_hi", vector(3, i32), (), used=on)    # the grid box, or the key range
+        g.table("slab_axis", scalar(i32), (), used=on)
+        g.table("planes", scalar(i32), (), used=on)                 # symmetry grid planes: count,
+        g.table("plane_axis", scalar(i32), (3,), used=on)           # their axes
+        g.table("plane_index", scalar(i32), (3,), used=on)          # and absolute grid indices
         # the hash table (open addressing, linear probing; key + 1, 0 = empty) and its slot pool
-        g.table("slot_count", ti.field(i32), (), used=on, persistent=False)   # slots handed out
-        g.table("slot_capacity", ti.field(i32), (), used=on)
-        g.table("table_bits", ti.field(i32), (), used=on)
-        g.table("collections", ti.field(i32), (), used=on, persistent=False)  # full re-hashes so far
-        g.entity("table_key", ti.field(ti.i64), 2 * slots if on else 0, used=on, host=False)
-        g.entity("table_slot", ti.field(i32), 2 * slots if on else 0, used=on, host=False)
+        g.table("slot_count", scalar(i32), (), used=on, persistent=False)   # slots handed out
+        g.table("slot_capacity", scalar(i32), (), used=on)
+        g.table("table_bits", scalar(i32), (), used=on)
+        g.table("collections", scalar(i32), (), used=on, persistent=False)  # full re-hashes so far
+        g.entity("table_key", scalar(ti.i64), 2 * slots if on else 0, used=on, host=False)
+        g.entity("table_slot", scalar(i32), 2 * slots if on else 0, used=on, host=False)
         # per shell node: the stencil base cell its addresses were found for, and the 8 slots
         # (corner (i, j, k) at 4 i + 2 j + k); on_grid 0 for prescribed nodes; the nodes whose
         # base changed this step (found in parallel, hashed serially)
-        g.entity("node_base", ti.Vector.field(3, i32), n, used=on, host=False)
-        g.entity("node_slots", ti.field(i32), n, (8,), used=on, host=False)   # scalars: no dynamic
+        g.entity("node_base", vector(3, i32), n, used=on, host=False)
+        g.entity("node_slots", scalar(i32), n, (8,), used=on, host=False)   # scalars: no dynamic
         #                                                   index into a vector (a stack slot per use)
-        g.entity("on_grid", ti.field(i32), n, used=on, host=False)
-        g.table("moved_count", ti.field(i32), (), used=on, persistent=False)
-        g.entity("moved_nodes", ti.field(i32), n, used=on, host=False)
+        g.entity("on_grid", scalar(i32), n, used=on, host=False)
+        g.table("moved_count", scalar(i32), (), used=on, persistent=False)
+        g.entity("moved_nodes", scalar(i32), n, used=on, host=False)
         # P2G order (stages/mapping.py): the free nodes binned by the grid plane of their
         # stencil's base across the slab axis (counting sort, rebuilt every step); scratch
-        g.table("slab_low", ti.field(i32), (), used=on, persistent=False)
-        g.table("slab_high", ti.field(i32), (), used=on, persistent=False)
-        g.table("slab_start", ti.field(i32), (MAX_SLAB_PLANES + 1,), used=False)
-        g.table("slab_fill", ti.field(i32), (MAX_SLAB_PLANES,), used=False)
-        g.entity("slab_nodes", ti.field(i32), n, used=on, host=False)
+        g.table("slab_low", scalar(i32), (), used=on, persistent=False)
+        g.table("slab_high", scalar(i32), (), used=on, persistent=False)
+        g.table("slab_start", scalar(i32), (MAX_SLAB_PLANES + 1,), used=False)
+        g.table("slab_fill", scalar(i32), (MAX_SLAB_PLANES,), used=False)
+        g.entity("slab_nodes", scalar(i32), n, used=on, host=False)
         # multi-field grid (stages/grid.py): per grid node, the shell node + 1 that opened each
         # of its fields (0: none; zero between steps); per shell node, the field of each of
         # its 8 corners (2 bits each; bits 16-23: decided, GPU claim rounds)
         multi = on and fx.multi_field
-        g.table("field_radius_sq", ti.field(f64), (), used=multi)         # (FIELD_RADIUS_CELLS h)^2
+        g.table("field_radius_sq", scalar(f64), (), used=multi)         # (FIELD_RADIUS_CELLS h)^2
         # field overflow (a grid node reached by more layers than MAX_FIELDS): joins of a full
         # grid node so far; grid nodes overflowed this step (scratch) and a per-slot flag of it
         # (zero between steps); the first step with an overflow, its time and grid nodes (step
         # -1: none yet), which the host warns of (Simulation.check_fields)
-        g.table("field_overflow", ti.field(i32), (), used=multi)
-        g.table("overflow_nodes", ti.field(i32), (), used=multi, persistent=False)
-        g.entity("overflowed", ti.field(i32), slots if multi else 0, used=multi, persistent=False, host=False)
-        g.table("first_overflow_step", ti.field(i32), (), used=multi)
-        g.table("first_overflow_time", ti.field(f64), (), used=multi)
-        g.table("first_overflow_nodes", ti.field(i32), (), used=multi)
-        g.entity("anchor", ti.field(i32), slots if multi else 0, (MAX_FIELDS,), used=multi, host=False)
-        g.entity("node_fields", ti.field(i32), n, used=multi, host=False)
+        g.table("field_overflow", scalar(i32), (), used=multi)
+        g.table("overflow_nodes", scalar(i32), (), used=multi, persistent=False)
+        g.entity("overflowed", scalar(i32), slots if multi else 0, used=multi, persistent=False, host=False)
+        g.table("first_overflow_step", scalar(i32), (), used=multi)
+        g.table("first_overflow_time", scalar(f64), (), used=multi)
+        g.table("first_overflow_nodes", scalar(i32), (), used=multi)
+        g.entity("anchor", scalar(i32), slots if multi else 0, (MAX_FIELDS,), used=multi, host=False)
+        g.entity("node_fields", scalar(i32), n, used=multi, host=False)
         touch = multi and fx.grid_contact               # the grid contact condition's t_c and mu
-        g.table("field_gap", ti.field(f64), (), used=touch)
-        g.table("field_friction", ti.field(f64), (), used=touch)
+        g.table("field_gap", scalar(f64), (), used=touch)
+        g.table("field_friction", scalar(f64), (), used=touch)
         # mass, momentum (without grid_force: p + dt f, stages/grid.py), force: an array of
         # structures, one grid node's data in one cache line.  Never read or written by the
         # host: zero between steps.
-        placed = {"mass": ti.field(f64), "momentum": ti.Vector.field(3, f64)}
+        placed = {"mass": scalar(f64), "momentum": vector(3, f64)}
         if fx.grid_force:
-            placed["force"] = ti.Vector.field(3, f64)
+            placed["force"] = vector(3, f64)
         if touch:        # per field: sum N m x and sum N m n (the grid contact condition)
-            placed["field_position"] = ti.Vector.field(3, f64)
-            placed["field_normal"] = ti.Vector.field(3, f64)
+            placed["field_position"] = vector(3, f64)
+            placed["field_normal"] = vector(3, f64)
         g.together(slots * (MAX_FIELDS if multi else 1), **placed)
         self._groups = (self.nodes, self.elements, self.sections, self.step, self.bodies, self.loads, self.tools,
                         self.joints, contact, self.points, grid)      # every tree, used or not
@@ -1069,10 +1101,6 @@ class State:
         placed = [f for g in self._groups for f in g._placed]
         for k in range(0, len(placed), BATCH_FIELDS):
             _zero_fields(tuple(placed[k:k + BATCH_FIELDS]))
-
-    def builders(self) -> list:
-        """The groups' field builders (program.py drops those of a state never allocated)."""
-        return [g._builder for g in self._groups]
 
     def read(self, field, size: int) -> np.ndarray:
         """The first `size` entries of `field` (all of a 0-d or fixed table) as a numpy array

@@ -97,3 +97,4 @@ def test_an_earlier_simulation_is_stale_and_says_so(tmp_path):
     with pytest.raises(RuntimeError, match="stale"):
         first.advance(0.02)
     assert second.advance(0.02) == pytest.approx(0.02)
+

@@ -1,10 +1,11 @@
 """One case of a sweep, in a Dask worker: a normal ``run`` of the scene with the case's
 ``--set`` overrides into the case's own folder, in the worker's process.
 
-The worker imports Taichi once and keeps it; each case starts Taichi's runtime afresh
-(``ti.init`` inside the run, as every run does) and loads its kernels from the offline
-cache that every process of this build of the package shares
-(``runtime.kernel_cache_dir``), so a study compiles each feature set once [issue 21].
+The worker imports Taichi once and keeps it; a case reuses the worker's Taichi program,
+fields and kernels when it differs from the case before only in values (program.py), and
+otherwise starts Taichi's runtime afresh and loads its kernels from the offline cache that
+every process of this build of the package shares (``runtime.kernel_cache_dir``), so a study
+compiles each feature set once [issue 21].
 The console output of the case (its warnings, the final summary, the ``error:`` line) goes
 to ``run.log`` in its folder, from the file descriptors down, so that Taichi's own messages
 land there too.
