@@ -15,8 +15,9 @@ starts afresh) leaves its program, its State and its Stepper alive, and the next
    its State planned without making a field); a different layout starts afresh;
 4. zeroes the live State (:meth:`State.clear`: the state Taichi allocates) and loads its model
    into it, then builds its Stepper on it and compares every Python value the kernels could
-   read as a compile-time constant with the live Stepper's (:func:`same_constants`); equal:
-   the live Stepper, its kernels already built, steps the new model.
+   read as a compile-time constant with those of the live Stepper when it was built, which
+   its run must not have changed either (:func:`constants`); equal: the live Stepper, its
+   kernels already built, steps the new model.
 
 Anything unequal starts a fresh program, exactly as without reuse, so a run's results do not
 depend on what ran before it in the process (tests/test_program.py: a run after another model's
