@@ -248,6 +248,7 @@ class FieldKind:
     dtype: object
 
     def make(self):
+        """The Taichi field, not yet placed."""
         if not self.shape:
             return ti.field(self.dtype)
         if len(self.shape) == 1:
@@ -289,15 +290,15 @@ class Group(SimpleNamespace):
         trees; only used fields with ``host`` are read, written and checkpointed by the host."""
         shape = (capacity(size if used else 0), *tail)
         axes = ti.i if not tail else (ti.ij if len(tail) == 1 else ti.ijk)
-        self._place(name, kind, shape, lambda f: self._builder.dense(axes, shape).place(f))
+        self._place(name, kind, lambda f: self._builder.dense(axes, shape).place(f))
         self._record(name, kind, shape, size, used, host, persistent)
 
     def table(self, name: str, kind: FieldKind, shape: tuple, size: int | None = None, persistent: bool = True,
               used: bool = True):
         """Place a small dense table of fixed `shape` (0-d when shape is ()); ``used`` False:
         not read, written or checkpointed by the host."""
-        self._place(name, kind, shape, lambda f: (self._builder.dense(ti.i if len(shape) == 1 else ti.ij, shape).place(f)
-                                                  if shape else self._builder.place(f)))
+        self._place(name, kind, lambda f: (self._builder.dense(ti.i if len(shape) == 1 else ti.ij, shape).place(f)
+                                           if shape else self._builder.place(f)))
         self._record(name, kind, shape, shape[0] if shape and size is None else size, used, True, persistent)
 
     def together(self, count: int, **kinds: FieldKind) -> None:
@@ -310,7 +311,9 @@ class Group(SimpleNamespace):
             setattr(self, name, fields[name])
             self._record(name, kind, (count,), count, True, False, False)
 
-    def _place(self, name: str, kind: FieldKind, shape: tuple, place) -> None:
+    def _place(self, name: str, kind: FieldKind, place) -> None:
+        """The field of `kind` made and placed by `place`, as attribute `name` (None when
+        only the layout is planned)."""
         field = None
         if self._allocate:
             field = kind.make()
