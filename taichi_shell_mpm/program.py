@@ -35,6 +35,7 @@ import numpy as np
 import taichi as ti
 
 from .config import Features
+from .runtime import restart_taichi
 from .solvers.stepper import Stepper
 from .state import Group, State
 
@@ -75,6 +76,13 @@ def reuse(cfg: Features, model) -> tuple[State, Stepper] | None:
     if constants(Stepper(live.state, cfg, model)) != live.constants:
         return None
     return live.state, live.stepper
+
+
+def release() -> None:
+    """A fresh program in place of the live one, when it is still Taichi's (its state and
+    kernels freed, as every run did before reuse), for a run that cannot reuse it."""
+    if _live is not None and _live.program is current_program():
+        restart_taichi()
 
 
 def keep(cfg: Features, state: State, stepper: Stepper) -> None:

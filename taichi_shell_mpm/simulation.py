@@ -31,7 +31,7 @@ from .state import (CANDIDATES_PER_NODE, MAX_FIELDS, STATUS_CONTACT_FULL, STATUS
                     STATUS_SMS_SOLVE,
                     State)
 from . import energy
-from .runtime import choose_launch, restart_taichi
+from .runtime import choose_launch
 from . import program
 from .energy import (ENERGY_COLUMNS, PART_COLUMNS, added_kinetic, added_mass, deformation_mass, eroded_elements,
                      part_energies, part_names)
@@ -90,18 +90,17 @@ def prepare(scene: Scene, model: Model, launch: str, keep: bool = False) -> tupl
     the live program's state and stepper when they fit, and keep these for the next run
     (program.py)."""
     cfg = Features.from_scene(scene, model, launch)
-    if keep:
-        live = program.reuse(cfg, model)
-        if live is not None:
-            program.generation += 1
-            return (cfg, *live)
-        if program.current_program() is not None and program.current_program() is getattr(program._live, "program", None):
-            restart_taichi()
-    state = State(model, cfg)
-    state.load(model)
-    stepper = Stepper(state, cfg, model)
-    if keep:
-        program.keep(cfg, state, stepper)
+    live = program.reuse(cfg, model) if keep else None
+    if live is not None:
+        state, stepper = live
+    else:
+        if keep:
+            program.release()
+        state = State(model, cfg)
+        state.load(model)
+        stepper = Stepper(state, cfg, model)
+        if keep:
+            program.keep(cfg, state, stepper)
     program.generation += 1
     return cfg, state, stepper
 
