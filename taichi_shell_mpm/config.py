@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from .model.assembly import Model
 from .scene import Scene
 from .model.tools import TOOL_KINDS
+from .runtime import serial_node_loops
 
 
 @dataclass(frozen=True)
@@ -47,6 +48,8 @@ class Features:
     multi_field: bool = False   # a velocity field per shell layer at each grid node (stages/grid.py)
     grid_contact: bool = False  # the fields interact by the grid contact condition (stages/grid.py)
     launch: str = "batched"     # "batched" | "threads" | "gpu" (solvers/stepper.py)
+    serial_node_loops: bool = False  # threads launch, small mesh: the light node loops on one thread
+    #                             (runtime.serial_node_loops; stages/accumulate.serial_loop)
     loads: bool = False         # curve or follower loads, pressure, gravity, prescribed motion
     #                             (stages/loads.py, stages/motion.py): one switch [choice: a
     #                             configuration costs 25-60 s to compile, and a scene with any of
@@ -164,7 +167,7 @@ class Features:
             multi_field=model.grid is not None and scene.method.fields == "multi",
             grid_contact=(model.grid is not None and scene.method.fields == "multi"
                           and scene.method.field_contact == "grid"),
-            launch=launch, loads=model.loading.loads or (model.tools is not None and model.tools.prescribed),
+            launch=launch, serial_node_loops=serial_node_loops(launch, len(model.points)), loads=model.loading.loads or (model.tools is not None and model.tools.prescribed),
             body_rotation=any(b.rotates for b in model.rigid_bodies),
             motion_windows=model.loading is not None and any(m.window != (0.0, float("inf"))
                                                              for m in model.loading.motions),

@@ -12,6 +12,22 @@ from . import frontend
 ARCHS = {"cpu": "cpu", "cuda": "cuda", "vulkan": "vulkan"}
 FORCE_LAUNCH: str | None = None         # tests and profiles: "batched" | "threads" | "gpu" on any arch
 THREADS_MIN_ELEMENTS = 1000             # CPU: smaller meshes run the batched serial kernel (choose_launch)
+SERIAL_NODE_LOOPS_MAX = 5000            # threads launch: meshes up to this many nodes run their light node
+#                                         loops on one thread (serial_node_loops)
+
+
+def serial_node_loops(launch: str, n_nodes: int) -> bool:
+    """Whether the ``threads`` launch runs the step's light node loops (the fem node update,
+    the corner loads' gather, the contact pairs, the skin check, the mpm nodes' grid look-up:
+    tens of ns of work per node) on the calling thread instead of the thread pool [choice,
+    measured in docs/performance.md "Thread-pool dispatch"].  Each parallel loop costs a
+    dispatch, ~50-65 us on the 2-core machine whatever its length (a loop over 100 items:
+    60-85 us against a 16-22 us serial kernel), and parallel loops between serial stretches
+    wake the pool's threads again each time.  The fem tube (2 928 nodes): 1.07 -> 0.98-1.03 ms
+    per step with its four serial, where one or two of them alone gained nothing; at 11 616
+    nodes they lost ~10 %.  The element pass, the mpm transfers and the grid clear stay
+    parallel (the clear and G2P serial: no gain on the mpm tube)."""
+    return launch == "threads" and n_nodes <= SERIAL_NODE_LOOPS_MAX
 
 
 def choose_launch(arch: str, n_elements: int, static: bool) -> str:

@@ -76,21 +76,26 @@ def launch_run(tmp_path, name: str) -> tuple[dict, np.ndarray]:
 def test_launches_match(tmp_path, monkeypatch):
     """The three launches give one answer, here on the CPU: the reduced tube above (mpm, J2,
     self-contact search, rigid body, walls) for 0.3 ms.  ``threads`` (parallel loops, no
-    atomics) must reproduce ``batched`` (one serial kernel): the same trajectory and the same
-    energies to the bit (the energies are summed per element and node, energy.py); ``gpu``
+    atomics; its light node loops on one thread for this small mesh, on all with the limit
+    runtime.SERIAL_NODE_LOOPS_MAX set to 0) must reproduce ``batched`` (one serial kernel): the
+    same trajectory and the same energies to the bit (the energies are summed per element and
+    node, energy.py); ``gpu``
     (atomic scatters, run here on the CPU's threads) to round-off.  In this file because its
     batched run is test_reduced_crush's configuration: one compile for both (the suite's
     processes keep a kernel cache each, and a file stays in one process)."""
     runs = {}
-    for launch in ("batched", "threads", "gpu"):
-        monkeypatch.setattr("taichi_shell_mpm.runtime.FORCE_LAUNCH", launch)
+    for launch in ("batched", "threads", "threads-parallel", "gpu"):
+        # "threads-parallel": the threads launch of a mesh above runtime.SERIAL_NODE_LOOPS_MAX
+        # nodes, whose light node loops run in parallel too (this one, 816 nodes, runs them serially)
+        monkeypatch.setattr("taichi_shell_mpm.runtime.SERIAL_NODE_LOOPS_MAX", 0 if launch == "threads-parallel" else 5000)
+        monkeypatch.setattr("taichi_shell_mpm.runtime.FORCE_LAUNCH", launch.split("-")[0])
         runs[launch] = launch_run(tmp_path, launch)
-        assert runs[launch][0]["launch"] == launch
+        assert runs[launch][0]["launch"] == launch.split("-")[0]
     serial, e_serial = runs["batched"]
     scale = np.abs(e_serial).max(axis=0) + 1e-300
     # threads: the trajectory and the energies are exact (per-entity accumulators summed on the
     # host in a fixed order; before issue 16 they were per-thread reductions, 1e-12)
-    for launch, tolerance in (("threads", 0.0), ("gpu", 1e-8)):
+    for launch, tolerance in (("threads", 0.0), ("threads-parallel", 0.0), ("gpu", 1e-8)):
         summary, energy = runs[launch]
         assert summary["steps"] == serial["steps"]
         worst = float((np.abs(energy - e_serial) / scale).max())
@@ -98,7 +103,7 @@ def test_launches_match(tmp_path, monkeypatch):
         print(f"\n{launch}: {summary['steps']} steps; largest energy-history difference {worst:.2e} of each "
               f"column's scale; crush {crush:.9f} vs {serial['crush']['crush_distance']:.9f} mm (batched)")
         assert worst <= tolerance
-        if launch == "threads":
+        if launch != "gpu":
             assert crush == serial["crush"]["crush_distance"]
         else:
             assert abs(crush - serial["crush"]["crush_distance"]) <= 1e-9

@@ -13,8 +13,10 @@ share the same stage code:
   (stages/accumulate.py), P2G runs in grid slabs of alternating parity
   (stages/mapping.py), contact and wall impulses are scattered in node order, so the
   trajectory does not depend on the number of threads; only the energy sums (reductions)
-  vary in their last bits.  Each parallel loop costs a thread-pool dispatch (~20 us), so
-  the contact rebuild is a kernel of its own, launched only when due.
+  vary in their last bits.  Each parallel loop costs a thread-pool dispatch (~20-75 us by
+  the machine), so the contact rebuild is a kernel of its own, launched only when due, the
+  loops over rigid bodies are serial, and a small mesh runs its light node loops serially
+  too (runtime.serial_node_loops).
 * ``gpu``: as ``threads`` (element loads gathered), with atomic adds for the P2G, contact
   and wall-impulse scatters, which a serial loop would stall there.
 

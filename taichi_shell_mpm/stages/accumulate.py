@@ -11,6 +11,15 @@ the element loads go through :class:`CornerLoads`.
 import taichi as ti
 
 
+@ti.func
+def serial_loop(serial: ti.template()):
+    """When `serial` (compile time), the loop that follows this call runs on the calling
+    thread: a light node loop of a small mesh in the threads launch
+    (config.Features.serial_node_loops; runtime.serial_node_loops says why)."""
+    if ti.static(serial):
+        ti.loop_config(serialize=True)
+
+
 @ti.data_oriented
 class Accumulator:
     def __init__(self, serial: bool):
@@ -74,10 +83,11 @@ class CornerLoads:
     own, and :meth:`gather` sums them at each node in ascending element order -- the order
     of the serial adds, so both give the same bits, and no atomics are needed."""
 
-    def __init__(self, state, serial: bool, normals: bool):
+    def __init__(self, state, cfg):
         self.s = state
-        self.serial = serial
-        self.normals = normals          # the drilling projection and the multi-field grid need them
+        self.serial = cfg.serial
+        self.serial_nodes = cfg.serial_node_loops     # the gather on one thread (serial_loop)
+        self.normals = cfg.nodal_normals      # the drilling projection and the multi-field grid need them
 
     @ti.func
     def add(self, e, a, node, force, moment, normal, area):
@@ -95,6 +105,7 @@ class CornerLoads:
     def gather(self):
         """Parallel launches: the node sums of the slots written by :meth:`add` (one loop)."""
         if ti.static(not self.serial):
+            serial_loop(self.serial_nodes)
             for c in range(self.s.nodes.count[None]):
                 total = ti.Vector.zero(ti.f64, 10)
                 for i in range(self.s.elements.node_slot_start[c], self.s.elements.node_slot_start[c + 1]):

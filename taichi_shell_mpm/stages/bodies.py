@@ -211,6 +211,7 @@ class RigidBodies:
         the solve that holds its DOFs (stages/selective_mass.py, Bodies): M_tot A on its free
         translations, F less the added mass's inertial force at its slaves on the others (a
         prescribed DOF's reaction), and M less that force's moment for the rotation."""
+        ti.loop_config(serialize=True)
         for b in range(self.s.bodies.count[None]):
             x_c = self.center(b)
             if ti.static(self.cfg.body_rotation):
@@ -512,6 +513,7 @@ class RigidBodies:
         """Add the bodies' KE (slave nodes and added mass together: 1/2 M_tot |V|^2 with the
         velocity after the wall impulses, + 1/2 L . I^-1 L; the node update leaves the slaves
         out) to the step's."""
+        ti.loop_config(serialize=True)
         for b in range(self.s.bodies.count[None]):
             self.s.step.kinetic[None] += 0.5 * self.s.bodies.total_mass[b] * self.s.bodies.velocity[b].norm_sqr()
             if ti.static(self.cfg.body_rotation):

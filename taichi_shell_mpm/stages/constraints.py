@@ -10,7 +10,7 @@ the same BT forces are integrated directly at the nodes.
 import taichi as ti
 
 from ..state import STATUS_NONFINITE, State
-from .accumulate import Accumulator
+from .accumulate import Accumulator, serial_loop
 from .rotation import quaternion_exp, quaternion_product
 from .timestep import impulse_time
 
@@ -289,6 +289,7 @@ class NodeUpdate:
     @ti.func
     def explicit_fe(self):
         """``fem`` mode: v~ += dt (f_ext - f_int)/m at the nodes (central difference)."""
+        serial_loop(self.cfg.serial_node_loops)
         for c in range(self.s.nodes.count[None]):
             v = ti.Vector([0.0, 0.0, 0.0])
             if not self.is_idle(c):

@@ -48,7 +48,7 @@ import taichi as ti
 
 from ..model.contact_pairs import SELF_BIT
 from ..state import STATUS_CONTACT_FULL, STATUS_OK
-from .accumulate import Accumulator
+from .accumulate import Accumulator, serial_loop
 from .timestep import contact_approach, impulse_time
 
 SKIN_RANGE = (0.25, 1.0)   # s / t_c, see skin_width
@@ -194,6 +194,7 @@ class SelfContact:
     @ti.func
     def check_skin(self):
         """Ask for a rebuild once some node has moved more than skin/2 since the last one."""
+        serial_loop(self.cfg.serial_node_loops)
         for c in range(self.s.nodes.count[None]):
             moved = self.s.nodes.position[c] - self.s.contact.build_position[c]
             if moved.norm_sqr() > (0.5 * self.s.contact.skin[None]) ** 2:
@@ -300,6 +301,7 @@ class SelfContact:
         if ti.static(self.cfg.contact_pairs):
             for k in range(self.s.contact.interface_count[None]):
                 self.s.contact.interface_force[k] = ti.Vector([0.0, 0.0, 0.0])
+        serial_loop(self.cfg.serial_node_loops)
         for c in range(self.s.nodes.count[None]):
             self.s.contact.force[c] = ti.Vector([0.0, 0.0, 0.0])
             self.pair(c)

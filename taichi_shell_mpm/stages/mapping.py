@@ -33,7 +33,7 @@ instead of alternating single planes gained nothing (note of issue 4).
 import taichi as ti
 
 from ..state import MAX_SLAB_PLANES, NO_CELL, STATUS_LEFT_GRID, State
-from .accumulate import Accumulator
+from .accumulate import Accumulator, serial_loop
 from .constraints import NodeUpdate
 from .grid import GridUpdate
 from .timestep import impulse_time
@@ -102,6 +102,7 @@ class Mapping:
         self.s.grid.moved_count[None] = 0
         self.s.grid.slab_low[None] = 1 << 30
         self.s.grid.slab_high[None] = -(1 << 30)
+        serial_loop(self.cfg.serial_node_loops)
         for c in range(self.s.nodes.count[None]):
             on = 0
             if not self.nodes.is_idle(c):

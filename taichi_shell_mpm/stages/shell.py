@@ -149,7 +149,7 @@ class ShellElement:
         self.hourglass = Hourglass(state, cfg.kirchhoff_w_hourglass)
         self.drilling = DrillingSpring(state)
         self.acc = Accumulator(cfg.serial)
-        self.loads = CornerLoads(state, cfg.serial, normals=cfg.nodal_normals)
+        self.loads = CornerLoads(state, cfg)
         self.triangle = TriangleElement(self) if cfg.triangles else None
         self.masses = MassUpdate(state, cfg)
 
