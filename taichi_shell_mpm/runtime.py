@@ -18,8 +18,9 @@ SERIAL_NODE_LOOPS_MAX = 5000            # threads launch: meshes up to this many
 
 def serial_node_loops(launch: str, n_nodes: int) -> bool:
     """Whether the ``threads`` launch runs the step's light node loops (the fem node update,
-    the corner loads' gather, the contact pairs, the skin check, the mpm nodes' grid look-up:
-    tens of ns of work per node) on the calling thread instead of the thread pool [choice,
+    the corner loads' gather, the contact pairs, the skin check, the mpm nodes' grid look-up,
+    selective mass scaling's right-hand side, reciprocal gather and node update: tens of ns of
+    work per node) on the calling thread instead of the thread pool [choice,
     measured in docs/performance.md "Thread-pool dispatch"].  Each parallel loop costs a
     dispatch, ~50-65 us on the 2-core machine whatever its length (a loop over 100 items:
     60-85 us against a 16-22 us serial kernel), and parallel loops between serial stretches

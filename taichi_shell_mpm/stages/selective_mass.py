@@ -136,7 +136,7 @@ of 480 J absorbed when the body took M_tot^-1 F alone; 1e-3 J with the hand-over
 import taichi as ti
 
 from ..state import STATUS_OK, STATUS_SMS_SOLVE
-from .accumulate import Accumulator
+from .accumulate import Accumulator, serial_loop
 from .bodies import constrained_omega
 from .timestep import impulse_time
 
@@ -435,6 +435,7 @@ class SelectiveMass:
         """The right-hand side: each node's free DOFs, its out-of-balance force and moment on
         them, and its live elements' shares of its mass and rotary inertia; the first guess
         is the last step's accelerations on the free DOFs."""
+        serial_loop(self.cfg.serial_node_loops)
         for c in range(self.s.nodes.count[None]):
             self.s.nodes.free_dofs[c] = zero3()
             self.s.nodes.free_rotations[c] = zero3()
@@ -687,6 +688,7 @@ class SelectiveMass:
             if self.masses.alive(e) > 0.0:
                 self.element_geometry(e)
                 self.element_block_inverse(e, self.s.nodes.sms_force, self.s.nodes.sms_torque)
+        serial_loop(self.cfg.serial_node_loops)
         for c in range(self.s.nodes.count[None]):
             z, zr, handed, handed_turn = zero3(), zero3(), zero3(), zero3()
             slave = False
@@ -844,6 +846,7 @@ class SelectiveMass:
     @ti.func
     def advance(self):
         """The nodes' update of explicit_fe after the solve."""
+        serial_loop(self.cfg.serial_node_loops)
         for c in range(self.s.nodes.count[None]):
             keep = self.s.step.velocity_keep[None]
             start, start_turn = keep * self.s.nodes.grid_velocity[c], keep * self.s.nodes.omega[c]
