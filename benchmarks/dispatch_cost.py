@@ -9,7 +9,7 @@ items (N = 100, 2 928, 16 000; a vector update per item), and with the same loop
 µs per launch (median of 5 timings of 2 000 launches).  The parallel loop's excess over the
 serial kernel is the thread pool's dispatch.
 
-``step``: scenes/square_tube.toml (or --scene) stepped by ``Stepper.advance_one`` with
+``step``: scenes/square_tube.toml (or --scene) stepped by ``Stepper.advance`` with
 runtime.SERIAL_NODE_LOOPS_MAX set to --nodes-max (0: every node loop parallel; large: the
 light node loops serial, runtime.serial_node_loops), three timings of ~3e6 element-steps
 after 30 steps: ms per step and µs per element-step.  Alternate the two settings in one
@@ -78,9 +78,9 @@ def step(scene_path: str, sets: list[str], nodes_max: int) -> None:
     times = []
     for _ in range(3):
         t = time.perf_counter()
-        for _ in range(count):
-            stepper.advance_one()
+        done = stepper.advance(count)       # (its contact rebuilds when due)
         ti.sync()
+        assert done == count, f"stopped after {done} steps"
         times.append((time.perf_counter() - t) / count)
     print(f"{sim.cfg.launch} launch, serial_node_loops {getattr(sim.cfg, 'serial_node_loops', None)}, {n} elements, "
           f"{len(model.points)} nodes: ms per step " + " ".join(f"{1e3 * w:.3f}" for w in times)

@@ -105,8 +105,24 @@ def capacity(size: int) -> int:
     return out
 
 
+def _on_cpu() -> bool:
+    """Whether Taichi runs on the CPU (compile time)."""
+    return ti.lang.impl.current_cfg().arch in (ti.x64, ti.arm64)
+
+
+@ti.func
+def _host_loop():
+    """On the CPU, the loop that follows runs on the calling thread: a copy of a field to or
+    from the host [choice, measured in docs/performance.md "Thread-pool dispatch": a parallel
+    loop costs ~55-75 us of dispatch, a serial copy of the tube's 2 928 node vectors ~3 us].
+    On a GPU it stays parallel."""
+    if ti.static(_on_cpu()):
+        ti.loop_config(serialize=True)
+
+
 @ti.kernel
 def _read_field(f: ti.template(), out: ti.types.ndarray(), n: ti.i32):
+    _host_loop()
     for I in ti.grouped(ti.ndrange(n, *ti.static(f.shape[1:]))):
         v = f[I]
         if ti.static(isinstance(f, ti.MatrixField)):
@@ -122,6 +138,7 @@ def _read_field(f: ti.template(), out: ti.types.ndarray(), n: ti.i32):
 
 @ti.kernel
 def _write_field(f: ti.template(), src: ti.types.ndarray(), n: ti.i32):
+    _host_loop()
     for I in ti.grouped(ti.ndrange(n, *ti.static(f.shape[1:]))):
         if ti.static(isinstance(f, ti.MatrixField)):
             if ti.static(f.m == 1):
@@ -164,6 +181,7 @@ def _read_fields(fields: ti.template(), out: ti.types.ndarray(), offsets: ti.typ
         if ti.static(len(f.shape) == 0):
             _put(out, offsets[q], f[None], f)
         else:
+            _host_loop()
             for I in ti.grouped(ti.ndrange(sizes[q], *ti.static(f.shape[1:]))):
                 _put(out, offsets[q] + _row(I, f.shape) * ti.static(_width(f)), f[I], f)
 
@@ -217,6 +235,7 @@ def _write_fields(fields: ti.template(), src: ti.types.ndarray(), offsets: ti.ty
         if ti.static(len(f.shape) == 0):
             _take(src, offsets[q], f, None)
         else:
+            _host_loop()
             for I in ti.grouped(ti.ndrange(sizes[q], *ti.static(f.shape[1:]))):
                 _take(src, offsets[q] + _row(I, f.shape) * ti.static(_width(f)), f, I)
 
@@ -1119,8 +1138,13 @@ class State:
 
     @contextlib.contextmanager
     def reads_cached(self):
-        """Each field read once within (a launch each, ~0.1-1 ms): for the host's recording of
-        a step, which reads the same fields for probes, energies and frames and writes none."""
+        """Each field read once within (a launch each, ~0.1-1 ms): for the host's work on one
+        state between two batches of steps -- the checks, the record (probes, energies,
+        frames), the progress line -- which read the same fields and write none.  Nested
+        scopes share the outermost one's reads."""
+        if self._cache is not None:
+            yield
+            return
         self._cache = {}
         try:
             yield

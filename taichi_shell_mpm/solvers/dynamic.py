@@ -39,15 +39,20 @@ def run_dynamic(sim: Simulation, control: RunControl | None = None) -> dict:
                 s.time_limit[None] = target
                 s.dt[None] = landing_step(target - s.time[None], s.dt_stable[None])
                 started = True
+            recorded = False
             while s.dt[None] > 0.0:
                 sim.total_steps += stepper.advance(chunk)
-                loop.guard()
-                if every > 0:
-                    loop.record(s.time[None], frame=True)
-                loop.progress(lambda: (f"t {s.time[None]:.5g}/{end:g}", s.dt_stable[None],
-                                       s.time[None] / end if end > 0 else None))
-                loop.boundary({"event": i, "started": True})
-            if every == 0:
+                with sim.state.reads_cached():      # the checks and the record read this state once
+                    loop.guard()
+                    if every > 0:
+                        loop.record(s.time[None], frame=True)
+                    loop.progress(lambda: (f"t {s.time[None]:.5g}/{end:g}", s.dt_stable[None],
+                                           s.time[None] / end if end > 0 else None))
+                    loop.boundary({"event": i, "started": True})
+                    if every == 0 and s.dt[None] <= 0.0:        # landed on the event
+                        loop.record(s.time[None], frame=target in frame_times)
+                        recorded = True
+            if every == 0 and not recorded:         # (a run restarted on the event itself)
                 loop.record(s.time[None], frame=target in frame_times)
             i, started = i + 1, False
             loop.boundary({"event": i, "started": False})
