@@ -11,7 +11,7 @@ serial kernel is the thread pool's dispatch.
 
 ``step``: scenes/square_tube.toml (or --scene) stepped by ``Stepper.advance`` with
 runtime.SERIAL_NODE_LOOPS_MAX set to --nodes-max (0: every node loop parallel; large: the
-light node loops serial, runtime.serial_node_loops), three timings of ~3e6 element-steps
+light node loops serial, runtime.serial_node_loops) and the launch --launch, three timings of ~3e6 element-steps
 after 30 steps: ms per step and µs per element-step.  Alternate the two settings in one
 sitting: only ratios within one sitting mean anything on a shared machine.
 """
@@ -61,11 +61,12 @@ def loops() -> None:
               f"serialized loop {row[2]:6.1f} us per launch")
 
 
-def step(scene_path: str, sets: list[str], nodes_max: int) -> None:
+def step(scene_path: str, sets: list[str], nodes_max: int, launch: str | None) -> None:
     from taichi_shell_mpm import runtime
     from taichi_shell_mpm.preflight import prepare
     from taichi_shell_mpm.simulation import Simulation
     runtime.SERIAL_NODE_LOOPS_MAX = nodes_max
+    runtime.FORCE_LAUNCH = launch
     scene, mesh, model = prepare(scene_path, ["solve.end_time=5", "output.times=[]", *sets])
     runtime.init_taichi("cpu", quiet=True)
     sim = Simulation(scene, None, "cpu", quiet=True, mesh=mesh, model=model)
@@ -93,11 +94,12 @@ def main() -> int:
     p.add_argument("--scene", default="scenes/square_tube.toml")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     p.add_argument("--nodes-max", type=int, default=5000, help="runtime.SERIAL_NODE_LOOPS_MAX for `step`")
+    p.add_argument("--launch", choices=["batched", "threads"], help="runtime.FORCE_LAUNCH for `step` (default: its choice)")
     a = p.parse_args()
     if a.what == "loops":
         loops()
     else:
-        step(a.scene, a.set, a.nodes_max)
+        step(a.scene, a.set, a.nodes_max, a.launch)
     return 0
 
 
