@@ -167,7 +167,8 @@ class Features:
             multi_field=model.grid is not None and scene.method.fields == "multi",
             grid_contact=(model.grid is not None and scene.method.fields == "multi"
                           and scene.method.field_contact == "grid"),
-            launch=launch, serial_node_loops=serial_node_loops(launch, len(model.points)), loads=model.loading.loads or (model.tools is not None and model.tools.prescribed),
+            launch=launch, serial_node_loops=serial_node_loops(launch, len(model.points)),
+            loads=model.loading.loads or (model.tools is not None and model.tools.prescribed),
             body_rotation=any(b.rotates for b in model.rigid_bodies),
             motion_windows=model.loading is not None and any(m.window != (0.0, float("inf"))
                                                              for m in model.loading.motions),

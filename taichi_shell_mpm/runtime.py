@@ -22,12 +22,12 @@ def serial_node_loops(launch: str, n_nodes: int) -> bool:
     selective mass scaling's right-hand side, reciprocal gather and node update: tens of ns of
     work per node) on the calling thread instead of the thread pool [choice,
     measured in docs/performance.md "Thread-pool dispatch"].  Each parallel loop costs a
-    dispatch, ~50-65 us on the 2-core machine whatever its length (a loop over 100 items:
-    60-85 us against a 16-22 us serial kernel), and parallel loops between serial stretches
-    wake the pool's threads again each time.  The fem tube (2 928 nodes): 1.07 -> 0.98-1.03 ms
-    per step with its four serial, where one or two of them alone gained nothing; at 11 616
-    nodes they lost ~10 %.  The element pass, the mpm transfers and the grid clear stay
-    parallel (the clear and G2P serial: no gain on the mpm tube)."""
+    dispatch, ~55-75 us on the 2-core machine whatever its length (a loop over 100 items:
+    71 us against a 14 us serial kernel), and parallel loops between serial stretches wake
+    the pool's threads again each time, so the four fem loops gain together and not one or
+    two alone.  The fem tube (2 928 nodes): 1.24-1.33 -> 1.01-1.11 ms per step; even at 5 848
+    nodes; 5-20 % slower at 11 616.  The element pass, the mpm transfers and the grid clear
+    stay parallel (the clear and G2P serial: no gain on the mpm tube)."""
     return launch == "threads" and n_nodes <= SERIAL_NODE_LOOPS_MAX
 
 
