@@ -2,6 +2,7 @@
 kernels launch (batched, threads, gpu) and the offline kernel cache of this build."""
 from __future__ import annotations
 
+import dataclasses
 import os
 from pathlib import Path
 
@@ -67,11 +68,11 @@ def init_taichi(arch: str = "cpu", quiet: bool = False, threads: int | None = No
     `keep`: when the program this function last started is still Taichi's and was started
     with the same settings, keep it (program.py reuses its state and kernels)."""
     global _started
-    settings = (arch, threads or cpu_threads(), ir_optimization(), kernel_cache_dir())
-    if keep and _started is not None and _started[0] == settings and _started[1] is ti.lang.impl.get_runtime().prog:
-        return _started[2]
-    used = _init(arch, quiet, settings[1])
-    _started = (settings, ti.lang.impl.get_runtime().prog, used, quiet)
+    settings = Settings(arch, threads or cpu_threads(), ir_optimization(), kernel_cache_dir())
+    if keep and _started is not None and _started.settings == settings and _started.program is ti.lang.impl.get_runtime().prog:
+        return _started.used
+    used = _init(arch, quiet, settings.threads)
+    _started = Started(settings, ti.lang.impl.get_runtime().prog, used, quiet)
     return used
 
 
@@ -79,12 +80,31 @@ def restart_taichi() -> None:
     """A fresh program with the settings of the one :func:`init_taichi` last started (its
     fields and kernels freed)."""
     global _started
-    settings, _, used, quiet = _started
-    _init(settings[0], quiet, settings[1])
-    _started = (settings, ti.lang.impl.get_runtime().prog, used, quiet)
+    _init(_started.settings.arch, _started.quiet, _started.settings.threads)
+    _started = dataclasses.replace(_started, program=ti.lang.impl.get_runtime().prog)
 
 
-_started: tuple | None = None        # (settings, the program, the arch it runs on, quiet) of init_taichi
+@dataclasses.dataclass(frozen=True)
+class Settings:
+    """What init_taichi starts a program with: the arch asked for, CPU threads, Taichi's IR
+    optimizations on the CPU (:func:`ir_optimization`) and the kernel cache folder."""
+    arch: str
+    threads: int
+    ir_optimization: bool
+    cache: str
+
+
+@dataclasses.dataclass(frozen=True)
+class Started:
+    """The program init_taichi last started: its settings, Taichi's program object, the arch
+    it runs on and whether its start was quiet."""
+    settings: Settings
+    program: object
+    used: str
+    quiet: bool
+
+
+_started: Started | None = None        # of init_taichi
 
 
 def _init(arch: str, quiet: bool, threads: int) -> str:
