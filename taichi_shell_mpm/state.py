@@ -152,6 +152,12 @@ def _write_field(f: ti.template(), src: ti.types.ndarray(), n: ti.i32):
 
 
 BATCH_FIELDS = 32     # fields per kernel of State.arrays / restore (Taichi warns above 32 unrolled loops)
+# Fields the host reads together, each set in one launch whichever of them is asked for: the
+# rigid bodies' fields of the record and the run's checks (energies, force.csv, summary), which
+# took a launch (~0.1 ms) each [measured in docs/performance.md, "The record's body reads"]
+SNAPSHOTS = {"bodies": ("velocity", "kinetic_rotation", "omega", "wall_energy", "external_work", "motion_work",
+                        "contact_energy", "center0", "displacement", "rotation", "angular_momentum", "force",
+                        "moment")}
 
 
 def _width(f) -> int:
@@ -367,6 +373,8 @@ class State:
         self.n_nodes, self.n_elements = n, m
         self.features = fx
         self._cache: dict | None = None           # read(): see reads_cached
+        self._snapshot_of: dict | None = None     # read(): id(field) -> (SNAPSHOTS key, host size)
+        self._snapshot_plans: dict = {}           # read(): each SNAPSHOTS set's batches
         nk = fx.points
 
         # --- shell nodes (= particle-domain corners), method.md 1
@@ -1113,7 +1121,8 @@ class State:
         kernels included: program.py)."""
         fields = tuple((g._role, tuple(g._layout)) for g in self._groups)
         rest = tuple(sorted((k, repr(v)) for k, v in vars(self).items()
-                            if not isinstance(v, Group) and k not in ("_cache", "_groups", "features")))
+                            if not isinstance(v, Group)
+                            and k not in ("_cache", "_snapshot_of", "_snapshot_plans", "_groups", "features")))
         return fields, rest
 
     def clear(self) -> None:
@@ -1126,7 +1135,17 @@ class State:
 
     def read(self, field, size: int) -> np.ndarray:
         """The first `size` entries of `field` (all of a 0-d or fixed table) as a numpy array
-        (within :meth:`reads_cached`: the one read there, read-only)."""
+        (within :meth:`reads_cached`: the one read there, read-only).  A field of SNAPSHOTS
+        comes with the rest of its set, in one launch (:meth:`_read_snapshot`)."""
+        member = self._snapshot_member(field)
+        if member is not None and size <= member[1]:
+            snapshot = None if self._cache is None else self._cache.get(member[0])
+            if snapshot is None:
+                snapshot = self._read_snapshot(member[0])
+                if self._cache is not None:
+                    self._cache[member[0]] = snapshot
+            out = snapshot[id(field)][:size]
+            return out if self._cache is not None else out.copy()
         if self._cache is None:
             return self._read(field, size)
         key = (id(field), size)
@@ -1134,6 +1153,32 @@ class State:
         if out is None:
             out = self._cache[key] = self._read(field, size)
             out.flags.writeable = False
+        return out
+
+    def _snapshot_member(self, field) -> tuple[str, int] | None:
+        """(its set in SNAPSHOTS, its host size) of `field`, or None."""
+        if self._snapshot_of is None:
+            groups = self.groups()
+            self._snapshot_of = {id(entry[0]): (group, entry[1]) for group, names in SNAPSHOTS.items()
+                                 if group in groups for name in names
+                                 if (entry := groups[group]._entries.get(name)) is not None}
+        return self._snapshot_of.get(id(field))
+
+    def _read_snapshot(self, group: str) -> dict[int, np.ndarray]:
+        """The fields of SNAPSHOTS[group] (their used entries), read-only, keyed by id(field):
+        one kernel per dtype (:func:`_read_fields`; its plan made once)."""
+        plan = self._snapshot_plans.get(group)
+        if plan is None:
+            entries = self.groups()[group]._entries
+            fields = [(name, *entries[name][:2]) for name in SNAPSHOTS[group] if name in entries]
+            plan = self._snapshot_plans[group] = list(self._batches(fields, lambda k, f, size: size).values())
+        out = {}
+        for _, batch, shapes, offsets, sizes, total in plan:
+            flat = np.zeros(total, dtype=_numpy_dtype(batch[0].dtype))
+            _read_fields(batch, flat, offsets, sizes)
+            flat.flags.writeable = False
+            for f, shape, start in zip(batch, shapes, offsets):
+                out[id(f)] = flat[start:start + int(np.prod(shape, dtype=np.int64))].reshape(shape)
         return out
 
     @contextlib.contextmanager
