@@ -651,3 +651,34 @@ def test_more_bodies_than_the_old_limit_of_sixteen(tmp_path):
     assert max(map(abs, gaps)) < 1e-12
     # measured -1.2e-4 (the same strip without the bodies: -1.7e-4, 36 steps of a spinning strip)
     assert abs(balance) < 1.8e-4
+
+
+def test_body_fields_are_read_as_one_set(tmp_path):
+    """state.SNAPSHOTS: a rigid body's record fields come in one launch whichever is asked for
+    (inside State.reads_cached the set is read once and shared; outside, each read is a fresh,
+    writable copy), with the values the field-by-field reader gives."""
+    from taichi_shell_mpm.scene import load_scene
+    from taichi_shell_mpm.state import SNAPSHOTS, State
+    from .conftest import unwarmed_simulation
+    body = ('[nodesets.bar]\nids = [1, 24]\n[[rigid_body]]\nname = "bar"\nnodes = "bar"\n'
+            '[[initial]]\nvelocity = [0.3, 0.1, 0.0]\nangular_velocity = [0.0, 0.0, 0.5]\ncenter = [10.5, 0.5, 0.0]\n')
+    path = tmp_path / "set.toml"
+    path.write_text(PLATE.format(name="set", lx=21.0, ly=1.0, nx=21, ny=1, E=500.0, t=0.05, section="", body=body,
+                                 end=1.0, interval=0.5))
+    sim = unwarmed_simulation(load_scene(path), tmp_path)
+    state, bodies = sim.state, sim.state.bodies
+    names = [n for n in SNAPSHOTS["bodies"] if n in bodies._entries]
+    assert len(names) >= 11
+    rng = np.random.default_rng(3)
+    for name in names:          # distinct values, so that a mixed-up offset shows
+        field = getattr(bodies, name)
+        State.write(field, rng.normal(size=State._read(field, 1).shape))
+    expected = {name: State._read(getattr(bodies, name), 1) for name in names}
+    with state.reads_cached():
+        got = {name: state.read(getattr(bodies, name), 1) for name in names}
+        assert [key for key in state._cache] == ["bodies"]      # one set read, shared by every field
+        assert not got[names[0]].flags.writeable
+    for name in names:
+        assert np.array_equal(got[name], expected[name]), name
+        fresh = state.read(getattr(bodies, name), 1)
+        assert fresh.flags.writeable and np.array_equal(fresh, expected[name])
