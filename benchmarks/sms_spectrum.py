@@ -45,28 +45,17 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 SCENE = """
+material = {{ E = 200.0, nu = 0.3, density = 7.85e-6 }}
+section = {{ thickness = 1.0, points = 3, rule = "lobatto" }}
+element = {{ hourglass = 0.01 }}
+method = {{ kind = "fem" }}
+nodesets = {{ corner = {{ ids = [0] }} }}
+load = [{{ nodes = "corner", force = [0.0, 0.0, 1.0] }}]
 [scene]
 name = "spectrum"
 units = "kN-mm-ms-kg"
 [mesh]
 {mesh}
-[material]
-E = 200.0
-nu = 0.3
-density = 7.85e-6
-[section]
-thickness = 1.0
-points = 3
-rule = "lobatto"
-[element]
-hourglass = 0.01
-[method]
-kind = "fem"
-[nodesets.corner]
-ids = [0]
-[[load]]
-nodes = "corner"
-force = [0.0, 0.0, 1.0]
 [solve]
 {solve}
 """

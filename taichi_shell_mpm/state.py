@@ -122,33 +122,18 @@ def _host_loop():
 
 @ti.kernel
 def _read_field(f: ti.template(), out: ti.types.ndarray(), n: ti.i32):
+    """The first n entries of `f` into the flat `out`, row-major, components last."""
     _host_loop()
     for I in ti.grouped(ti.ndrange(n, *ti.static(f.shape[1:]))):
-        v = f[I]
-        if ti.static(isinstance(f, ti.MatrixField)):
-            if ti.static(f.m == 1):
-                for j in ti.static(range(f.n)):
-                    out[I, j] = v[j]
-            else:
-                for j, k in ti.static(ti.ndrange(f.n, f.m)):
-                    out[I, j, k] = v[j, k]
-        else:
-            out[I] = v
+        _put(out, _row(I, f.shape) * ti.static(_width(f)), f[I], f)
 
 
 @ti.kernel
 def _write_field(f: ti.template(), src: ti.types.ndarray(), n: ti.i32):
+    """The inverse of :func:`_read_field`."""
     _host_loop()
     for I in ti.grouped(ti.ndrange(n, *ti.static(f.shape[1:]))):
-        if ti.static(isinstance(f, ti.MatrixField)):
-            if ti.static(f.m == 1):
-                for j in ti.static(range(f.n)):
-                    f[I][j] = src[I, j]
-            else:
-                for j, k in ti.static(ti.ndrange(f.n, f.m)):
-                    f[I][j, k] = src[I, j, k]
-        else:
-            f[I] = src[I]
+        f[I] = _entry(src, _row(I, f.shape) * ti.static(_width(f)), f)
 
 
 BATCH_FIELDS = 32     # fields per kernel of State.arrays / restore (Taichi warns above 32 unrolled loops)
@@ -199,36 +184,47 @@ def _zero_fields(fields: ti.template()):
     for q in ti.static(range(len(fields))):
         f = ti.static(fields[q])
         if ti.static(len(f.shape) == 0):
-            _zero_entry(f, None)
+            f[None] = _zero(f)
         else:
             for I in ti.grouped(f):
-                _zero_entry(f, I)
+                f[I] = _zero(f)
+
+
+# One entry of a field and its components on the host, row-major (the one place that knows a
+# scalar, vector or matrix field's entry): the host's copies of every field go through these.
+@ti.func
+def _put(flat: ti.template(), base, v, f: ti.template()):
+    """The components of the entry v of `f` into `flat` from `base`."""
+    if ti.static(not isinstance(f, ti.MatrixField)):
+        flat[base] = v
+    elif ti.static(f.m == 1):
+        for j in ti.static(range(f.n)):
+            flat[base + j] = v[j]
+    else:
+        for j, k in ti.static(ti.ndrange(f.n, f.m)):
+            flat[base + j * f.m + k] = v[j, k]
 
 
 @ti.func
-def _zero_entry(f: ti.template(), I: ti.template()):
-    if ti.static(isinstance(f, ti.MatrixField)):
-        if ti.static(f.m == 1):
-            for j in ti.static(range(f.n)):
-                f[I][j] = ti.cast(0, f.dtype)
-        else:
-            for j, k in ti.static(ti.ndrange(f.n, f.m)):
-                f[I][j, k] = ti.cast(0, f.dtype)
+def _entry(flat: ti.template(), base, f: ti.template()):
+    """The entry of `f` whose components lie in `flat` from `base` (the inverse of :func:`_put`)."""
+    if ti.static(not isinstance(f, ti.MatrixField)):
+        return flat[base]
+    elif ti.static(f.m == 1):
+        return ti.Vector([flat[base + j] for j in ti.static(range(f.n))])
     else:
-        f[I] = ti.cast(0, f.dtype)
+        return ti.Matrix([[flat[base + j * f.m + k] for k in ti.static(range(f.m))] for j in ti.static(range(f.n))])
 
 
 @ti.func
-def _put(out: ti.template(), base, v, f: ti.template()):
-    if ti.static(isinstance(f, ti.MatrixField)):
-        if ti.static(f.m == 1):
-            for j in ti.static(range(f.n)):
-                out[base + j] = v[j]
-        else:
-            for j, k in ti.static(ti.ndrange(f.n, f.m)):
-                out[base + j * f.m + k] = v[j, k]
+def _zero(f: ti.template()):
+    """A zero entry of `f`."""
+    if ti.static(not isinstance(f, ti.MatrixField)):
+        return ti.cast(0, f.dtype)
+    elif ti.static(f.m == 1):
+        return ti.Vector.zero(f.dtype, f.n)
     else:
-        out[base] = v
+        return ti.Matrix.zero(f.dtype, f.n, f.m)
 
 
 @ti.kernel
@@ -239,24 +235,11 @@ def _write_fields(fields: ti.template(), src: ti.types.ndarray(), offsets: ti.ty
     for q in ti.static(range(len(fields))):
         f = ti.static(fields[q])
         if ti.static(len(f.shape) == 0):
-            _take(src, offsets[q], f, None)
+            f[None] = _entry(src, offsets[q], f)
         else:
             _host_loop()
             for I in ti.grouped(ti.ndrange(sizes[q], *ti.static(f.shape[1:]))):
-                _take(src, offsets[q] + _row(I, f.shape) * ti.static(_width(f)), f, I)
-
-
-@ti.func
-def _take(src: ti.template(), base, f: ti.template(), I: ti.template()):
-    if ti.static(isinstance(f, ti.MatrixField)):
-        if ti.static(f.m == 1):
-            for j in ti.static(range(f.n)):
-                f[I][j] = src[base + j]
-        else:
-            for j, k in ti.static(ti.ndrange(f.n, f.m)):
-                f[I][j, k] = src[base + j * f.m + k]
-    else:
-        f[I] = src[base]
+                f[I] = _entry(src, offsets[q] + _row(I, f.shape) * ti.static(_width(f)), f)
 
 
 def _entry_shape(field, size: int | None) -> tuple:
@@ -1202,7 +1185,7 @@ class State:
             return np.array(field.to_numpy())
         out = np.zeros(_entry_shape(field, size), dtype=_numpy_dtype(field.dtype))
         if size > 0:
-            _read_field(field, out, size)
+            _read_field(field, out.reshape(-1), size)
         return out
 
     @staticmethod
@@ -1214,7 +1197,7 @@ class State:
             return
         n = len(array) if size is None else size
         if n > 0:
-            _write_field(field, np.ascontiguousarray(array, dtype=_numpy_dtype(field.dtype)), n)
+            _write_field(field, np.ascontiguousarray(array, dtype=_numpy_dtype(field.dtype)).reshape(-1), n)
 
     def arrays_index(self) -> set[str]:
         """The ``group.name`` of every field the host reads and writes."""
