@@ -356,6 +356,7 @@ class State:
         self.n_nodes, self.n_elements = n, m
         self.features = fx
         self._cache: dict | None = None           # read(): see reads_cached
+        self._pending: list | None = None         # load(): the arrays it writes at its end
         self._snapshot_of: dict | None = None     # read(): id(field) -> (SNAPSHOTS key, host size)
         self._snapshot_plans: dict = {}           # read(): each SNAPSHOTS set's batches
         nk = fx.points
@@ -454,19 +455,17 @@ class State:
         g.entity("mass_energy", vector(2, f64), m, used=fx.mass_update)
         # selective mass scaling (stages/selective_mass.py): the geometry of the step's added
         # mass (corner arms about the mass centre, inverse inertia J^-1, unit normal, rho^2),
-        # kept from the start of the step; and the solve's scratch: each element's rigid fit
-        # (mean, spin, J^-1 g) of the vector in hand
+        # kept from the start of the step
         g.entity("sms_arm", vector(3, f64), m, (4,), used=fx.selective_mass)
         g.entity("sms_inverse_inertia", matrix(3, 3, f64), m, used=fx.selective_mass)
         g.entity("sms_normal", vector(3, f64), m, used=fx.selective_mass)
         g.entity("sms_radius_sq", scalar(f64), m, used=fx.selective_mass)
         g.entity("sms_spin_block", matrix(3, 3, f64), m, persistent=False, used=fx.selective_mass,
                  host=False)      # (J_e + gamma P)^-1 of the preconditioner, with this step's beta
-        for name in ("sms_mean", "sms_spin", "sms_coupling"):
-            g.entity(name, vector(3, f64), m, persistent=False, used=fx.selective_mass, host=False)
-        # each element's block inverse of its shares of the vector in hand, per corner (translation,
-        # rotation), gathered at the nodes; and with the reciprocal mass matrix the kinetic energy
-        # its added mass carries, a running sum (stages/selective_mass.py)
+        # the solve's scratch, per corner (translation, rotation), gathered at the nodes: each
+        # element's share of M_add or its block inverse of its shares of the vector in hand; and
+        # with the reciprocal mass matrix the kinetic energy its added mass carries, a running
+        # sum (stages/selective_mass.py)
         for name in ("sms_corner_step", "sms_corner_turn"):
             g.entity(name, vector(3, f64), m, (4,), persistent=False, used=fx.selective_mass, host=False)
         g.entity("sms_excess", scalar(f64), m, used=fx.reciprocal_mass)
@@ -876,10 +875,50 @@ class State:
     # ------------------------------------------------------------ the model's data
     def load(self, model) -> None:
         """Write the model (assembly.Model) into the fields: the initial state, the tables and
-        the step's run-time parameters."""
-        w, n, m = self.write, self.n_nodes, self.n_elements
+        the step's run-time parameters.  The arrays are written together at the end, the
+        fields of a dtype by one kernel (:meth:`_write_later`)."""
+        self._pending = []
+        try:
+            self._load(model)
+            pending = self._pending
+        finally:
+            self._pending = None
+        self._write_pending(pending)
+
+    def _write_later(self, field, array, size: int | None = None) -> None:
+        """:meth:`write` of an array into a field with a shape, made by :meth:`load` at its end
+        with the other arrays, the fields of a dtype by one kernel (:func:`_write_fields`) [issue
+        32: a kernel per field written was built, and on a cold kernel cache compiled, in every
+        run: ~30 of them, ~1 s of a cold run's start]."""
+        array = np.asarray(array)
+        if self._pending is None:
+            self.write(field, array, size)
+            return
+        n = None if len(field.shape) == 0 else len(array) if size is None else size
+        if n is None or n > 0:
+            self._pending.append((len(self._pending), field, n, array))
+
+    def _later(self, field) -> "_Later":
+        """`later(field)[None] = value`: a 0-d field's value, written with the arrays at the
+        end of :meth:`load` (Taichi builds, and on a cold cache compiles, a writer per field set
+        with `field[None] = value`)."""
+        return _Later(self, field)
+
+    def _write_pending(self, pending) -> None:
+        arrays = {key: array for key, _, _, array in pending}
+        plan = self._batches([(key, field, n) for key, field, n, _ in pending], lambda key, field, size: size)
+        for (dtype, _), (keys, fields, shapes, offsets, sizes, total) in plan.items():
+            flat = np.zeros(total, dtype=dtype)
+            for key, shape, start in zip(keys, shapes, offsets):
+                count = int(np.prod(shape, dtype=np.int64))
+                flat[start:start + count] = np.asarray(arrays[key], dtype=dtype).reshape(-1)[:count]
+            _write_fields(tuple(fields), flat, offsets, sizes)
+
+    def _load(self, model) -> None:
+        w, n, m = self._write_later, self.n_nodes, self.n_elements
+        later = self._later
         nd, el, sec, st, bd = self.nodes, self.elements, self.sections, self.step, self.bodies
-        nd.count[None], el.count[None] = n, m
+        later(nd.count)[None], later(el.count)[None] = n, m
         for name, array in (("position", model.points), ("position_ref", model.points),
                             ("velocity", model.velocity0), ("grid_velocity", model.velocity0),
                             ("omega", model.omega0), ("mass", model.node_mass), ("inertia", model.node_inertia),
@@ -930,11 +969,11 @@ class State:
         if self.features.mass_scaling:
             w(el.mass_factor, model.mass_factor)
             p = model.parameters
-            st.target_dt[None] = p.target_dt
-            st.added_mass_cap[None] = p.added_mass_cap
+            later(st.target_dt)[None] = p.target_dt
+            later(st.added_mass_cap)[None] = p.added_mass_cap
             if self.features.selective_mass:        # adds no mass (stages/selective_mass.py)
-                st.sms_tolerance[None] = p.sms_tolerance
-                st.sms_max_iterations[None] = p.sms_max_iterations
+                later(st.sms_tolerance)[None] = p.sms_tolerance
+                later(st.sms_max_iterations)[None] = p.sms_max_iterations
                 arm, inverse_inertia, normal, radius_sq = added_mass_geometry(model.points, model.elements,
                                                                               model.corner_mass)
                 w(el.sms_arm, arm)
@@ -942,7 +981,7 @@ class State:
                 w(el.sms_normal, normal)
                 w(el.sms_radius_sq, radius_sq)
             else:
-                st.added_mass[None] = float(np.dot(model.mass_factor - 1.0, model.corner_mass.sum(axis=1)))
+                later(st.added_mass)[None] = float(np.dot(model.mass_factor - 1.0, model.corner_mass.sum(axis=1)))
         if self.features.launch != "batched" or self.features.mass_update or self.features.triangle_ns:
             flat = model.elements.ravel()
             slots = np.argsort(np.where(flat >= 0, flat, n), kind="stable")[:int((flat >= 0).sum())]
@@ -950,7 +989,7 @@ class State:
             counts = np.bincount(flat[flat >= 0], minlength=n)
             w(el.node_slot_start, np.concatenate([[0], np.cumsum(counts)]).astype(np.int32))
         # rigid bodies and walls
-        bd.count[None], bd.wall_count[None] = len(model.rigid_bodies), len(model.walls)
+        later(bd.count)[None], later(bd.wall_count)[None] = len(model.rigid_bodies), len(model.walls)
         start = 0
         for i, b in enumerate(model.rigid_bodies):
             bd.velocity[i], bd.total_mass[i], bd.added_mass[i] = b.velocity0.tolist(), b.total_mass, b.added_mass
@@ -981,61 +1020,62 @@ class State:
         # the step's run-time parameters
         p = model.parameters
         c_max = float(data.wave_speed.max())
-        st.dt_safety[None], st.flip_blend[None] = p.dt_safety, p.flip_blend
-        st.ns_blend[None] = p.ns_blend
-        st.length_ref[None] = model.mean_edge
-        st.mass_floor[None] = 1e-12 * float(model.node_mass.mean())
-        st.runaway_speed[None] = 10.0 * c_max
-        st.restart_factor[None] = 1.0
-        st.velocity_keep[None] = 1.0
-        st.time_limit[None] = np.inf
-        self.tools.slip_speed[None] = 1e-6 * c_max if self.features.tools else 0.0
+        later(st.dt_safety)[None], later(st.flip_blend)[None] = p.dt_safety, p.flip_blend
+        later(st.ns_blend)[None] = p.ns_blend
+        later(st.length_ref)[None] = model.mean_edge
+        later(st.mass_floor)[None] = 1e-12 * float(model.node_mass.mean())
+        later(st.runaway_speed)[None] = 10.0 * c_max
+        later(st.restart_factor)[None] = 1.0
+        later(st.velocity_keep)[None] = 1.0
+        later(st.time_limit)[None] = np.inf
+        later(self.tools.slip_speed)[None] = 1e-6 * c_max if self.features.tools else 0.0
         if self.contact is not None:
             ct = self.contact
             w(ct.neighbor_start, model.neighbor_start)
             w(ct.neighbor_nodes, model.neighbor_nodes)
             w(ct.last_element, np.full(n, -1, np.int32))
-            ct.rebuild[None] = 1
-            ct.thickness[None], ct.stiffness[None] = p.contact_thickness, p.contact_stiffness
-            ct.step_thickness[None] = p.contact_step_thickness
+            later(ct.rebuild)[None] = 1
+            later(ct.thickness)[None], later(ct.stiffness)[None] = p.contact_thickness, p.contact_stiffness
+            later(ct.step_thickness)[None] = p.contact_step_thickness
             if self.features.contact_pairs:
                 laws = model.contact
                 w(ct.node_role, laws.node_role)
                 w(ct.segment_role, laws.segment_role)
                 w(ct.law, laws.law)
                 w(ct.law_interface, laws.law_interface)
-                ct.interface_count[None] = len(laws.names)
-            ct.damping[None], ct.friction[None] = p.contact_damping, p.contact_friction
-            ct.slip_speed[None] = 1e-6 * c_max
-            ct.hash_size[None] = 1 << int(np.ceil(np.log2(2 * m)))
-            ct.candidate_capacity[None] = CANDIDATES_PER_NODE * n
+                later(ct.interface_count)[None] = len(laws.names)
+            later(ct.damping)[None], later(ct.friction)[None] = p.contact_damping, p.contact_friction
+            later(ct.slip_speed)[None] = 1e-6 * c_max
+            later(ct.hash_size)[None] = 1 << int(np.ceil(np.log2(2 * m)))
+            later(ct.candidate_capacity)[None] = CANDIDATES_PER_NODE * n
         if self.grid is not None:
             gg, geo = self.grid, model.grid
-            gg.h[None], gg.inv_h[None] = geo.h, 1.0 / geo.h
-            gg.bound_lo[None], gg.bound_hi[None] = geo.bound_lo, geo.bound_hi
-            gg.slab_axis[None] = geo.slab_axis
-            gg.planes[None] = len(geo.planes)
+            later(gg.h)[None], later(gg.inv_h)[None] = geo.h, 1.0 / geo.h
+            later(gg.bound_lo)[None], later(gg.bound_hi)[None] = geo.bound_lo, geo.bound_hi
+            later(gg.slab_axis)[None] = geo.slab_axis
+            later(gg.planes)[None] = len(geo.planes)
             for i, (axis, index) in enumerate(geo.planes):
                 gg.plane_axis[i], gg.plane_index[i] = axis, index
-            gg.slot_capacity[None] = self.grid_slots
-            gg.table_bits[None] = int(np.log2(gg.table_key.shape[0]))
+            later(gg.slot_capacity)[None] = self.grid_slots
+            later(gg.table_bits)[None] = int(np.log2(gg.table_key.shape[0]))
             w(gg.node_base, np.full((n, 3), NO_CELL, np.int32))      # every node looks its slots up
             if self.features.multi_field:
-                gg.field_radius_sq[None] = (FIELD_RADIUS_CELLS * geo.h) ** 2
-                gg.first_overflow_step[None] = -1
+                later(gg.field_radius_sq)[None] = (FIELD_RADIUS_CELLS * geo.h) ** 2
+                later(gg.first_overflow_step)[None] = -1
                 if self.features.grid_contact:
-                    gg.field_gap[None] = model.parameters.field_gap
-                    gg.field_friction[None] = model.parameters.field_friction
+                    later(gg.field_gap)[None] = model.parameters.field_gap
+                    later(gg.field_friction)[None] = model.parameters.field_friction
                 part = np.full(n, np.iinfo(np.int32).max, np.int64)
                 np.minimum.at(part, model.elements[model.elements >= 0],
                               np.repeat(model.element.part, 4)[model.elements.ravel() >= 0])
                 w(nd.part, part.astype(np.int32))
-            st.dilatational_speed[None] = model.materials.dilatational_speed
+            later(st.dilatational_speed)[None] = model.materials.dilatational_speed
 
     def _load_joints(self, jt, n: int) -> None:
         """The joints' tables and initial state (model/joints.py)."""
-        g, w = self.joints, self.write
-        g.count[None] = len(jt)
+        g, w = self.joints, self._write_later
+        later = self._later
+        later(g.count)[None] = len(jt)
         for name in ("slave", "masters", "weights", "offset", "axis", "rotations", "element", "kind", "strength"):
             w(getattr(g, name), getattr(jt, name))
         w(g.active, np.ones(len(jt), np.int32))
@@ -1046,14 +1086,15 @@ class State:
 
     def _load_tools(self, tt) -> None:
         """The tables of tools.ToolTable."""
-        g, w = self.tools, self.write
-        g.count[None] = len(tt.names) if tt is not None else 0
+        g, w = self.tools, self._write_later
+        later = self._later
+        later(g.count)[None] = len(tt.names) if tt is not None else 0
         if not self.features.tools:
             return
         for name in ("kind", "motion", "body", "curve", "origin", "size", "value", "coefficients", "frame"):
             w(getattr(g, name), getattr(tt, name))
         w(g.axes, tt.frame)
-        g.reach[None] = tt.reach
+        later(g.reach)[None] = tt.reach
         w(g.centre, tt.origin)
         if "mesh" in self.features.tool_kinds:
             for name in ("tri_first", "bucket_first", "grid_lo", "grid_h", "grid_dims", "triangles", "tri_normal",
@@ -1062,27 +1103,28 @@ class State:
 
     def _load_loading(self, ld) -> None:
         """The tables of loading.Loading (curves, load entries, pressure, gravity, motions)."""
-        w, fx, L, nd = self.write, self.features, self.loads, self.nodes
+        w, fx, L, nd = self._write_later, self.features, self.loads, self.nodes
+        later = self._later
         if fx.loads:
             cv = ld.curves
-            L.curve_count[None] = len(cv.kind)
+            later(L.curve_count)[None] = len(cv.kind)
             for name, array in (("curve_kind", cv.kind), ("curve_first", cv.first), ("curve_rows", cv.count),
                                 ("curve_parameter", cv.parameter), ("curve_origin", cv.origin),
                                 ("curve_table", cv.rows)):
                 w(getattr(L, name), array)
             w(nd.physical_mass, ld.physical_mass)
             w(nd.load_start, ld.entry_start)
-            L.entry_count[None] = len(ld.entry_curve)
+            later(L.entry_count)[None] = len(ld.entry_curve)
             for name in ("entry_node", "entry_curve", "entry_neighbor", "entry_frame", "entry_force", "entry_moment",
                          "pressure_element",
                          "pressure_value", "pressure_curve", "pressure_nodes", "pressure_node_start",
                          "pressure_node_slots"):
                 w(getattr(L, name), getattr(ld, name))
-            L.pressure_count[None], L.pressure_node_count[None] = len(ld.pressure_element), len(ld.pressure_nodes)
-            L.gravity[None], L.gravity_curve[None] = ld.gravity.tolist(), ld.gravity_curve
+            later(L.pressure_count)[None], later(L.pressure_node_count)[None] = len(ld.pressure_element), len(ld.pressure_nodes)
+            later(L.gravity)[None], later(L.gravity_curve)[None] = ld.gravity.tolist(), ld.gravity_curve
             w(nd.motion_mask, ld.motion_mask)
             w(nd.motion, ld.node_motion)
-            L.motion_count[None] = len(ld.motions)
+            later(L.motion_count)[None] = len(ld.motions)
             w(L.motion_kind, np.array([m.kind for m in ld.motions], np.int32))
             w(L.motion_curve, np.array([m.curve for m in ld.motions], np.int32))
             w(L.motion_value, np.array([m.value for m in ld.motions]))
@@ -1263,6 +1305,18 @@ class State:
         return {batch: (keys, tuple(fields), shapes, np.array(offsets, dtype=np.int64),
                         np.array(sizes, dtype=np.int32), total[0])
                 for batch, (keys, fields, shapes, offsets, sizes, total) in plan.items()}
+
+
+class _Later:
+    """`field[None] = value` through State._write_later (State.load)."""
+    __slots__ = ("state", "field")
+
+    def __init__(self, state: "State", field):
+        self.state, self.field = state, field
+
+    def __setitem__(self, key, value) -> None:
+        assert key is None and len(self.field.shape) == 0
+        self.state._write_later(self.field, value)
 
 
 def _numpy_dtype(dtype):
