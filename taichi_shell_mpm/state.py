@@ -357,6 +357,7 @@ class State:
         self.features = fx
         self._cache: dict | None = None           # read(): see reads_cached
         self._pending: list | None = None         # load(): the arrays it writes at its end
+        self._pending_rows: dict | None = None    # load(): the entries set one by one, per field
         self._snapshot_of: dict | None = None     # read(): id(field) -> (SNAPSHOTS key, host size)
         self._snapshot_plans: dict = {}           # read(): each SNAPSHOTS set's batches
         nk = fx.points
@@ -877,12 +878,18 @@ class State:
         """Write the model (assembly.Model) into the fields: the initial state, the tables and
         the step's run-time parameters.  The arrays are written together at the end, the
         fields of a dtype by one kernel (:meth:`_write_later`)."""
-        self._pending = []
+        self._pending, self._pending_rows = [], {}
         try:
             self._load(model)
-            pending = self._pending
+            pending, rows = self._pending, self._pending_rows
         finally:
-            self._pending = None
+            self._pending, self._pending_rows = None, None
+        for field, values in rows.values():          # `later(field)[i] = value`, i = 0, 1, ...
+            if sorted(values) == list(range(len(values))):
+                pending.append((len(pending), field, len(values), np.array([values[i] for i in range(len(values))])))
+            else:
+                for i, value in values.items():
+                    field[i] = value
         self._write_pending(pending)
 
     def _write_later(self, field, array, size: int | None = None) -> None:
@@ -899,9 +906,10 @@ class State:
             self._pending.append((len(self._pending), field, n, array))
 
     def _later(self, field) -> "_Later":
-        """`later(field)[None] = value`: a 0-d field's value, written with the arrays at the
-        end of :meth:`load` (Taichi builds, and on a cold cache compiles, a writer per field set
-        with `field[None] = value`)."""
+        """`later(field)[None] = value` (`later(field)[i] = value`): a 0-d field's value (an
+        entry of a 1-d field), written with the arrays at the end of :meth:`load` (Taichi
+        builds, and on a cold cache compiles, a writer per field set with `field[key] = value`:
+        ~34 ms each, 71 of them for the tube's bodies and walls)."""
         return _Later(self, field)
 
     def _write_pending(self, pending) -> None:
@@ -992,27 +1000,27 @@ class State:
         later(bd.count)[None], later(bd.wall_count)[None] = len(model.rigid_bodies), len(model.walls)
         start = 0
         for i, b in enumerate(model.rigid_bodies):
-            bd.velocity[i], bd.total_mass[i], bd.added_mass[i] = b.velocity0.tolist(), b.total_mass, b.added_mass
-            bd.direction[i] = b.direction if b.direction is not None else (0.0, 0.0, 0.0)
-            bd.first_slave[i], bd.slave_count[i] = start, len(b.nodes)
-            bd.center0[i], bd.rotation[i] = b.center.tolist(), (1.0, 0.0, 0.0, 0.0)
-            bd.inertia[i], bd.translation_free[i] = b.inertia.tolist(), b.translation_free.tolist()
-            bd.rotation_free[i] = b.rotation_free.tolist()
+            later(bd.velocity)[i], later(bd.total_mass)[i], later(bd.added_mass)[i] = b.velocity0.tolist(), b.total_mass, b.added_mass
+            later(bd.direction)[i] = b.direction if b.direction is not None else (0.0, 0.0, 0.0)
+            later(bd.first_slave)[i], later(bd.slave_count)[i] = start, len(b.nodes)
+            later(bd.center0)[i], later(bd.rotation)[i] = b.center.tolist(), (1.0, 0.0, 0.0, 0.0)
+            later(bd.inertia)[i], later(bd.translation_free)[i] = b.inertia.tolist(), b.translation_free.tolist()
+            later(bd.rotation_free)[i] = b.rotation_free.tolist()
             free = int(np.count_nonzero(np.diag(b.rotation_free)))
-            bd.rotation_mode[i] = ROTATION_FREE if free == 3 else ROTATION_CONSTRAINED if free else ROTATION_HELD
-            bd.omega[i], bd.angular_momentum[i] = b.spin0.tolist(), (b.inertia @ b.spin0).tolist()
-            bd.kinetic_rotation[i] = 0.5 * float(b.spin0 @ b.inertia @ b.spin0)
-            bd.stable_step[i] = min(b.stable_step, 1e300)
-            bd.inertia_min[i] = b.inertia_min
+            later(bd.rotation_mode)[i] = ROTATION_FREE if free == 3 else ROTATION_CONSTRAINED if free else ROTATION_HELD
+            later(bd.omega)[i], later(bd.angular_momentum)[i] = b.spin0.tolist(), (b.inertia @ b.spin0).tolist()
+            later(bd.kinetic_rotation)[i] = 0.5 * float(b.spin0 @ b.inertia @ b.spin0)
+            later(bd.stable_step)[i] = min(b.stable_step, 1e300)
+            later(bd.inertia_min)[i] = b.inertia_min
             if len(model.loading.body_motion_mask):
-                bd.motion_mask[i], bd.motion[i] = int(model.loading.body_motion_mask[i]), model.loading.body_motion[i].tolist()
+                later(bd.motion_mask)[i], later(bd.motion)[i] = int(model.loading.body_motion_mask[i]), model.loading.body_motion[i].tolist()
             else:
-                bd.motion_mask[i], bd.motion[i] = 0, [-1] * 6
+                later(bd.motion_mask)[i], later(bd.motion)[i] = 0, [-1] * 6
             start += len(b.nodes)
         if model.rigid_bodies:
             w(bd.slave_nodes, np.concatenate([b.nodes for b in model.rigid_bodies]).astype(np.int32))
         for i, wall in enumerate(model.walls):
-            bd.wall_point[i], bd.wall_normal[i], bd.wall_body[i] = wall.point, wall.normal, wall.body
+            later(bd.wall_point)[i], later(bd.wall_normal)[i], later(bd.wall_body)[i] = wall.point, wall.normal, wall.body
         if self.features.joints:
             self._load_joints(model.joints, n)
         self._load_loading(model.loading)
@@ -1055,7 +1063,7 @@ class State:
             later(gg.slab_axis)[None] = geo.slab_axis
             later(gg.planes)[None] = len(geo.planes)
             for i, (axis, index) in enumerate(geo.planes):
-                gg.plane_axis[i], gg.plane_index[i] = axis, index
+                later(gg.plane_axis)[i], later(gg.plane_index)[i] = axis, index
             later(gg.slot_capacity)[None] = self.grid_slots
             later(gg.table_bits)[None] = int(np.log2(gg.table_key.shape[0]))
             w(gg.node_base, np.full((n, 3), NO_CELL, np.int32))      # every node looks its slots up
@@ -1308,15 +1316,18 @@ class State:
 
 
 class _Later:
-    """`field[None] = value` through State._write_later (State.load)."""
+    """`field[None] = value` (or `field[i] = value`) through State._write_later (State.load)."""
     __slots__ = ("state", "field")
 
     def __init__(self, state: "State", field):
         self.state, self.field = state, field
 
     def __setitem__(self, key, value) -> None:
-        assert key is None and len(self.field.shape) == 0
-        self.state._write_later(self.field, value)
+        if key is None:
+            assert len(self.field.shape) == 0
+            self.state._write_later(self.field, value)
+        else:               # an entry of a 1-d field: the entries set are written as one array
+            self.state._pending_rows.setdefault(id(self.field), (self.field, {}))[1][int(key)] = value
 
 
 def _numpy_dtype(dtype):
