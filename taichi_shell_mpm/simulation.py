@@ -207,7 +207,9 @@ class Simulation:
         return energy.kinetic_energy(self.state, self.model)
 
     def energies(self) -> dict[str, float]:
-        return energy.totals(self.state, self.model, self.initial_kinetic)
+        """energy.totals now (once per State.reads_cached scope: the run loop's checks, record
+        and progress line ask for them on one state)."""
+        return dict(self.state.derived("energies", lambda: energy.totals(self.state, self.model, self.initial_kinetic)))
 
     def displacements(self) -> tuple[np.ndarray, np.ndarray]:
         """Nodal displacement (n,3) and accumulated rotation vector (n,3).

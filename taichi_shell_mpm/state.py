@@ -1229,6 +1229,16 @@ class State:
         finally:
             self._cache = None
 
+    def derived(self, key: str, make):
+        """make(), a value the host derives from this state's reads (the energies), made once
+        within :meth:`reads_cached` (where the state does not change) and kept under `key`;
+        outside, made anew."""
+        if self._cache is None:
+            return make()
+        if ("derived", key) not in self._cache:
+            self._cache[("derived", key)] = make()
+        return self._cache[("derived", key)]
+
     @staticmethod
     def _read(field, size: int) -> np.ndarray:
         if len(field.shape) == 0:
