@@ -656,7 +656,8 @@ def test_more_bodies_than_the_old_limit_of_sixteen(tmp_path):
 def test_body_fields_are_read_as_one_set(tmp_path):
     """state.SNAPSHOTS: a rigid body's record fields come in one launch whichever is asked for
     (inside State.reads_cached the set is read once and shared; outside, each read is a fresh,
-    writable copy), with the values the field-by-field reader gives."""
+    writable copy), with the values the field-by-field reader gives; and the energies the run
+    loop's checks, record and progress line ask for are made once per scope (State.derived)."""
     from taichi_shell_mpm.scene import load_scene
     from taichi_shell_mpm.state import SNAPSHOTS, State
     from .conftest import unwarmed_simulation
@@ -682,3 +683,10 @@ def test_body_fields_are_read_as_one_set(tmp_path):
         assert np.array_equal(got[name], expected[name]), name
         fresh = state.read(getattr(bodies, name), 1)
         assert fresh.flags.writeable and np.array_equal(fresh, expected[name])
+    # the energies (State.derived) made once per scope, and anew outside it
+    made = []
+    with state.reads_cached():
+        first = state.derived("energies", lambda: made.append(1) or sim.energies())
+        again = state.derived("energies", lambda: made.append(1) or {})
+        assert sim.energies() == first == again and len(made) == 1
+    assert state.derived("energies", lambda: {"anew": 1.0}) == {"anew": 1.0}
