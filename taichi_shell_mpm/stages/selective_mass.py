@@ -25,9 +25,9 @@ with P_e the matrix's sheet in OPT triangles at ten times its step ran away at s
 rigid motion of the element (translation and rotation), and on a smooth bending mode, whose
 corners move as the element turns with its nodes: so total mass, linear and angular momentum
 are those of the lumped masses M (its translational rows and its moments sum to zero), and
-the low modes keep their physical inertia (up to what a warped element's corners do beyond its
-rigid motion: on a coarse mesh a twisting mode's share, docs/mass_scaling.md, the spectrum
-study), while each mode that deforms one element sees
+the low modes keep their physical inertia (up to their nodes' rotations departing from the
+elements' mean tilts on a curved mode, T_add / T ~ beta (k h)^4 / 48: a visible share on a
+coarse mesh, docs/mass_scaling.md, the spectrum study), while each mode that deforms one element sees
 (1 + beta_e) its mass and its frequency, and so the step, goes by sqrt(f_e).  The lumped
 masses and rotary inertias stay physical (the nodal rotation modes are scaled by the j_a
 term): scaling the rotary inertia by f_e, or a translation-only matrix beta (m_e/n)(I -
