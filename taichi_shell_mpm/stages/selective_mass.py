@@ -26,8 +26,8 @@ rigid motion of the element (translation and rotation), and on a smooth bending 
 corners move as the element turns with its nodes: so total mass, linear and angular momentum
 are those of the lumped masses M (its translational rows and its moments sum to zero), and
 the low modes keep their physical inertia (up to their nodes' rotations departing from the
-elements' mean tilts on a curved mode, T_add / T ~ beta (k h)^4 / 48: a visible share on a
-coarse mesh, docs/mass_scaling.md, the spectrum study), while each mode that deforms one element sees
+elements' mean tilts on a curved mode, a share growing as beta (k h)^4: visible on a coarse
+mesh, docs/mass_scaling.md, the spectrum study), while each mode that deforms one element sees
 (1 + beta_e) its mass and its frequency, and so the step, goes by sqrt(f_e).  The lumped
 masses and rotary inertias stay physical (the nodal rotation modes are scaled by the j_a
 term): scaling the rotary inertia by f_e, or a translation-only matrix beta (m_e/n)(I -
