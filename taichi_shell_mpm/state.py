@@ -359,7 +359,7 @@ class State:
         self._pending: list | None = None         # load(): the arrays it writes at its end
         self._pending_rows: dict | None = None    # load(): the entries set one by one, per field
         self._snapshot_of: dict | None = None     # read(): id(field) -> (SNAPSHOTS key, host size)
-        self._snapshot_plans: dict = {}           # read(): each SNAPSHOTS set's batches
+        self._snapshot_plans: dict = {}           # read(): each SNAPSHOTS set's batches (keyed by id(field))
         nk = fx.points
 
         # --- shell nodes (= particle-domain corners), method.md 1
@@ -913,14 +913,8 @@ class State:
         return _Later(self, field)
 
     def _write_pending(self, pending) -> None:
-        arrays = {key: array for key, _, _, array in pending}
         plan = self._batches([(key, field, n) for key, field, n, _ in pending], lambda key, field, size: size)
-        for (dtype, _), (keys, fields, shapes, offsets, sizes, total) in plan.items():
-            flat = np.zeros(total, dtype=dtype)
-            for key, shape, start in zip(keys, shapes, offsets):
-                count = int(np.prod(shape, dtype=np.int64))
-                flat[start:start + count] = np.asarray(arrays[key], dtype=dtype).reshape(-1)[:count]
-            _write_fields(tuple(fields), flat, offsets, sizes)
+        self._write_batches(plan, {key: array for key, _, _, array in pending})
 
     def _load(self, model) -> None:
         w, n, m = self._write_later, self.n_nodes, self.n_elements
@@ -1203,16 +1197,9 @@ class State:
         plan = self._snapshot_plans.get(group)
         if plan is None:
             entries = self.groups()[group]._entries
-            fields = [(name, *entries[name][:2]) for name in SNAPSHOTS[group] if name in entries]
-            plan = self._snapshot_plans[group] = list(self._batches(fields, lambda k, f, size: size).values())
-        out = {}
-        for _, batch, shapes, offsets, sizes, total in plan:
-            flat = np.zeros(total, dtype=_numpy_dtype(batch[0].dtype))
-            _read_fields(batch, flat, offsets, sizes)
-            flat.flags.writeable = False
-            for f, shape, start in zip(batch, shapes, offsets):
-                out[id(f)] = flat[start:start + int(np.prod(shape, dtype=np.int64))].reshape(shape)
-        return out
+            fields = [(id(entries[name][0]), *entries[name][:2]) for name in SNAPSHOTS[group] if name in entries]
+            plan = self._snapshot_plans[group] = self._batches(fields, lambda k, f, size: size)
+        return self._read_batches(plan)
 
     @contextlib.contextmanager
     def reads_cached(self):
@@ -1278,28 +1265,42 @@ class State:
         """Every field's used entries, keyed ``group.name`` (checkpoints): the fields of a
         dtype read by one kernel (:func:`_read_fields`), each the array State.read gives."""
         plan = self._batches(self._host_fields(persistent_only), lambda key, field, size: size)
-        out = {}
-        for (dtype, _), (keys, fields, shapes, offsets, sizes, total) in plan.items():
-            flat = np.zeros(total, dtype=dtype)
-            _read_fields(fields, flat, offsets, sizes)
-            for key, shape, start in zip(keys, shapes, offsets):
-                out[key] = flat[start:start + int(np.prod(shape, dtype=np.int64))].reshape(shape).copy()
-        return out
+        return {key: array.copy() for key, array in self._read_batches(plan).items()}
 
     def restore(self, arrays: dict[str, np.ndarray], persistent_only: bool = True) -> None:
         """Write back what :meth:`arrays` gave (each field's first len(array) entries), the
         fields of a dtype by one kernel (:func:`_write_fields`)."""
         fields = self._host_fields(persistent_only)
         plan = self._batches(fields, lambda key, field, size: len(arrays[key]) if len(field.shape) else None)
-        for (dtype, _), (keys, group, shapes, offsets, sizes, total) in plan.items():
-            flat = np.zeros(total, dtype=dtype)
-            for key, shape, start in zip(keys, shapes, offsets):
-                flat[start:start + int(np.prod(shape, dtype=np.int64))] = np.asarray(arrays[key], dtype=dtype).ravel()
-            _write_fields(group, flat, offsets, sizes)
+        self._write_batches(plan, arrays)
 
     def _host_fields(self, persistent_only: bool) -> list[tuple[str, object, int | None]]:
         return [(f"{gname}.{name}", field, size) for gname, g in self.groups().items()
                 for name, (field, size) in g.fields(persistent_only).items()]
+
+    @staticmethod
+    def _read_batches(plan) -> dict:
+        """The entries the batches of :meth:`_batches` name, one kernel per batch
+        (:func:`_read_fields`): key -> a read-only view of its array."""
+        out = {}
+        for (dtype, _), (keys, fields, shapes, offsets, sizes, total) in plan.items():
+            flat = np.zeros(total, dtype=dtype)
+            _read_fields(fields, flat, offsets, sizes)
+            flat.flags.writeable = False
+            for key, shape, start in zip(keys, shapes, offsets):
+                out[key] = flat[start:start + int(np.prod(shape, dtype=np.int64))].reshape(shape)
+        return out
+
+    @staticmethod
+    def _write_batches(plan, arrays: dict) -> None:
+        """arrays[key] (its first entries, as many as the plan names) into the batches' fields,
+        one kernel per batch (:func:`_write_fields`)."""
+        for (dtype, _), (keys, fields, shapes, offsets, sizes, total) in plan.items():
+            flat = np.zeros(total, dtype=dtype)
+            for key, shape, start in zip(keys, shapes, offsets):
+                count = int(np.prod(shape, dtype=np.int64))
+                flat[start:start + count] = np.asarray(arrays[key], dtype=dtype).reshape(-1)[:count]
+            _write_fields(fields, flat, offsets, sizes)
 
     @staticmethod
     def _batches(fields, entries) -> dict:
