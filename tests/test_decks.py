@@ -510,6 +510,29 @@ def test_the_top_hat_deck_runs(tmp_path):
     assert welds["welds"] == 14 and welds["failed"] == 0
     assert np.abs(force["support_z"]).max() > 10.0
     assert balance < 1e-3
+    # the worked example's reader on this output: the measures of docs/decks.md, and the closed
+    # cell's closed forms P_m = k M0 (C/t)^(1/3), M0 = sigma_y t^2 / 4, C = 60 mm, t = 1.5 mm
+    # (k = 38.12, 52.22), against which the full run's mean force is stated
+    import subprocess
+    import sys
+    root = Path(__file__).resolve().parents[1]
+    read = subprocess.run([sys.executable, str(root / "benchmarks" / "top_hat.py"), "--read", str(out)],
+                          capture_output=True, text=True, cwd=root)
+    assert read.returncode == 0, read.stderr
+    measures = json.loads(read.stdout[read.stdout.index("{"):])
+    m0 = 0.30 * 1.5 ** 2 / 4.0
+    for name, k in (("wierzbicki_abramowicz", 38.12), ("abramowicz_jones", 52.22)):
+        assert measures["closed_cell_theory_kN"][name] == pytest.approx(k * m0 * (60.0 / 1.5) ** (1.0 / 3.0), rel=1e-12)
+    assert np.isnan(measures["mean_force_kN"])          # 2 mm of crush: the 10-90 mm window not reached
+    # the mean flow stress W_p / int(eps_p dV) of a bilinear law: sigma_y + H eps2/(2 eps) with
+    # H = E E_t / (E - E_t), so between sigma_y and sigma_y + H max(eps_p) (< 1 here)
+    flow = measures["mean_flow_stress_GPa"]
+    print(f"mean flow stress {flow:.4f} GPa")
+    assert 0.999 * 0.30 <= flow <= 0.30 + 210.0 * 0.6 / (210.0 - 0.6)
+    assert measures["closed_cell_theory_at_flow_stress_kN"]["abramowicz_jones"] == pytest.approx(
+        measures["closed_cell_theory_kN"]["abramowicz_jones"] * flow / 0.30, rel=1e-12)
+    assert measures["welds"][0]["failed"] == 0 and measures["crush_mm"] == pytest.approx(2.0, abs=0.5)
+    assert measures["balance_over_work"] == pytest.approx(balance, rel=1e-9)
 
 
 MOVING_WALL = (3.0e-5, 5000.0)      # the wall's MASS (5 x the plate's) and V0
