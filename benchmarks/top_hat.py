@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from taichi_shell_mpm.crush import MEAN_FORCE_FORMULAS
+from taichi_shell_mpm.crush import MEAN_FORCE_FORMULAS, lobe_peaks
 
 ROOT = Path(__file__).resolve().parents[1]
 SIZE = 5.0               # element edge, mm
@@ -178,15 +178,20 @@ def read_run(out: Path) -> dict:
     return {"mean_force_kN": mean, "closed_cell_theory_kN": theory,
             "mean_over_theory": {name: mean / value for name, value in theory.items()},
             "mean_flow_stress_GPa": flow, "closed_cell_theory_at_flow_stress_kN": at_flow,
-            "mean_over_theory_at_flow_stress": {name: mean / value for name, value in at_flow.items()}, "crush_mm": float(crush[-1]), "peak_kN": float(support.max()),
-            "balance_over_work": balance, "welds": welds, "web_lobes": lobes,
-            "half_wavelength_mm": half_wave, "steps": summary.get("steps"), "run_seconds": summary.get("run_seconds")}
+            "mean_over_theory_at_flow_stress": {name: mean / value for name, value in at_flow.items()},
+            "crush_mm": float(crush[-1]), "peak_kN": float(support.max()), "balance_over_work": balance,
+            "welds": welds, "web_lobes": lobes, "half_wavelength_mm": half_wave,
+            "half_wavelength_theory_mm": half_wavelength_theory(), "steps": summary.get("steps"),
+            "run_seconds": summary.get("run_seconds")}
 
 
-def web_folds(out: Path, crush: float, threshold: float = 1.0) -> tuple[int, float]:
-    """Lobes on the web's centre line in the last frame: the runs of its out-of-plane
-    displacement beyond `threshold` mm, alternating in sign, over the crushed length; the
-    half-wavelength is that initial length over the lobes."""
+def web_folds(out: Path, crush: float) -> tuple[int, float]:
+    """Lobes and fold half-wavelength H on the web's centre line in the last frame, as the
+    tube's crush measures count them (crush.lobe_peaks; docs/crush.md): the alternating
+    interior extrema of its out-of-plane displacement (hysteresis 2t) over the crushed length
+    (1.2 x the crush from the loaded end: below it the section bends, as a column, without
+    folding); each extremum is one lobe, and H is half their mean spacing (a lobe folds 2H of
+    wall)."""
     import xml.etree.ElementTree as ET
 
     import meshio
@@ -194,13 +199,15 @@ def web_folds(out: Path, crush: float, threshold: float = 1.0) -> tuple[int, flo
     last = meshio.read(out / files[-1])
     x0 = last.points - last.point_data["displacement"]
     line = np.nonzero((np.abs(x0[:, 0]) < 1e-6) & (x0[:, 1] > GAP + DEPTH - TRIGGER - 1e-6))[0]
-    line = line[np.argsort(x0[line, 2])]
-    dy = last.point_data["displacement"][line, 1]
-    folded = x0[line, 2] > LENGTH - 1.2 * crush
-    signs = [int(np.sign(d)) for d in dy[folded] if abs(d) > threshold]
-    lobes = 1 + sum(1 for a, b in zip(signs, signs[1:]) if a != b) if signs else 0
-    length = float(np.ptp(x0[line][folded][:, 2])) if folded.any() else 0.0
-    return lobes, (length / lobes if lobes else float("nan"))
+    folded = line[x0[line, 2] > LENGTH - 1.2 * crush]
+    peaks = lobe_peaks(x0[folded, 2], last.point_data["displacement"][folded, 1], 2.0 * T)
+    return len(peaks), (0.5 * float(np.diff(peaks).mean()) if len(peaks) > 1 else float("nan"))
+
+
+def half_wavelength_theory() -> float:
+    """H = 0.983 C^(2/3) t^(1/3) of the closed cell (Wierzbicki & Abramowicz 1983, symmetric
+    mode; the tube benchmark's reference, benchmarks.md 3.2)."""
+    return 0.983 * (0.5 * (WEB + DEPTH)) ** (2.0 / 3.0) * T ** (1.0 / 3.0)
 
 
 def main() -> int:

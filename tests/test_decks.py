@@ -531,6 +531,8 @@ def test_the_top_hat_deck_runs(tmp_path):
     assert 0.999 * 0.30 <= flow <= 0.30 + 210.0 * 0.6 / (210.0 - 0.6)
     assert measures["closed_cell_theory_at_flow_stress_kN"]["abramowicz_jones"] == pytest.approx(
         measures["closed_cell_theory_kN"]["abramowicz_jones"] * flow / 0.30, rel=1e-12)
+    assert measures["half_wavelength_theory_mm"] == pytest.approx(0.983 * 60.0 ** (2.0 / 3.0) * 1.5 ** (1.0 / 3.0),
+                                                                   rel=1e-12)
     assert measures["welds"][0]["failed"] == 0 and measures["crush_mm"] == pytest.approx(2.0, abs=0.5)
     assert measures["balance_over_work"] == pytest.approx(balance, rel=1e-9)
 
