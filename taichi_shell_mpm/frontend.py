@@ -17,6 +17,13 @@ of their arguments, the sources being read once per process).  The IR is the sam
 are the offline cache's keys (tests/test_frontend.py compares a kernel's key with and
 without the patch).
 
+A third is not a kernel's: every field and SNode Taichi creates keeps the whole Python stack
+of its declaration as text (``util.get_traceback``: ``traceback.extract_stack`` and the source
+line of each frame, read through ``linecache``), shown only in an error about that field (one
+that was never placed).  A State makes ~380 fields and ~1 700 such texts; in a fresh process
+the first reads every source file on the stack.  :func:`declaration_site` keeps the one frame
+that declared it instead (measured: docs/performance.md "Field declarations").
+
 Private names are used only where they were measured [issue 28]: :func:`private_api`
 allows them on the exact Taichi release tested (TESTED_WITH) unless the environment sets
 ``TAICHI_SHELL_MPM_NO_FRONTEND_PATCH=1``; on any other release, or when a private module or
@@ -25,7 +32,9 @@ solvers/stepper.load_kernel, the kernels compiled at their first launch).
 """
 from __future__ import annotations
 
+import linecache
 import os
+import sys
 import textwrap
 
 import taichi as ti
@@ -73,18 +82,41 @@ def remembered_sources(getsourcefile, getsourcelines):
     return sourcefile, sourcelines
 
 
+def declaration_site(stacklevel: int = 1) -> str:
+    """What ``taichi.lang.util.get_traceback(stacklevel)`` answers, cut to its last frame (the
+    line that declared the field or SNode: its place and source line, as ``traceback`` formats
+    them; only that one file is read)."""
+    try:
+        frame = sys._getframe(stacklevel + 1)
+    except ValueError:            # a stack shallower than that: get_traceback's slice is empty
+        return ""
+    code = frame.f_code
+    line = linecache.getline(code.co_filename, frame.f_lineno).strip()
+    return f'  File "{code.co_filename}", line {frame.f_lineno}, in {code.co_name}\n' + (f"    {line}\n" if line else "")
+
+
+TRACEBACK_USERS = ("impl", "snode", "matrix", "_ndarray")   # taichi.lang modules that import get_traceback
+
+
 def speed_up() -> bool:
-    """Install both in Taichi's frontend (once; returns whether they are installed): only when
-    :func:`private_api` allows it and the private modules and names are all there."""
+    """Install the three in Taichi's frontend (once; returns whether they are installed): only
+    when :func:`private_api` allows it and the private modules and names are all there."""
     if not private_api():
         return False
     try:
-        from taichi.lang import kernel_impl
+        import importlib
+
+        from taichi.lang import kernel_impl, util
         from taichi.lang.ast import ast_transformer_utils as utils
         wrapper, sourcefile, sourcelines = utils.TextWrapper, kernel_impl.getsourcefile, kernel_impl.getsourcelines
+        users = [importlib.import_module(f"taichi.lang.{name}") for name in TRACEBACK_USERS]
+        if not all(getattr(m, "get_traceback", None) in (util.get_traceback, declaration_site) for m in users):
+            return False
     except (ImportError, AttributeError):
         return False
     if wrapper is textwrap.TextWrapper:
         utils.TextWrapper = RememberingWrapper
         kernel_impl.getsourcefile, kernel_impl.getsourcelines = remembered_sources(sourcefile, sourcelines)
+        for module in users:
+            module.get_traceback = declaration_site
     return utils.TextWrapper is RememberingWrapper

@@ -115,3 +115,22 @@ def test_ir_optimization_runs_have_a_kernel_cache_of_their_own(monkeypatch):
     assert not ir_optimization() and not plain.endswith("-ir")
     monkeypatch.setenv("TAICHI_SHELL_MPM_IR_OPTIMIZATION", "1")
     assert ir_optimization() and kernel_cache_dir() == plain + "-ir"
+
+
+def _declare(stacklevel):
+    from taichi.lang import util
+    return util.get_traceback(stacklevel), frontend.declaration_site(stacklevel)
+
+
+def test_declaration_site_is_the_last_frame_of_the_traceback():
+    """Taichi keeps the stack of each field's declaration as text (util.get_traceback); the
+    patch keeps its last frame, the declaring line, in the same format; a stack shallower
+    than asked gives nothing, as Taichi's slice does."""
+    for level in (1, 2, 4):
+        full, site = _declare(level)
+        last = full[full.rindex('  File "'):].splitlines()
+        assert site.splitlines() == last[:2] and len(last[0]) > 20, (site, last)
+    assert frontend.declaration_site(10_000) == ""
+    if frontend.speed_up():
+        from taichi.lang import impl, snode
+        assert impl.get_traceback is frontend.declaration_site is snode.get_traceback
