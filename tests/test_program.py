@@ -98,3 +98,18 @@ def test_an_earlier_simulation_is_stale_and_says_so(tmp_path):
         first.advance(0.02)
     assert second.advance(0.02) == pytest.approx(0.02)
 
+
+
+def test_a_kept_run_never_builds_over_fields_another_run_left(tmp_path):
+    """A run that cannot reuse the live program starts a fresh one whenever Taichi's program
+    holds fields (program.release): after a Simulation made without `keep` (a Newton run's, a
+    test's), a kept run's kernels would otherwise be built over SNode ids the offline cache
+    does not have them under, and compile cold."""
+    from taichi_shell_mpm.simulation import Simulation as Core
+    scene = load_scene(ROOT / "scenes" / "sphere_drop.toml", ["solve.end_time=0.05"])
+    fresh_program()
+    Core(scene, tmp_path / "loose", quiet=True)             # not kept: its fields stay behind
+    held = program.current_program()
+    assert held.get_snode_tree_size() > 0
+    run(scene, out=tmp_path / "kept", progress=False)
+    assert program._live.program is program.current_program() is not held
