@@ -186,22 +186,6 @@ def unwarmed_simulation(scene, tmp_path: Path) -> Simulation:
         return simulation(scene, tmp_path)
 
 
-@pytest.fixture(autouse=True)
-def _kept_program_only():
-    """A test's first kept run (api.run, the CLI in-process) starts a fresh program unless the
-    process's program is the one a kept run left (program.py), as it would in a process of its
-    own.  Without this it continued the program an earlier test's :func:`simulation` (not
-    kept) had filled: its kernels, built over fields that program already held, missed the
-    offline cache and compiled cold a feature set compiled moments before (the momentum
-    test's rigid body, then the restart test's: 11.0 s the second time instead of 3.4 s from
-    the cache; 38 such compiles in a suite run).  init_taichi(keep=True) keeps a program only
-    while it is the one it last started."""
-    from taichi_shell_mpm import program, runtime
-    if program._live is None or program._live.program is not program.current_program():
-        runtime._started = None
-    yield
-
-
 @pytest.fixture
 def make_simulation(tmp_path):
     def make(scene):
