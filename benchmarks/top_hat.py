@@ -33,6 +33,7 @@ SPEED, END = 10.0, 10.0  # mm/ms, ms
 PITCH = 30.0
 SN, SS = 8.0, 10.0       # kN: spot weld strengths (normal, shear)
 TRIGGER, TRIGGER_LENGTH = 0.3, 15.0
+CELL = 0.5 * (WEB + DEPTH)  # mm: C of the closed cell (web x sides) in the closed forms
 
 
 def hat_profile() -> list[tuple[float, float]]:
@@ -138,19 +139,22 @@ def closed_cell_mean_force(sigma0: float = SIGY) -> dict:
     effective crushing distance; rigid-perfectly plastic, no strain rate).  The flanges (two
     sheets welded, 2 x 20 mm) are not in it: White, Jones & Abramowicz's top-hat theory (1999),
     which counts them, is not in the sources this project can read."""
-    c = 0.5 * (WEB + DEPTH)
-    return {name: k * sigma0 * T ** (5.0 / 3.0) * c ** (1.0 / 3.0) for name, k in MEAN_FORCE_FORMULAS.items()}
+    return {name: k * sigma0 * T ** (5.0 / 3.0) * CELL ** (1.0 / 3.0) for name, k in MEAN_FORCE_FORMULAS.items()}
 
 
-def mean_flow_stress(out: Path, plastic_work: float) -> float:
-    """The run's dissipation-weighted mean flow stress, the sigma0 a rigid-perfectly plastic
-    theory stands for: its plastic work over the integral of the equivalent plastic strain
-    (the last frame's through-thickness mean of each element times its volume)."""
+def last_frame(out: Path):
+    """The run's last frame (frames.pvd's last entry) as a meshio mesh."""
     import xml.etree.ElementTree as ET
 
     import meshio
     files = [d.get("file") for d in ET.parse(out / "frames.pvd").getroot().iter("DataSet")]
-    last = meshio.read(out / files[-1])
+    return meshio.read(out / files[-1])
+
+
+def mean_flow_stress(last, plastic_work: float) -> float:
+    """The run's dissipation-weighted mean flow stress, the sigma0 a rigid-perfectly plastic
+    theory stands for: its plastic work over the integral of the equivalent plastic strain
+    (the last frame's through-thickness mean of each element times its volume)."""
     x = (last.points - last.point_data["displacement"])[last.cells[0].data]
     area = 0.5 * np.linalg.norm(np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1]), axis=1)
     strain_volume = float(np.sum(last.cell_data["plastic_strain_mean"][0] * area * last.cell_data["thickness"][0]))
@@ -171,9 +175,10 @@ def read_run(out: Path) -> dict:
         else float("nan")
     balance = float(abs(energy["balance_error"][-1]) / max(abs(energy["motion_work"][-1]), 1e-300))
     welds = summary.get("spotwelds", [])
-    lobes, half_wave = web_folds(out, float(crush[-1]))
+    last = last_frame(out)
+    lobes, half_wave = web_folds(last, float(crush[-1]))
     theory = closed_cell_mean_force()
-    flow = mean_flow_stress(out, float(energy["plastic_work"][-1]))
+    flow = mean_flow_stress(last, float(energy["plastic_work"][-1]))
     at_flow = closed_cell_mean_force(flow)
     return {"mean_force_kN": mean, "closed_cell_theory_kN": theory,
             "mean_over_theory": {name: mean / value for name, value in theory.items()},
@@ -185,18 +190,13 @@ def read_run(out: Path) -> dict:
             "run_seconds": summary.get("run_seconds")}
 
 
-def web_folds(out: Path, crush: float) -> tuple[int, float]:
+def web_folds(last, crush: float) -> tuple[int, float]:
     """Lobes and fold half-wavelength H on the web's centre line in the last frame, as the
     tube's crush measures count them (crush.lobe_peaks; docs/crush.md): the alternating
     interior extrema of its out-of-plane displacement (hysteresis 2t) over the crushed length
     (1.2 x the crush from the loaded end: below it the section bends, as a column, without
     folding); each extremum is one lobe, and H is half their mean spacing (a lobe folds 2H of
     wall)."""
-    import xml.etree.ElementTree as ET
-
-    import meshio
-    files = [d.get("file") for d in ET.parse(out / "frames.pvd").getroot().iter("DataSet")]
-    last = meshio.read(out / files[-1])
     x0 = last.points - last.point_data["displacement"]
     line = np.nonzero((np.abs(x0[:, 0]) < 1e-6) & (x0[:, 1] > GAP + DEPTH - TRIGGER - 1e-6))[0]
     folded = line[x0[line, 2] > LENGTH - 1.2 * crush]
@@ -207,7 +207,7 @@ def web_folds(out: Path, crush: float) -> tuple[int, float]:
 def half_wavelength_theory() -> float:
     """H = 0.983 C^(2/3) t^(1/3) of the closed cell (Wierzbicki & Abramowicz 1983, symmetric
     mode; the tube benchmark's reference, benchmarks.md 3.2)."""
-    return 0.983 * (0.5 * (WEB + DEPTH)) ** (2.0 / 3.0) * T ** (1.0 / 3.0)
+    return 0.983 * CELL ** (2.0 / 3.0) * T ** (1.0 / 3.0)
 
 
 def main() -> int:
